@@ -1,0 +1,146 @@
+"""Start components as child processes and make sure none outlives the run.
+
+Each child runs ``python -m cosim serve ENTRY --bind tcp://127.0.0.1:*`` in its
+own session (so Ctrl-C reaches only the coupler, which then stops the children
+in order), writes its stderr to a log file and reports its endpoint with a JSON
+handshake line. ``Launcher`` is a context manager: on every exit path (normal
+end, error, Ctrl-C, SIGTERM) it terminates, then kills, every child. Children
+also exit by themselves when their parent process disappears.
+"""
+
+from __future__ import annotations
+
+import atexit
+import json
+import os
+import selectors
+import signal
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from cosim.errors import ComponentDied, ComponentError
+
+PROJECT_ROOT = Path(__file__).resolve().parent.parent
+
+
+@dataclass
+class ComponentProcess:
+    """A started component: its process, endpoint and log."""
+
+    name: str
+    popen: subprocess.Popen
+    log_path: Path
+    endpoint: str = ""
+
+    @property
+    def pid(self) -> int:
+        return self.popen.pid
+
+    def poll(self) -> int | None:
+        return self.popen.poll()
+
+    def stderr_tail(self, lines: int = 15) -> str:
+        try:
+            text = self.log_path.read_text(errors="replace")
+        except OSError:
+            return ""
+        return "\n".join(text.splitlines()[-lines:])
+
+
+class Launcher:
+    """Starts local components and stops all of them on exit."""
+
+    def __init__(self, log_dir: Path, startup_timeout: float = 30.0):
+        self.log_dir = Path(log_dir)
+        self.startup_timeout = startup_timeout
+        self.processes: list[ComponentProcess] = []
+        self._previous_sigterm = None
+
+    def __enter__(self) -> "Launcher":
+        atexit.register(self.stop_all)
+        if threading.current_thread() is threading.main_thread():
+            self._previous_sigterm = signal.signal(signal.SIGTERM, _raise_system_exit)
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.stop_all()
+        atexit.unregister(self.stop_all)
+        if self._previous_sigterm is not None:
+            signal.signal(signal.SIGTERM, self._previous_sigterm)
+
+    def spawn(self, name: str, entry: str) -> ComponentProcess:
+        """Start one component (returns before its handshake; see ``handshake``)."""
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        log_path = self.log_dir / f"{name}.log"
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
+        command = [sys.executable, "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",
+                   "--name", name, "--parent-pid", str(os.getpid())]
+        with open(log_path, "wb") as log:
+            popen = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log,
+                                     env=env, start_new_session=True)
+        process = ComponentProcess(name, popen, log_path)
+        self.processes.append(process)
+        return process
+
+    def handshake(self, process: ComponentProcess) -> str:
+        """Wait for the component's endpoint line; errors name the component."""
+        deadline = time.monotonic() + self.startup_timeout
+        selector = selectors.DefaultSelector()
+        selector.register(process.popen.stdout, selectors.EVENT_READ)
+        buffer = b""
+        try:
+            while b"\n" not in buffer:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise ComponentError(process.name, f"did not start within {self.startup_timeout:g} s "
+                                                       f"(log: {process.log_path})")
+                if selector.select(min(remaining, 0.1)):
+                    chunk = os.read(process.popen.stdout.fileno(), 4096)
+                    if not chunk:
+                        process.popen.wait(timeout=5)
+                        raise ComponentDied(process.name, process.poll(), process.stderr_tail())
+                    buffer += chunk
+                elif process.poll() is not None:
+                    raise ComponentDied(process.name, process.poll(), process.stderr_tail())
+        finally:
+            selector.close()
+        try:
+            info = json.loads(buffer.split(b"\n", 1)[0])
+        except ValueError:
+            raise ComponentError(process.name, f"sent a malformed handshake {buffer[:200]!r}") from None
+        process.endpoint = info["endpoint"]
+        process.popen.stdout.close()
+        return process.endpoint
+
+    def stop_all(self, grace: float = 2.0) -> None:
+        """Terminate every child still running; kill those that do not exit within ``grace``."""
+        alive = [p for p in self.processes if p.poll() is None]
+        for p in alive:
+            _signal(p.popen, signal.SIGTERM)
+        deadline = time.monotonic() + grace
+        for p in alive:
+            try:
+                p.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                _signal(p.popen, signal.SIGKILL)
+                p.popen.wait()
+        for p in self.processes:
+            if p.popen.stdout and not p.popen.stdout.closed:
+                p.popen.stdout.close()
+
+
+def _signal(popen: subprocess.Popen, sig: int) -> None:
+    try:
+        os.killpg(popen.pid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def _raise_system_exit(signum, frame) -> None:
+    raise SystemExit(128 + signum)
+

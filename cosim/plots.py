@@ -1,0 +1,39 @@
+"""PNG plots of a run: a monitored field value over time and coupling iterations per window."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import h5py
+import numpy as np
+
+
+def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) -> Path:
+    """Two panels: ``output.plot_field[output.plot_index]`` over time, and iterations per window."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with h5py.File(results, "r") as f:
+        time = f["windows/time"][:] if "windows/time" in f else np.zeros(0)
+        iterations = f["windows/iterations"][:] if "windows/iterations" in f else np.zeros(0)
+        fields = list(f["fields"]) if "fields" in f else []
+        field = output.get("plot_field") or (fields[0] if fields else "")
+        index = int(output.get("plot_index", 0))
+        values = f[f"fields/{field}"][:, index] if field in fields else np.zeros(0)
+    label = output.get("plot_label") or f"{field}[{index}]"
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
+    top.plot(time[:len(values)], values, lw=1.0)
+    top.set_ylabel(label)
+    top.grid(alpha=0.3)
+    bottom.plot(time, iterations, lw=0.8, drawstyle="steps-mid")
+    mean = iterations.mean() if iterations.size else float("nan")
+    bottom.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
+    bottom.set_ylabel("coupling iterations")
+    bottom.set_xlabel("time")
+    bottom.legend(loc="upper right")
+    bottom.grid(alpha=0.3)
+    figure.savefig(png, dpi=110)
+    plt.close(figure)
+    return Path(png)

@@ -1,0 +1,96 @@
+"""Wire protocol: a msgpack header frame followed by one raw frame per array.
+
+A message is ``[header, buf_1, ..., buf_k]``. The header is a msgpack map
+``{v, op, id, args, arrays: [{name, dtype, shape}]}`` for a request and
+``{v, id, ok, result, arrays, error, compute_seconds}`` for a reply. Arrays travel
+as their raw bytes (C order), never pickled. ``decode`` validates everything
+before use and raises ``ProtocolError`` naming what was wrong.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping, Sequence
+
+import msgpack
+import numpy as np
+
+from cosim.errors import ProtocolError
+
+VERSION = 1
+MAX_MESSAGE_BYTES = 512 * 1024 * 1024
+DTYPES = frozenset({"float64", "float32", "int64", "int32", "uint8", "bool"})
+OPS = frozenset({
+    "describe", "instantiate", "enter_initialization_mode", "exit_initialization_mode",
+    "set_values", "get_values", "do_step", "step", "get_state", "set_state",
+    "free_state", "terminate", "ping", "shutdown",
+})
+
+
+def encode(header: dict[str, Any], arrays: Mapping[str, np.ndarray] | None = None) -> list:
+    """Frames for ``header`` plus ``arrays`` (each array one raw frame)."""
+    specs, buffers = [], []
+    for name, value in (arrays or {}).items():
+        array = np.ascontiguousarray(value)
+        if array.dtype.name not in DTYPES:
+            raise ProtocolError(f"array '{name}': dtype {array.dtype} is not sent (allowed: {sorted(DTYPES)})")
+        specs.append({"name": name, "dtype": array.dtype.name, "shape": list(array.shape)})
+        buffers.append(array.data if array.size else b"")
+    head = dict(header, v=VERSION, arrays=specs)
+    return [msgpack.packb(head, use_bin_type=True), *buffers]
+
+
+def _frame_bytes(frame: Any) -> memoryview:
+    buffer = getattr(frame, "buffer", frame)
+    return memoryview(buffer).cast("B")
+
+
+def decode(frames: Sequence[Any], *, max_bytes: int = MAX_MESSAGE_BYTES) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Validated header and arrays of a message (arrays are read-only views of the frames)."""
+    if not frames:
+        raise ProtocolError("empty message")
+    views = [_frame_bytes(f) for f in frames]
+    total = sum(v.nbytes for v in views)
+    if total > max_bytes:
+        raise ProtocolError(f"message of {total} bytes exceeds the limit of {max_bytes}")
+    try:
+        header = msgpack.unpackb(views[0], raw=False, strict_map_key=True)
+    except Exception as exc:  # msgpack raises several types
+        raise ProtocolError(f"header is not valid msgpack: {exc}") from None
+    if not isinstance(header, dict):
+        raise ProtocolError("header is not a map")
+    if header.get("v") != VERSION:
+        raise ProtocolError(f"protocol version {header.get('v')!r} is not supported (expected {VERSION})")
+    specs = header.get("arrays", [])
+    if not isinstance(specs, list):
+        raise ProtocolError("header field 'arrays' is not a list")
+    if len(specs) != len(views) - 1:
+        raise ProtocolError(f"header declares {len(specs)} arrays but {len(views) - 1} data frames arrived")
+    arrays: dict[str, np.ndarray] = {}
+    for spec, view in zip(specs, views[1:]):
+        arrays_name, array = _array_from(spec, view)
+        arrays[arrays_name] = array
+    return header, arrays
+
+
+def _array_from(spec: Any, view: memoryview) -> tuple[str, np.ndarray]:
+    if not isinstance(spec, dict) or not isinstance(spec.get("name"), str):
+        raise ProtocolError(f"array spec {spec!r} lacks a name")
+    name = spec["name"]
+    dtype, shape = spec.get("dtype"), spec.get("shape")
+    if dtype not in DTYPES:
+        raise ProtocolError(f"array '{name}': dtype {dtype!r} is not allowed (allowed: {sorted(DTYPES)})")
+    if not isinstance(shape, list) or not all(isinstance(n, int) and n >= 0 for n in shape):
+        raise ProtocolError(f"array '{name}': shape {shape!r} is not a list of non-negative integers")
+    itemsize = np.dtype(dtype).itemsize
+    expected = int(np.prod(shape, dtype=np.int64)) * itemsize
+    if expected != view.nbytes:
+        raise ProtocolError(
+            f"array '{name}': shape {tuple(shape)} of {dtype} needs {expected} bytes but its frame has {view.nbytes}")
+    array = np.frombuffer(view, dtype=dtype).reshape(shape) if expected else np.empty(shape, dtype)
+    return name, array
+
+
+def error_reply(request_id: Any, kind: str, message: str, component: str) -> list:
+    """Frames of an error reply."""
+    return encode({"id": request_id, "ok": False,
+                   "error": {"type": kind, "message": message, "component": component}})

@@ -1,0 +1,173 @@
+"""Coupler-side proxy of one component: the contract's calls over a DEALER socket.
+
+Every request has a timeout. While waiting, the proxy checks in short slices
+whether the component's process is still alive, so a dead component stops the
+run within a fraction of a second with its exit code and the tail of its log.
+Outputs are checked against the sizes the component declared.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import zmq
+
+from cosim import protocol
+from cosim.component import Variable
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, ProtocolError
+from cosim.launcher import ComponentProcess
+
+LIVENESS_SLICE_SECONDS = 0.05
+
+
+class ComponentProxy:
+    """Talks to one served component; raises typed errors that name it."""
+
+    def __init__(self, name: str, endpoint: str, *, process: ComponentProcess | None = None,
+                 timeout: float = 60.0, context: zmq.Context | None = None):
+        self.name = name
+        self.endpoint = endpoint
+        self.process = process
+        self.timeout = timeout
+        self._socket = (context or zmq.Context.instance()).socket(zmq.DEALER)
+        self._socket.setsockopt(zmq.LINGER, 0)
+        self._socket.connect(endpoint)
+        self._ids = itertools.count(1)
+        self._pending: tuple[int, str] | None = None
+        self.variables: dict[str, Variable] = {}
+        self.coordinates = np.zeros((0, 1))
+        self.can_get_and_set_state = False
+        self.pid: int | None = process.pid if process else None
+        self.compute_seconds: list[float] = []
+        self.roundtrip_seconds: list[float] = []
+        self._sent_at = 0.0
+
+    # --- transport --------------------------------------------------------
+    def send(self, op: str, args: Mapping[str, Any] | None = None,
+             arrays: Mapping[str, np.ndarray] | None = None) -> None:
+        """Send a request without waiting (see ``receive``)."""
+        if self._pending is not None:
+            raise ComponentError(self.name, f"request '{op}' sent while '{self._pending[1]}' is unanswered")
+        request_id = next(self._ids)
+        frames = protocol.encode({"op": op, "id": request_id, "args": dict(args or {})}, arrays)
+        self._sent_at = time.perf_counter()
+        self._socket.send_multipart(frames, copy=False)
+        self._pending = (request_id, op)
+
+    def receive(self, timeout: float | None = None) -> tuple[dict, dict[str, np.ndarray], float]:
+        """Result, arrays and compute seconds of the pending request."""
+        assert self._pending is not None, "receive without send"
+        request_id, op = self._pending
+        limit = self.timeout if timeout is None else timeout
+        deadline = time.monotonic() + limit
+        while not self._socket.poll(LIVENESS_SLICE_SECONDS * 1000):
+            self._check_alive()
+            if time.monotonic() > deadline:
+                self._pending = None
+                raise ComponentTimeout(self.name, op, limit)
+        frames = self._socket.recv_multipart(copy=False)
+        roundtrip = time.perf_counter() - self._sent_at
+        self._pending = None
+        try:
+            header, arrays = protocol.decode(frames)
+        except ProtocolError as exc:
+            raise ComponentError(self.name, f"malformed reply to '{op}': {exc}") from None
+        if header.get("id") != request_id:
+            raise ComponentError(self.name, f"reply id {header.get('id')} does not match request {request_id}")
+        if not header.get("ok"):
+            error = header.get("error") or {}
+            raise ComponentError(self.name, f"'{op}' failed: {error.get('type', 'Error')}: {error.get('message', '')}",
+                                 kind=error.get("type", "ComponentError"))
+        compute = float(header.get("compute_seconds", 0.0))
+        if op == "step":
+            self.compute_seconds.append(compute)
+            self.roundtrip_seconds.append(roundtrip)
+        return header.get("result") or {}, arrays, compute
+
+    def call(self, op: str, args: Mapping[str, Any] | None = None,
+             arrays: Mapping[str, np.ndarray] | None = None, timeout: float | None = None) -> tuple[dict, dict]:
+        self.send(op, args, arrays)
+        result, out, _ = self.receive(timeout)
+        return result, out
+
+    def _check_alive(self) -> None:
+        if self.process is not None:
+            code = self.process.poll()
+            if code is not None:
+                self._pending = None
+                raise ComponentDied(self.name, code, self.process.stderr_tail())
+
+    # --- contract ---------------------------------------------------------
+    def describe(self) -> dict[str, Any]:
+        result, arrays = self.call("describe")
+        self.variables = {v["name"]: Variable(**v) for v in result["variables"]}
+        self.coordinates = np.array(arrays.get("coordinates", np.zeros((0, 1))))
+        self.can_get_and_set_state = bool(result.get("can_get_and_set_state"))
+        return result
+
+    def instantiate(self, parameters: Mapping[str, Any]) -> None:
+        self.call("instantiate", {"parameters": dict(parameters)})
+        self.describe()
+
+    def enter_initialization_mode(self, start: float, stop: float) -> None:
+        self.call("enter_initialization_mode", {"start": start, "stop": stop})
+
+    def exit_initialization_mode(self) -> None:
+        self.call("exit_initialization_mode")
+
+    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
+        self.call("set_values", arrays=values)
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        return self.check_outputs(self.call("get_values", {"names": list(names)})[1])
+
+    def do_step(self, t: float, dt: float) -> None:
+        self.call("do_step", {"t": t, "dt": dt})
+
+    def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> None:
+        """First half of ``step``: lets the coupler run several components concurrently."""
+        self.send("step", {"t": t, "dt": dt, "restore": restore}, inputs)
+
+    def receive_step(self) -> dict[str, np.ndarray]:
+        return self.check_outputs(self.receive()[1])
+
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> dict[str, np.ndarray]:
+        """set_state (optional), set_values, do_step, get_values in one round trip."""
+        self.send_step(t, dt, inputs, restore)
+        return self.receive_step()
+
+    def get_state(self) -> int:
+        return int(self.call("get_state")[0]["handle"])
+
+    def set_state(self, handle: int) -> None:
+        self.call("set_state", {"handle": handle})
+
+    def free_state(self, handle: int) -> None:
+        self.call("free_state", {"handle": handle})
+
+    def terminate(self) -> dict[str, np.ndarray]:
+        return {k: np.array(v) for k, v in self.call("terminate")[1].items()}
+
+    def shutdown(self, timeout: float = 2.0) -> None:
+        self.call("shutdown", timeout=timeout)
+
+    def close(self) -> None:
+        self._socket.close(linger=0)
+
+    def output_names(self) -> list[str]:
+        return [v.name for v in self.variables.values() if v.causality == "output"]
+
+    # --- checks -------------------------------------------------------------
+    def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Outputs as declared by ``describe``; a wrong name or length is an error naming both shapes."""
+        for name, value in arrays.items():
+            variable = self.variables.get(name)
+            if variable is None:
+                raise ComponentError(self.name, f"returned '{name}', which it did not declare")
+            if value.shape != (variable.size,):
+                raise ComponentError(self.name, f"output '{name}' has shape {value.shape}, "
+                                                f"but the component declared shape ({variable.size},)")
+        return dict(arrays)

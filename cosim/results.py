@@ -1,0 +1,106 @@
+"""The results file of a run (HDF5): appended and flushed every time window.
+
+Layout (see DESIGN.md): root attributes ``scene`` and ``versions``;
+``/windows/{time,iterations,converged,wall_seconds}``; ``/fields/<data>``;
+``/components/<name>`` with ``compute_seconds`` and ``roundtrip_seconds`` per call;
+``/snapshots/<name>/{inputs,outputs}/<var>`` with ``window``, ``iteration`` and
+``converged`` per call. A crash loses at most the window in flight.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import socket
+from pathlib import Path
+from typing import Any, Mapping
+
+import h5py
+import numpy as np
+
+
+def versions() -> dict[str, str]:
+    import msgpack
+    import scipy
+    import zmq
+
+    import cosim
+    return {"cosim": cosim.__version__, "python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__, "h5py": h5py.__version__, "pyzmq": zmq.__version__,
+            "msgpack": ".".join(map(str, msgpack.version))}
+
+
+class ResultsStore:
+    """Appends rows to growable datasets; one ``append_window`` per time window."""
+
+    def __init__(self, path: str | Path, scene_text: str):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.file = h5py.File(self.path, "w")
+        self.file.attrs["scene"] = scene_text
+        self.file.attrs["versions"] = json.dumps(versions())
+        self.file.attrs["host"] = socket.gethostname()
+
+    # --- growable datasets ----------------------------------------------------
+    def _append(self, name: str, rows: np.ndarray) -> None:
+        rows = np.asarray(rows)
+        if rows.ndim == 0:
+            rows = rows[None]
+        dataset = self.file.get(name)
+        if dataset is None:
+            chunk_rows = max(1, min(1024, (1 << 16) // max(1, rows[0].nbytes if len(rows) else 8)))
+            self.file.create_dataset(name, data=rows, maxshape=(None, *rows.shape[1:]),
+                                     chunks=(chunk_rows, *rows.shape[1:]))
+            return
+        if dataset.shape[1:] != rows.shape[1:]:
+            raise ValueError(f"results '{name}': row shape {rows.shape[1:]} differs from {dataset.shape[1:]}")
+        start = dataset.shape[0]
+        dataset.resize(start + len(rows), axis=0)
+        dataset[start:] = rows
+
+    # --- run content -------------------------------------------------------------
+    def add_component(self, name: str, pid: int | None, host: str, backend: str, endpoint: str = "") -> None:
+        group = self.file.require_group(f"components/{name}")
+        group.attrs.update({"pid": -1 if pid is None else pid, "host": host, "backend": backend, "endpoint": endpoint})
+
+    def append_window(self, time: float, iterations: int, converged: bool, wall_seconds: float,
+                      fields: Mapping[str, np.ndarray],
+                      timings: Mapping[str, tuple[list[float], list[float]]],
+                      snapshots: Mapping[str, Mapping[str, Any]]) -> None:
+        """One window: its summary, converged fields, per-call timings and recorded calls."""
+        self._append("windows/time", np.array([time]))
+        self._append("windows/iterations", np.array([iterations], dtype=np.int32))
+        self._append("windows/converged", np.array([converged]))
+        self._append("windows/wall_seconds", np.array([wall_seconds]))
+        for name, value in fields.items():
+            self._append(f"fields/{name}", np.asarray(value)[None])
+        for name, (compute, roundtrip) in timings.items():
+            if compute:
+                self._append(f"components/{name}/compute_seconds", np.array(compute))
+                self._append(f"components/{name}/roundtrip_seconds", np.array(roundtrip))
+        for name, calls in snapshots.items():
+            if not calls["window"]:
+                continue
+            base = f"snapshots/{name}"
+            for kind in ("inputs", "outputs"):
+                for var, rows in calls[kind].items():
+                    self._append(f"{base}/{kind}/{var}", np.stack(rows))
+            self._append(f"{base}/window", np.array(calls["window"], dtype=np.int32))
+            self._append(f"{base}/iteration", np.array(calls["iteration"], dtype=np.int32))
+            self._append(f"{base}/converged", np.array(calls["converged"]))
+        self.file.flush()
+
+    def write_arrays(self, group: str, arrays: Mapping[str, np.ndarray]) -> None:
+        for name, value in arrays.items():
+            path = f"{group}/{name}"
+            if path in self.file:
+                del self.file[path]
+            self.file.create_dataset(path, data=value)
+        self.file.flush()
+
+    def set_attributes(self, group: str, **attributes: Any) -> None:
+        self.file.require_group(group).attrs.update(attributes)
+
+    def close(self) -> None:
+        if self.file.id.valid:
+            self.file.close()

@@ -1,0 +1,150 @@
+"""``cosim serve``: put any Component class behind a ZeroMQ ROUTER socket.
+
+The server binds, prints one JSON handshake line ``{"endpoint", "pid", "name"}``
+on stdout, then answers requests until ``shutdown``, until its parent process is
+gone, or until it is killed. Every reply carries the time spent inside the
+component (``compute_seconds``). A malformed request gets an error reply; the
+server never crashes on input.
+"""
+
+from __future__ import annotations
+
+import importlib
+import ipaddress
+import json
+import os
+import sys
+import time
+import traceback
+from typing import Any, Callable
+
+import numpy as np
+import zmq
+
+from cosim import protocol
+from cosim.component import Component
+from cosim.errors import CosimError, ProtocolError
+
+PARENT_CHECK_SECONDS = 0.5
+
+
+def load_entry(entry: str) -> type:
+    """The class named by ``"package.module:Class"``."""
+    module_name, sep, class_name = entry.partition(":")
+    if not sep or not module_name or not class_name:
+        raise CosimError(f"entry '{entry}' is not of the form 'package.module:Class'")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise CosimError(f"entry '{entry}': cannot import module '{module_name}': {exc}") from None
+    cls = getattr(module, class_name, None)
+    if cls is None:
+        raise CosimError(f"entry '{entry}': module '{module_name}' has no '{class_name}'")
+    return cls
+
+
+def check_bind_address(address: str) -> None:
+    """Refuse a TCP bind to anything but loopback (remote binding needs CURVE keys)."""
+    if not address.startswith("tcp://"):
+        return
+    host = address[len("tcp://"):].rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return
+    try:
+        loopback = ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        loopback = False
+    if not loopback:
+        raise CosimError(f"refusing to bind '{address}': only loopback addresses are served "
+                         "(a non-loopback address needs CURVE keys, which this build does not set up)")
+
+
+class ComponentServer:
+    """Dispatches decoded requests to a component instance."""
+
+    def __init__(self, component: Component):
+        self.component = component
+        c = component
+        self.handlers: dict[str, Callable[[dict, dict], Any]] = {
+            "describe": lambda a, arr: c.describe(),
+            "instantiate": lambda a, arr: c.instantiate(a.get("parameters", {})),
+            "enter_initialization_mode": lambda a, arr: c.enter_initialization_mode(a["start"], a["stop"]),
+            "exit_initialization_mode": lambda a, arr: c.exit_initialization_mode(),
+            "set_values": lambda a, arr: c.set_values(arr),
+            "get_values": lambda a, arr: c.get_values(a["names"]),
+            "do_step": lambda a, arr: c.do_step(a["t"], a["dt"]),
+            "step": self._step,
+            "get_state": lambda a, arr: {"handle": c.get_state()},
+            "set_state": lambda a, arr: c.set_state(a["handle"]),
+            "free_state": lambda a, arr: c.free_state(a["handle"]),
+            "terminate": lambda a, arr: c.terminate(),
+            "ping": lambda a, arr: {"pid": os.getpid()},
+            "shutdown": lambda a, arr: None,
+        }
+
+    def _step(self, args: dict, arrays: dict) -> Any:
+        restore = args.get("restore")
+        if restore is not None:
+            self.component.set_state(restore)
+        return self.component.step(args["t"], args["dt"], arrays)
+
+    def handle(self, frames: list) -> tuple[list, bool]:
+        """Reply frames for one request, and whether to stop serving."""
+        request_id = None
+        try:
+            header, arrays = protocol.decode(frames)
+            request_id = header.get("id")
+            op = header.get("op")
+            if op not in protocol.OPS:
+                raise ProtocolError(f"unknown op {op!r}")
+            args = header.get("args") or {}
+            if not isinstance(args, dict):
+                raise ProtocolError("'args' is not a map")
+            start = time.perf_counter()
+            result = self.handlers[op](args, arrays)
+            compute = time.perf_counter() - start
+        except Exception as exc:  # every failure becomes an error reply
+            if not isinstance(exc, (CosimError, KeyError, ValueError, TypeError)):
+                traceback.print_exc(file=sys.stderr)
+            kind = type(exc).__name__
+            message = f"missing argument {exc}" if isinstance(exc, KeyError) else str(exc)
+            return protocol.error_reply(request_id, kind, message, self.component.name), False
+        values, out_arrays = {}, {}
+        if isinstance(result, dict):
+            for key, value in result.items():
+                (out_arrays if isinstance(value, np.ndarray) else values)[key] = value
+        reply = {"id": request_id, "ok": True, "result": values, "compute_seconds": compute}
+        return protocol.encode(reply, out_arrays), op == "shutdown"
+
+
+def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None = None) -> int:
+    """Serve ``entry`` on ``bind`` until shutdown; returns the exit code."""
+    check_bind_address(bind)
+    component = load_entry(entry)()
+    if name:
+        component.name = name
+    server = ComponentServer(component)
+    context = zmq.Context.instance()
+    socket = context.socket(zmq.ROUTER)
+    socket.setsockopt(zmq.LINGER, 1000)
+    socket.bind(bind)
+    endpoint = socket.getsockopt_string(zmq.LAST_ENDPOINT)
+    sys.stdout.write(json.dumps({"endpoint": endpoint, "pid": os.getpid(), "name": component.name}) + "\n")
+    sys.stdout.flush()
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # later prints go to the log, not the handshake pipe
+    poller = zmq.Poller()
+    poller.register(socket, zmq.POLLIN)
+    try:
+        while True:
+            if not poller.poll(PARENT_CHECK_SECONDS * 1000):
+                if parent_pid is not None and os.getppid() != parent_pid:
+                    print(f"{component.name}: parent process {parent_pid} is gone; exiting", file=sys.stderr)
+                    return 3
+                continue
+            identity, *frames = socket.recv_multipart(copy=False)
+            reply, stop = server.handle(frames)
+            socket.send_multipart([identity, *reply], copy=False)
+            if stop:
+                return 0
+    finally:
+        socket.close()

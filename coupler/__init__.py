@@ -1,0 +1,1 @@
+"""Coupling schemes, convergence measures, acceleration, extrapolation, mapping, recording."""

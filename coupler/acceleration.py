@@ -1,0 +1,201 @@
+"""Acceleration of implicit coupling iterations on the fixed-point map x -> H(x).
+
+Every method sees, per iteration, the iterate ``x`` that went into the map and the
+result ``x_tilde = H(x)`` (``observe``), and proposes the next iterate
+(``next_iterate``). ``start_window``/``end_window`` bracket each time window.
+
+- ``ConstantRelaxation``: x + omega r, with r = x_tilde - x.
+- ``Aitken``: dynamic relaxation (Irons and Tuck), omega reset to at most the
+  initial relaxation in every window.
+- ``IQNILS``: interface quasi-Newton with an inverse Jacobian from least squares
+  (Degroote et al. 2009), columns of reused time windows, a cap on used columns,
+  QR1 / QR1-absolute / QR2 filtering of nearly dependent columns. With several data
+  blocks the least-squares norm is scaled per block (``block_sizes``).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+from scipy.linalg import solve_triangular
+
+FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
+
+
+class Acceleration:
+    """Plain fixed-point iteration (no acceleration); base class."""
+
+    def __init__(self) -> None:
+        self.x: np.ndarray | None = None
+        self.x_tilde: np.ndarray | None = None
+        self.iteration = 0
+
+    def start_window(self) -> None:
+        self.iteration = 0
+
+    def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
+        self.x, self.x_tilde = x, x_tilde
+        self.iteration += 1
+
+    def next_iterate(self) -> np.ndarray:
+        return self.x_tilde.copy()
+
+    def end_window(self) -> None:
+        pass
+
+
+class ConstantRelaxation(Acceleration):
+    def __init__(self, relaxation: float) -> None:
+        super().__init__()
+        self.omega = relaxation
+
+    def next_iterate(self) -> np.ndarray:
+        return self.x + self.omega * (self.x_tilde - self.x)
+
+
+class Aitken(Acceleration):
+    def __init__(self, initial_relaxation: float) -> None:
+        super().__init__()
+        self.initial = initial_relaxation
+        self.omega = initial_relaxation
+        self._r_previous: np.ndarray | None = None
+
+    def start_window(self) -> None:
+        super().start_window()
+        self._r_previous = None
+        self.omega = np.sign(self.omega) * min(abs(self.omega), self.initial) or self.initial
+
+    def next_iterate(self) -> np.ndarray:
+        r = self.x_tilde - self.x
+        if self._r_previous is not None:
+            dr = r - self._r_previous
+            denominator = float(dr @ dr)
+            if denominator > 0.0:
+                self.omega = -self.omega * float(self._r_previous @ dr) / denominator
+        self._r_previous = r
+        return self.x + self.omega * r
+
+
+class IQNILS(Acceleration):
+    """Interface quasi-Newton, inverse Jacobian by least squares (IQN-ILS)."""
+
+    def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
+                 filter: str = "qr2", filter_limit: float = 1e-3, block_sizes: list[int] | None = None) -> None:
+        super().__init__()
+        if filter not in FILTERS:
+            raise ValueError(f"filter {filter!r} not in {FILTERS}")
+        self.initial = initial_relaxation
+        self.max_columns = max_used_iterations
+        self.filter, self.limit = filter, filter_limit
+        self.block_sizes = block_sizes
+        self._old_windows: deque[tuple[list, list]] = deque(maxlen=max(reused_time_windows, 0) or None)
+        self._reuse = reused_time_windows > 0
+        self._V: list[np.ndarray] = []  # residual differences of this window, newest first
+        self._W: list[np.ndarray] = []  # differences of H(x), newest first
+        self._r_previous: np.ndarray | None = None
+        self._xt_previous: np.ndarray | None = None
+        self._weights: np.ndarray | None = None
+        self.columns_used = 0
+        self.columns_filtered = 0
+
+    def start_window(self) -> None:
+        super().start_window()
+        self._V, self._W = [], []
+        self._r_previous = self._xt_previous = None
+        self._weights = None
+
+    def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
+        super().observe(x, x_tilde)
+        r = x_tilde - x
+        if self._weights is None:
+            self._weights = self._block_weights(x_tilde)
+        if self._r_previous is not None:
+            self._V.insert(0, r - self._r_previous)
+            self._W.insert(0, x_tilde - self._xt_previous)
+        self._r_previous, self._xt_previous = r, x_tilde.copy()
+
+    def _block_weights(self, x: np.ndarray) -> np.ndarray | None:
+        if not self.block_sizes or len(self.block_sizes) < 2:
+            return None
+        weights = np.empty_like(x)
+        start = 0
+        for size in self.block_sizes:
+            block = x[start:start + size]
+            norm = float(np.linalg.norm(block))
+            weights[start:start + size] = 1.0 / norm if norm > 0 else 1.0
+            start += size
+        return weights
+
+    def _columns(self) -> tuple[list[np.ndarray], list[np.ndarray], list[tuple[int, int]]]:
+        """Columns newest first (this window, then older windows) and where each came from."""
+        V, W, origin = list(self._V), list(self._W), [(-1, j) for j in range(len(self._V))]
+        for w, (old_V, old_W) in enumerate(reversed(self._old_windows)):
+            V += old_V
+            W += old_W
+            origin += [(w, j) for j in range(len(old_V))]
+        n = self.max_columns
+        return V[:n], W[:n], origin[:n]
+
+    def _remove(self, where: tuple[int, int]) -> None:
+        window, j = where
+        if window < 0:
+            del self._V[j], self._W[j]
+        else:
+            old_V, old_W = list(reversed(self._old_windows))[window]
+            del old_V[j], old_W[j]
+        self.columns_filtered += 1
+
+    def next_iterate(self) -> np.ndarray:
+        r = self.x_tilde - self.x
+        while True:
+            V, W, origin = self._columns()
+            if not V:
+                self.columns_used = 0
+                return self.x + self.initial * r
+            Vm = np.stack(V, axis=1)
+            if self._weights is not None:
+                Vm = Vm * self._weights[:, None]
+            Q, R = np.linalg.qr(Vm)
+            bad = self._filtered_column(R, Vm)
+            if bad is None:
+                break
+            self._remove(origin[bad])
+        rhs = -(Q.T @ (r if self._weights is None else r * self._weights))
+        c = solve_triangular(R, rhs, check_finite=False)
+        self.columns_used = len(V)
+        return self.x_tilde + np.stack(W, axis=1) @ c
+
+    def _filtered_column(self, R: np.ndarray, Vm: np.ndarray) -> int | None:
+        """Index of the first column the filter removes, or None."""
+        diagonal = np.abs(np.diag(R))
+        if self.filter == "qr2":
+            bad = diagonal < self.limit * np.linalg.norm(Vm, axis=0)
+        elif self.filter == "qr1":
+            bad = diagonal < self.limit * np.linalg.norm(R)
+        elif self.filter == "qr1-absolute":
+            bad = diagonal < self.limit
+        else:
+            bad = diagonal == 0.0
+        hits = np.flatnonzero(bad)
+        return int(hits[0]) if hits.size else None
+
+    def end_window(self) -> None:
+        if self._reuse and self._V:
+            self._old_windows.append((self._V, self._W))
+        self._V, self._W = [], []
+
+
+def make_acceleration(settings: dict, block_sizes: list[int]) -> Acceleration:
+    """The acceleration a scene's ``coupling.acceleration`` table names."""
+    kind = settings["type"]
+    if kind == "none":
+        return Acceleration()
+    if kind == "constant":
+        return ConstantRelaxation(settings["initial_relaxation"])
+    if kind == "aitken":
+        return Aitken(settings["initial_relaxation"])
+    if kind == "iqn-ils":
+        return IQNILS(settings["initial_relaxation"], settings["max_used_iterations"],
+                      settings["reused_time_windows"], settings["filter"], settings["filter_limit"], block_sizes)
+    raise ValueError(f"unknown acceleration type {kind!r}")

@@ -1,0 +1,37 @@
+"""Recording of every call of a marked component: the ROM's training set."""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+
+
+class CallRecorder:
+    """Buffers one window of calls (inputs, outputs, window, iteration, converged)."""
+
+    def __init__(self) -> None:
+        self.clear()
+
+    def clear(self) -> None:
+        self.calls: dict[str, Any] = {"inputs": {}, "outputs": {}, "window": [], "iteration": [], "converged": []}
+
+    def record(self, window: int, iteration: int, inputs: Mapping[str, np.ndarray],
+               outputs: Mapping[str, np.ndarray]) -> None:
+        for kind, arrays in (("inputs", inputs), ("outputs", outputs)):
+            for name, value in arrays.items():
+                self.calls[kind].setdefault(name, []).append(np.array(value, dtype=np.float64))
+        self.calls["window"].append(window)
+        self.calls["iteration"].append(iteration)
+        self.calls["converged"].append(False)
+
+    def mark_converged(self, iteration: int) -> None:
+        """Flag the calls of ``iteration`` (the window's last) as converged."""
+        for i, it in enumerate(self.calls["iteration"]):
+            if it == iteration:
+                self.calls["converged"][i] = True
+
+    def take(self) -> dict[str, Any]:
+        calls = self.calls
+        self.clear()
+        return calls

@@ -1,0 +1,248 @@
+"""Coupling schemes: serial-explicit, serial-implicit (Gauss-Seidel), parallel-implicit (Jacobi).
+
+A scheme advances all participants through one time window (``advance``) and
+reports iterations, convergence, residual measures and the window's values of
+every exchanged data item. Data values are kept on the producer's nodes and mapped
+when sent. In implicit schemes stateful participants are rolled back with
+``set_state`` (fused into the step request) before every repeated iteration.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from coupler.acceleration import Acceleration
+from coupler.convergence import ConvergenceMeasure
+from coupler.extrapolation import Extrapolation
+from coupler.mapping import Mapping as InterfaceMapping
+from coupler.recording import CallRecorder
+from cosim.errors import ConvergenceError, SceneError
+from cosim.proxy import ComponentProxy
+
+
+@dataclass
+class Exchange:
+    """One data item sent from ``source`` to ``target`` through ``mapping``."""
+
+    data: str
+    source: ComponentProxy
+    target: ComponentProxy
+    mapping: InterfaceMapping
+
+
+@dataclass
+class WindowResult:
+    time: float
+    iterations: int
+    converged: bool
+    measures: dict[str, float] = field(default_factory=dict)
+
+
+class CouplingScheme:
+    """Common parts: data values, sending, recording."""
+
+    implicit = True
+
+    def __init__(self, participants: Sequence[ComponentProxy], exchanges: Sequence[Exchange],
+                 measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
+                 accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
+                 extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None):
+        self.first, self.second = participants
+        self.exchanges = list(exchanges)
+        self.measures = list(measures)
+        self.acceleration = acceleration or Acceleration()
+        self.accelerated = list(accelerated)
+        self.max_iterations = max_iterations
+        self.on_max_iterations = on_max_iterations
+        self.recorders = dict(recorders or {})
+        self.values: dict[str, np.ndarray] = {}
+        self.window = 0
+        self._extrapolation = Extrapolation(extrapolation_order)
+        self._state: dict[str, int] = {}
+
+    def initialize(self) -> None:
+        """Initial data values from the producers (after initialization mode)."""
+        for proxy in (self.first, self.second):
+            names = [e.data for e in self.exchanges if e.source is proxy]
+            if names:
+                self.values.update({k: np.array(v) for k, v in proxy.get_values(names).items()})
+        if not self.accelerated:
+            self.accelerated = self.default_accelerated()
+        if self.accelerated:
+            self._extrapolation.store(self._stack(self.values, self.accelerated))
+        if self.implicit:
+            for proxy in (self.first, self.second):
+                if self._stateful(proxy) and not proxy.can_get_and_set_state:
+                    raise SceneError(f"component '{proxy.name}' cannot get and set its state, which the "
+                                     f"implicit scheme needs to repeat a window; use serial-explicit")
+
+    def default_accelerated(self) -> list[str]:
+        """Data the acceleration works on when the scene names none."""
+        return []
+
+    def _predicted(self) -> dict[str, np.ndarray]:
+        """Data values for the first iteration: the last ones, accelerated data extrapolated."""
+        values = dict(self.values)
+        values.update(self._split(self._extrapolation.predict(), self.accelerated))
+        return values
+
+    def _stateful(self, proxy: ComponentProxy) -> bool:
+        return proxy.can_get_and_set_state
+
+    # --- helpers ------------------------------------------------------------
+    def inputs_for(self, target: ComponentProxy, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {e.data: e.mapping(values[e.data]) for e in self.exchanges if e.target is target}
+
+    def block_sizes(self, names: Sequence[str]) -> list[int]:
+        return [self.values[n].size for n in names]
+
+    @staticmethod
+    def _stack(values: Mapping[str, np.ndarray], names: Sequence[str]) -> np.ndarray:
+        return np.concatenate([values[n] for n in names]) if len(names) > 1 else values[names[0]].copy()
+
+    def _split(self, vector: np.ndarray, names: Sequence[str]) -> dict[str, np.ndarray]:
+        out, start = {}, 0
+        for name in names:
+            size = self.values[name].size
+            out[name] = vector[start:start + size]
+            start += size
+        return out
+
+    def _record(self, proxy: ComponentProxy, iteration: int, inputs: Mapping[str, np.ndarray],
+                outputs: Mapping[str, np.ndarray]) -> None:
+        recorder = self.recorders.get(proxy.name)
+        if recorder is not None:
+            recorder.record(self.window, iteration, inputs, outputs)
+
+    def _save_states(self) -> None:
+        for proxy in (self.first, self.second):
+            if self._stateful(proxy):
+                self._state[proxy.name] = proxy.get_state()
+
+    def _free_states(self) -> None:
+        for proxy in (self.first, self.second):
+            handle = self._state.pop(proxy.name, None)
+            if handle is not None:
+                proxy.free_state(handle)
+
+    def _restore(self, proxy: ComponentProxy, iteration: int) -> int | None:
+        return self._state.get(proxy.name) if iteration > 1 else None
+
+    def _finish(self, t: float, iterations: int, converged: bool) -> WindowResult:
+        if converged:
+            for recorder in self.recorders.values():
+                recorder.mark_converged(iterations)
+        elif self.implicit:
+            message = f"window {self.window} (t = {t:g}) did not converge in {iterations} iterations: " + \
+                ", ".join(f"{m.data} {m.kind} {m.value:.3e} (limit {m.limit:g})" for m in self.measures)
+            if self.on_max_iterations == "fail":
+                raise ConvergenceError(message)
+            warnings.warn(message, stacklevel=2)
+        if self.accelerated:
+            self._extrapolation.store(self._stack(self.values, self.accelerated))
+        return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures})
+
+    def advance(self, t: float, dt: float) -> WindowResult:
+        raise NotImplementedError
+
+
+class SerialExplicit(CouplingScheme):
+    """First participant, then second, once per window."""
+
+    implicit = False
+
+    def advance(self, t: float, dt: float) -> WindowResult:
+        self.window += 1
+        for proxy in (self.first, self.second):
+            inputs = self.inputs_for(proxy, self.values)
+            outputs = proxy.step(t, dt, inputs)
+            self._record(proxy, 1, inputs, outputs)
+            self.values.update(outputs)
+        return self._finish(t + dt, 1, True)
+
+
+class SerialImplicit(CouplingScheme):
+    """Gauss-Seidel: first participant, then second, iterated on the second's data."""
+
+    def default_accelerated(self) -> list[str]:
+        return [e.data for e in self.exchanges if e.source is self.second]
+
+    def advance(self, t: float, dt: float) -> WindowResult:
+        self.window += 1
+        forward = [e.data for e in self.exchanges if e.source is self.first]
+        feedback = [e.data for e in self.exchanges if e.source is self.second]
+        accelerated = self.accelerated
+        values = self._predicted()
+        self._save_states()
+        self.acceleration.start_window()
+        for m in self.measures:
+            m.start_window()
+        converged = False
+        for iteration in range(1, self.max_iterations + 1):
+            inputs_first = self.inputs_for(self.first, values)
+            out_first = self.first.step(t, dt, inputs_first, restore=self._restore(self.first, iteration))
+            self._record(self.first, iteration, inputs_first, out_first)
+            inputs_second = self.inputs_for(self.second, out_first)
+            out_second = self.second.step(t, dt, inputs_second, restore=self._restore(self.second, iteration))
+            self._record(self.second, iteration, inputs_second, out_second)
+            converged = all([m.measure(values[m.data], out_first[m.data] if m.data in forward else out_second[m.data])
+                             for m in self.measures])
+            values.update({k: out_first[k] for k in forward})
+            x = self._stack(values, accelerated)
+            self.acceleration.observe(x, self._stack(out_second, accelerated))
+            if converged or iteration == self.max_iterations:
+                values.update({k: out_second[k] for k in feedback})
+                break
+            values.update({k: out_second[k] for k in feedback})
+            values.update(self._split(self.acceleration.next_iterate(), accelerated))
+        self.acceleration.end_window()
+        self._free_states()
+        self.values = values
+        return self._finish(t + dt, iteration, converged)
+
+
+class ParallelImplicit(CouplingScheme):
+    """Jacobi: both participants step concurrently on the previous iterate."""
+
+    def default_accelerated(self) -> list[str]:
+        return [e.data for e in self.exchanges]
+
+    def advance(self, t: float, dt: float) -> WindowResult:
+        self.window += 1
+        names = [e.data for e in self.exchanges]
+        accelerated = self.accelerated
+        values = self._predicted()
+        self._save_states()
+        self.acceleration.start_window()
+        for m in self.measures:
+            m.start_window()
+        converged = False
+        proxies = (self.first, self.second)
+        for iteration in range(1, self.max_iterations + 1):
+            inputs = {p.name: self.inputs_for(p, values) for p in proxies}
+            for p in proxies:
+                p.send_step(t, dt, inputs[p.name], restore=self._restore(p, iteration))
+            outputs = {}
+            for p in proxies:
+                outputs.update(p.receive_step())
+                self._record(p, iteration, inputs[p.name], {k: outputs[k] for k in p.output_names()})
+            new = {k: outputs[k] for k in names}
+            converged = all([m.measure(values[m.data], new[m.data]) for m in self.measures])
+            self.acceleration.observe(self._stack(values, accelerated), self._stack(new, accelerated))
+            if converged or iteration == self.max_iterations:
+                values.update(new)
+                break
+            values.update(new)
+            values.update(self._split(self.acceleration.next_iterate(), accelerated))
+        self.acceleration.end_window()
+        self._free_states()
+        self.values = values
+        return self._finish(t + dt, iteration, converged)
+
+
+SCHEMES = {"serial-explicit": SerialExplicit, "serial-implicit": SerialImplicit,
+           "parallel-implicit": ParallelImplicit}

@@ -1,0 +1,1 @@
+"""Fluid solvers behind the component contract."""

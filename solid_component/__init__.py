@@ -1,0 +1,1 @@
+"""Solid full-order solvers behind the component contract."""
