@@ -134,7 +134,7 @@ class IQNILS(Acceleration):
             V += old_V
             W += old_W
             origin += [(w, j) for j in range(len(old_V))]
-        n = self.max_columns
+        n = min(self.max_columns, self.x.size)  # more columns than unknowns are dependent
         return V[:n], W[:n], origin[:n]
 
     def _remove(self, where: tuple[int, int]) -> None:

@@ -1,0 +1,139 @@
+"""Acceleration, convergence measures, extrapolation and mapping on known problems."""
+
+import numpy as np
+import pytest
+
+from coupler.acceleration import IQNILS, Acceleration, Aitken, ConstantRelaxation
+from coupler.convergence import ConvergenceMeasure
+from coupler.extrapolation import Extrapolation
+from coupler.mapping import make_mapping
+
+
+def iterate(acceleration, H, x0, tol=1e-10, max_iterations=200):
+    """Fixed-point iterations of H with ``acceleration``; returns (x, iterations) or (x, None)."""
+    x = x0.copy()
+    acceleration.start_window()
+    for k in range(1, max_iterations + 1):
+        xt = H(x)
+        acceleration.observe(x, xt)
+        if np.linalg.norm(xt - x) <= tol * max(1.0, np.linalg.norm(xt)):
+            acceleration.end_window()
+            return xt, k
+        if not np.all(np.isfinite(xt)) or np.linalg.norm(xt) > 1e12:
+            return xt, None
+        x = acceleration.next_iterate()
+    return x, None
+
+
+@pytest.mark.parametrize("n", [5, 20, 60])
+def test_iqn_ils_solves_a_linear_problem_in_at_most_n_plus_1_iterations(n):
+    rng = np.random.default_rng(n)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    A = Q @ np.diag(rng.uniform(-3.0, 0.9, n)) @ Q.T  # plain iteration diverges (eigenvalues down to -3)
+    b = rng.standard_normal(n)
+    H = lambda x: A @ x + b
+    solution = np.linalg.solve(np.eye(n) - A, b)
+    x, iterations = iterate(IQNILS(0.1, max_used_iterations=n + 5, filter="none"), H, np.zeros(n))
+    assert iterations is not None and iterations <= n + 2  # n + 1 updates, plus the final check
+    np.testing.assert_allclose(x, solution, rtol=1e-7, atol=1e-8)
+    _, plain = iterate(Acceleration(), H, np.zeros(n))
+    assert plain is None
+
+
+def nonlinear_map():
+    rng = np.random.default_rng(7)
+    n = 30
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    M = Q @ np.diag(np.linspace(-2.5, -0.2, n)) @ Q.T
+    b = rng.standard_normal(n)
+    return (lambda x: M @ x + 0.1 * np.tanh(x) + b), n
+
+
+def test_aitken_and_iqn_ils_converge_where_plain_gauss_seidel_diverges():
+    H, n = nonlinear_map()
+    _, plain = iterate(Acceleration(), H, np.zeros(n))
+    assert plain is None
+    for acceleration in (Aitken(0.3), IQNILS(0.3, max_used_iterations=50)):
+        x, iterations = iterate(acceleration, H, np.zeros(n))
+        assert iterations is not None, type(acceleration).__name__
+        assert np.linalg.norm(H(x) - x) < 1e-8
+
+
+def test_constant_relaxation_is_x_plus_omega_r():
+    relaxation = ConstantRelaxation(0.25)
+    relaxation.start_window()
+    relaxation.observe(np.array([1.0, 2.0]), np.array([3.0, 6.0]))
+    np.testing.assert_allclose(relaxation.next_iterate(), [1.5, 3.0])
+
+
+def test_reused_windows_make_the_next_window_start_with_a_quasi_newton_step():
+    rng = np.random.default_rng(3)
+    n = 8
+    A = np.diag(rng.uniform(-2.0, 0.5, n))
+    b = rng.standard_normal(n)
+    iqn = IQNILS(0.1, max_used_iterations=50, reused_time_windows=2, filter="qr2", filter_limit=1e-10)
+    _, first = iterate(iqn, lambda x: A @ x + b, np.zeros(n))
+    # a new window with a new right-hand side: the secant information of the last window still holds
+    _, second = iterate(iqn, lambda x: A @ x + 2 * b, np.zeros(n))
+    assert second <= 3 < first
+    no_reuse = IQNILS(0.1, max_used_iterations=50, reused_time_windows=0)
+    iterate(no_reuse, lambda x: A @ x + b, np.zeros(n))
+    _, again = iterate(no_reuse, lambda x: A @ x + 2 * b, np.zeros(n))
+    assert again > second
+
+
+@pytest.mark.parametrize("kind", ["qr1", "qr1-absolute", "qr2"])
+def test_filters_drop_a_repeated_secant_column(kind):
+    iqn = IQNILS(0.5, filter=kind, filter_limit=1e-8)
+    iqn.start_window()
+    x = np.array([0.0, 0.0, 0.0])
+    for xt in ([1.0, 0.0, 0.0], [2.0, 1.0, 0.0], [3.0, 2.0, 0.0]):
+        iqn.observe(x, np.array(xt))
+    # the two residual differences are equal: one of them must go
+    iqn.next_iterate()
+    assert iqn.columns_filtered == 1 and iqn.columns_used == 1
+
+
+def test_convergence_measures():
+    old, new = np.array([1.0, 1.0]), np.array([1.0, 1.1])
+    rel = ConvergenceMeasure("x", "relative", 0.1)
+    assert rel.measure(old, new) and rel.value == pytest.approx(0.1 / np.linalg.norm(new))
+    absolute = ConvergenceMeasure("x", "absolute", 0.05)
+    assert not absolute.measure(old, new) and absolute.value == pytest.approx(0.1)
+    residual = ConvergenceMeasure("x", "residual-relative", 0.5)
+    residual.start_window()
+    assert not residual.measure(old, new) and residual.value == 1.0
+    assert residual.measure(old, np.array([1.0, 1.04])) and residual.value == pytest.approx(0.4)
+
+
+def test_extrapolation_is_exact_for_polynomials_of_its_order():
+    for order, f in ((0, lambda t: 3.0), (1, lambda t: 2 * t + 1), (2, lambda t: t * t - t)):
+        extrapolation = Extrapolation(order)
+        for t in range(5):
+            extrapolation.store(np.array([f(t)]))
+        if order < 2:
+            assert extrapolation.predict()[0] == pytest.approx(f(5))
+    quadratic = Extrapolation(2)
+    for t in range(3):
+        quadratic.store(np.array([float(t * t)]))
+    # preCICE's second-order formula 2.5 x_n - 2 x_{n-1} + 0.5 x_{n-2}
+    assert quadratic.predict()[0] == pytest.approx(2.5 * 4 - 2 * 1 + 0)
+
+
+def test_nearest_neighbour_mappings():
+    rng = np.random.default_rng(1)
+    source = rng.uniform(size=(40, 2))
+    target = source[rng.permutation(40)] + 1e-6
+    forces = rng.standard_normal(80)  # two components per node
+    consistent = make_mapping("nearest-neighbour", source, target, 80, 80, "test")
+    back = make_mapping("nearest-neighbour", target, source, 80, 80, "test")
+    np.testing.assert_array_equal(back(consistent(forces)), forces)
+    coarse = source[::4]
+    conservative = make_mapping("nearest-neighbour-conservative", source, coarse, 80, 20, "test")
+    mapped = conservative(forces)
+    np.testing.assert_allclose([mapped[0::2].sum(), mapped[1::2].sum()], [forces[0::2].sum(), forces[1::2].sum()])
+    constant = np.tile([1.5, -2.0], 10)
+    np.testing.assert_allclose(make_mapping("nearest-neighbour", coarse, source, 20, 80, "test")(constant),
+                               np.tile([1.5, -2.0], 40))
+    with pytest.raises(ValueError, match="identity mapping needs equal sizes, got 80 and 20"):
+        make_mapping("identity", source, coarse, 80, 20, "test")

@@ -1,0 +1,82 @@
+import msgpack
+import numpy as np
+import pytest
+
+from cosim import protocol
+from cosim.errors import ProtocolError
+from cosim.server import ComponentServer
+from solid_component.tube import TubeSolid
+
+
+def test_float64_round_trip_is_bit_exact():
+    rng = np.random.default_rng(0)
+    special = np.array([np.nan, np.inf, -np.inf, -0.0, 5e-324, np.finfo(float).max, np.finfo(float).eps])
+    arrays = {"random": rng.standard_normal(1001) * 10.0 ** rng.integers(-300, 300, 1001),
+              "special": special, "matrix": rng.standard_normal((7, 3)), "empty": np.zeros(0)}
+    header, decoded = protocol.decode(protocol.encode({"op": "step", "id": 3}, arrays))
+    assert header["op"] == "step" and header["id"] == 3
+    for name, value in arrays.items():
+        assert decoded[name].dtype == np.float64
+        assert decoded[name].shape == value.shape
+        assert decoded[name].tobytes() == value.tobytes(), name
+
+
+def test_other_dtypes_round_trip():
+    arrays = {"i": np.arange(5, dtype=np.int32), "b": np.array([True, False]), "f": np.ones(3, np.float32)}
+    _, decoded = protocol.decode(protocol.encode({"op": "ping"}, arrays))
+    for name, value in arrays.items():
+        np.testing.assert_array_equal(decoded[name], value)
+        assert decoded[name].dtype == value.dtype
+
+
+def test_non_contiguous_array_is_sent_in_c_order():
+    a = np.arange(12.0).reshape(3, 4).T
+    _, decoded = protocol.decode(protocol.encode({"op": "ping"}, {"a": a}))
+    np.testing.assert_array_equal(decoded["a"], a)
+
+
+def test_frame_length_must_match_declared_shape():
+    frames = protocol.encode({"op": "step"}, {"x": np.zeros(101)})
+    frames[1] = bytes(100 * 8)
+    with pytest.raises(ProtocolError, match=r"array 'x': shape \(101,\) of float64 needs 808 bytes but its frame has 800"):
+        protocol.decode(frames)
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda h: h.update(v=99), "protocol version 99"),
+    (lambda h: h["arrays"][0].update(dtype="object"), "dtype 'object' is not allowed"),
+    (lambda h: h["arrays"][0].update(shape=[-1]), "not a list of non-negative integers"),
+    (lambda h: h["arrays"].append({"name": "y", "dtype": "float64", "shape": [1]}), "declares 2 arrays but 1"),
+])
+def test_malformed_headers_are_rejected(mutate, message):
+    frames = protocol.encode({"op": "step"}, {"x": np.zeros(4)})
+    header = msgpack.unpackb(frames[0])
+    mutate(header)
+    frames[0] = msgpack.packb(header)
+    with pytest.raises(ProtocolError, match=message):
+        protocol.decode(frames)
+
+
+def test_garbage_and_oversize_messages_are_rejected():
+    with pytest.raises(ProtocolError, match="not valid msgpack"):
+        protocol.decode([b"\xc1\xc1\xc1"])
+    with pytest.raises(ProtocolError, match="exceeds the limit"):
+        protocol.decode(protocol.encode({"op": "ping"}, {"x": np.zeros(100)}), max_bytes=100)
+
+
+def test_server_answers_malformed_requests_with_errors():
+    component = TubeSolid()
+    server = ComponentServer(component)
+    reply, stop = server.handle([b"not msgpack at all"])
+    header, _ = protocol.decode(reply)
+    assert header["ok"] is False and "msgpack" in header["error"]["message"] and not stop
+    reply, _ = server.handle(protocol.encode({"op": "format_disk", "id": 1}))
+    header, _ = protocol.decode(reply)
+    assert header["ok"] is False and "unknown op 'format_disk'" in header["error"]["message"]
+    server.handle(protocol.encode({"op": "instantiate", "id": 2, "args": {"parameters": {}}}))
+    reply, _ = server.handle(protocol.encode({"op": "step", "id": 3, "args": {"t": 0.0, "dt": 0.1}},
+                                             {"pressure": np.zeros(100)}))
+    header, _ = protocol.decode(reply)
+    assert header["ok"] is False
+    assert "input 'pressure' has shape (100,), expected (101,)" in header["error"]["message"]
+    assert header["error"]["component"] == "solid"
