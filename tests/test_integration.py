@@ -1,0 +1,144 @@
+"""Co-simulations through real component processes over tcp://127.0.0.1."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from coupler.run import run_scene
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout
+from cosim.scene import load_scene
+
+from tests.conftest import ROOT, TUBE_SCENE, alive_with, children_of, cmdline
+
+
+def run(tmp_path, *overrides, name="run"):
+    scene = load_scene(TUBE_SCENE, list(overrides))
+    return run_scene(scene, tmp_path / name, progress=False), tmp_path / name / "results.h5"
+
+
+def test_short_tube_run_over_localhost(tmp_path):
+    summary, path = run(tmp_path, "time.end=3")
+    assert summary.windows == 30
+    assert children_of(os.getpid()) == []  # every component process is gone
+    with h5py.File(path) as f:
+        pids = {name: int(f[f"components/{name}"].attrs["pid"]) for name in ("fluid", "solid")}
+        assert len({*pids.values(), os.getpid()}) == 3
+        for name in pids:
+            assert f[f"components/{name}"].attrs["endpoint"].startswith("tcp://127.0.0.1:")
+        iterations = f["windows/iterations"][:]
+        assert f["windows/converged"][:].all() and len(iterations) == 30
+        np.testing.assert_allclose(f["windows/time"][:], 0.1 * np.arange(1, 31), rtol=1e-12)
+        # every solid call is a snapshot, and exactly one iteration per window is flagged converged
+        snapshots = f["snapshots/solid"]
+        assert snapshots["inputs/pressure"].shape == (iterations.sum(), 101)
+        assert snapshots["outputs/section"].shape == (iterations.sum(), 101)
+        np.testing.assert_array_equal(np.bincount(snapshots["window"][:])[1:], iterations)
+        converged = snapshots["converged"][:]
+        assert converged.sum() == 30
+        np.testing.assert_array_equal(snapshots["iteration"][:][converged], iterations)
+        # the converged snapshot is the stored field of its window
+        np.testing.assert_array_equal(snapshots["outputs/section"][:][converged], f["fields/section"][:])
+        np.testing.assert_array_equal(snapshots["inputs/pressure"][:][converged], f["fields/pressure"][:])
+        assert f["components/fluid/compute_seconds"].shape == (iterations.sum(),)
+        p_in = f["fields/pressure"][:, 0]
+        assert np.all(np.isfinite(p_in)) and np.ptp(p_in) > 1.0
+    assert (tmp_path / "run" / "run.png").stat().st_size > 10_000
+
+
+def test_schemes_agree_on_the_converged_solution(tmp_path):
+    tight = ["time.end=1", "coupling.convergence.0.limit=1e-9", "coupling.convergence.1.limit=1e-9"]
+    run(tmp_path, *tight, name="serial")
+    run(tmp_path, *tight, "coupling.scheme=parallel-implicit", "coupling.acceleration.data=[\"pressure\", \"section\"]",
+        "coupling.acceleration.initial_relaxation=0.1", name="parallel")
+    run(tmp_path, *tight, "coupling.acceleration.type=aitken", name="aitken")
+    with h5py.File(tmp_path / "serial/results.h5") as s, h5py.File(tmp_path / "parallel/results.h5") as p, \
+            h5py.File(tmp_path / "aitken/results.h5") as a:
+        for other in (p, a):
+            assert other["windows/converged"][:].all()
+            np.testing.assert_allclose(other["fields/pressure"][:], s["fields/pressure"][:], rtol=1e-6, atol=1e-6)
+        # Jacobi iterations need more iterations than Gauss-Seidel on this strongly coupled case
+        assert p["windows/iterations"][:].sum() > s["windows/iterations"][:].sum()
+
+
+def test_killed_solid_stops_the_run_and_keeps_finished_windows(tmp_path):
+    out = tmp_path / "killed"
+    process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet"],
+                               cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 30
+        solid = []
+        while not solid and time.monotonic() < deadline:
+            time.sleep(0.2)
+            solid = [pid for pid in children_of(process.pid) if "--name solid" in cmdline(pid)]
+        assert solid, "the solid process did not start"
+        time.sleep(1.5)  # let some windows finish
+        os.kill(solid[0], signal.SIGKILL)
+        killed_at = time.monotonic()
+        _, stderr = process.communicate(timeout=10)
+        stopped_after = time.monotonic() - killed_at
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 2
+    assert stopped_after < 5.0
+    assert "component 'solid'" in stderr and "exited with code -9" in stderr
+    assert alive_with(f"--parent-pid {process.pid}") == []
+    with h5py.File(out / "results.h5") as f:
+        windows = len(f["windows/time"])
+        assert 0 < windows < 1200
+        assert f["fields/pressure"].shape == (windows, 101)
+        assert f["snapshots/solid/window"][-1] == windows
+        assert f.attrs["windows_completed"] == windows
+
+
+def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path):
+    with pytest.raises(ComponentDied, match=r"component 'solid': process exited with code 7") as error:
+        run(tmp_path, "time.end=1", "components.solid.entry=tests.components:CrashingSolid")
+    assert error.value.exit_code == 7
+    assert children_of(os.getpid()) == []
+    with h5py.File(tmp_path / "run/results.h5") as f:
+        assert len(f["windows/time"]) == 3  # windows ending at 0.1, 0.2, 0.3 finished before the crash
+
+
+def test_hanging_component_times_out_and_is_killed(tmp_path):
+    started = time.monotonic()
+    with pytest.raises(ComponentTimeout, match=r"component 'solid': no reply to 'step' within 1 s"):
+        run(tmp_path, "time.end=1", "components.solid.entry=tests.components:HangingSolid",
+            "components.solid.timeout=1.0")
+    assert time.monotonic() - started < 10
+    assert children_of(os.getpid()) == []
+
+
+def test_wrong_output_length_names_component_variable_and_shapes(tmp_path):
+    with pytest.raises(ComponentError, match=r"component 'solid': output 'section' has shape \(100,\), "
+                                             r"but the component declared shape \(101,\)"):
+        run(tmp_path, "time.end=1", "components.solid.entry=tests.components:WrongLengthSolid")
+    assert children_of(os.getpid()) == []
+
+
+def test_unknown_component_parameter_is_reported_before_the_run(tmp_path):
+    with pytest.raises(ComponentError, match=r"component 'fluid'.*unknown key 'inlet.ff'"):
+        run(tmp_path, "time.end=1", "inlet.ff=3")
+
+
+def test_ctrl_c_stops_every_component(tmp_path):
+    process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(tmp_path / "c"),
+                                "--quiet"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 30
+    while len(children_of(process.pid)) < 2 and time.monotonic() < deadline:
+        time.sleep(0.2)
+    time.sleep(1.0)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=10)
+    assert process.returncode == 130, stderr
+    assert alive_with(f"--parent-pid {process.pid}") == []
+    with h5py.File(tmp_path / "c/results.h5") as f:
+        assert len(f["windows/time"]) > 0

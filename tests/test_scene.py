@@ -1,0 +1,61 @@
+import pytest
+
+from cosim.errors import SceneError
+from cosim.scene import load_scene
+
+
+def write(tmp_path, text):
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    return path
+
+
+def test_tube_scene_loads_with_the_papers_settings(tube_scene_path):
+    scene = load_scene(tube_scene_path)
+    assert scene["time"] == {"start": 0.0, "end": 120.0, "dt": 0.1}
+    acceleration = scene["coupling"]["acceleration"]
+    assert (acceleration["type"], acceleration["initial_relaxation"], acceleration["max_used_iterations"],
+            acceleration["reused_time_windows"], acceleration["filter"], acceleration["filter_limit"]) == \
+        ("iqn-ils", 0.01, 50, 8, "qr2", 1e-3)
+    assert [(m["data"], m["type"], m["limit"]) for m in scene["coupling"]["convergence"]] == \
+        [("pressure", "relative", 1e-4), ("section", "relative", 1e-4)]
+    assert scene.component_parameters("fluid")["inlet"]["f"] == 2.0
+
+
+def test_set_overrides_values_and_records_them(tube_scene_path):
+    scene = load_scene(tube_scene_path, ["inlet.f=0.9", "inlet.h=4", "time.end=18",
+                                         "inlet.table=some/path.csv", "coupling.convergence.1.limit=1e-6"])
+    assert scene["inlet"]["f"] == 0.9 and scene["inlet"]["h"] == 4 and scene["time"]["end"] == 18.0
+    assert scene["inlet"]["table"] == "some/path.csv"
+    assert scene["coupling"]["convergence"][1]["limit"] == 1e-6
+    assert "# --set inlet.f=0.9" in scene.text
+
+
+@pytest.mark.parametrize("override, message", [
+    ("coupling.acceleration.inital_relaxation=0.1",
+     "unknown key 'coupling.acceleration.inital_relaxation'.*did you mean 'coupling.acceleration.initial_relaxation'"),
+    ("coupling.max_iterations=ten", "'coupling.max_iterations' must be int"),
+    ("coupling.scheme=jacobi", "'coupling.scheme' is 'jacobi'; allowed: serial-explicit"),
+    ("coupling.participants=[\"fluid\", \"soild\"]", "'coupling.participants.1' is 'soild', not a component"),
+    ("time.dt=-0.1", "'time.dt' must be positive"),
+    ("coupling.convergence.0.data=presure", "'coupling.convergence.0.data' is 'presure', not exchanged data"),
+    ("exchange.0.mapping=magic", "'exchange.0.mapping' is 'magic'"),
+    ("components.solid.entyr=x", "unknown key 'components.solid.entyr'.*did you mean 'components.solid.entry'"),
+    ("inlte.f=1", "unknown key 'inlte'.*did you mean 'inlet'"),
+])
+def test_bad_scenes_name_the_key(tube_scene_path, override, message):
+    with pytest.raises(SceneError, match=message):
+        load_scene(tube_scene_path, [override])
+
+
+def test_misspelt_key_in_a_file_names_the_file(tmp_path, tube_scene_path):
+    text = tube_scene_path.read_text().replace("max_iterations = 90", "max_iteration = 90")
+    with pytest.raises(SceneError, match=r"unknown key 'coupling.max_iteration' in .*scene.toml; "
+                                         r"did you mean 'coupling.max_iterations'"):
+        load_scene(write(tmp_path, text))
+
+
+def test_missing_required_key(tmp_path, tube_scene_path):
+    text = tube_scene_path.read_text().replace("dt = 0.1\n", "")
+    with pytest.raises(SceneError, match="missing key 'time.dt'"):
+        load_scene(write(tmp_path, text))
