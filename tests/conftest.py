@@ -7,7 +7,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 TUBE_SCENE = ROOT / "scenes" / "tube_fom.toml"
-REFERENCE = ROOT.parent / "shared" / "reference"
+REFERENCE = ROOT / "scenes" / "inlet"  # copies of shared/reference/tube-inlet-mu*.csv
 
 
 @pytest.fixture
