@@ -132,6 +132,21 @@ class CouplingScheme:
     def _restore(self, proxy: ComponentProxy, iteration: int) -> int | None:
         return self._state.get(proxy.name) if iteration > 1 else None
 
+    def _begin_implicit_window(self) -> dict[str, np.ndarray]:
+        """Save states, reset acceleration and measures; the first iterate's data values."""
+        self._save_states()
+        self.acceleration.start_window()
+        for m in self.measures:
+            m.start_window()
+        return self._predicted()
+
+    def _end_implicit_window(self, values: dict[str, np.ndarray], t: float, iterations: int,
+                             converged: bool) -> WindowResult:
+        self.acceleration.end_window()
+        self._free_states()
+        self.values = values
+        return self._finish(t, iterations, converged)
+
     def _finish(self, t: float, iterations: int, converged: bool) -> WindowResult:
         if converged:
             for recorder in self.recorders.values():
@@ -176,11 +191,7 @@ class SerialImplicit(CouplingScheme):
         forward = [e.data for e in self.exchanges if e.source is self.first]
         feedback = [e.data for e in self.exchanges if e.source is self.second]
         accelerated = self.accelerated
-        values = self._predicted()
-        self._save_states()
-        self.acceleration.start_window()
-        for m in self.measures:
-            m.start_window()
+        values = self._begin_implicit_window()
         converged = False
         for iteration in range(1, self.max_iterations + 1):
             inputs_first = self.inputs_for(self.first, values)
@@ -199,10 +210,7 @@ class SerialImplicit(CouplingScheme):
                 break
             values.update({k: out_second[k] for k in feedback})
             values.update(self._split(self.acceleration.next_iterate(), accelerated))
-        self.acceleration.end_window()
-        self._free_states()
-        self.values = values
-        return self._finish(t + dt, iteration, converged)
+        return self._end_implicit_window(values, t + dt, iteration, converged)
 
 
 class ParallelImplicit(CouplingScheme):
@@ -215,11 +223,7 @@ class ParallelImplicit(CouplingScheme):
         self.window += 1
         names = [e.data for e in self.exchanges]
         accelerated = self.accelerated
-        values = self._predicted()
-        self._save_states()
-        self.acceleration.start_window()
-        for m in self.measures:
-            m.start_window()
+        values = self._begin_implicit_window()
         converged = False
         proxies = (self.first, self.second)
         for iteration in range(1, self.max_iterations + 1):
@@ -238,10 +242,7 @@ class ParallelImplicit(CouplingScheme):
                 break
             values.update(new)
             values.update(self._split(self.acceleration.next_iterate(), accelerated))
-        self.acceleration.end_window()
-        self._free_states()
-        self.values = values
-        return self._finish(t + dt, iteration, converged)
+        return self._end_implicit_window(values, t + dt, iteration, converged)
 
 
 SCHEMES = {"serial-explicit": SerialExplicit, "serial-implicit": SerialImplicit,
