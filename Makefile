@@ -1,4 +1,5 @@
-# `make demo` runs the tube FOM-FOM scene end to end; `make test` runs the tests.
+# `make demo` runs the paper's tube protocol end to end (FOM-FOM, train, ROM-FOM, report: runs/demo/);
+# `make test` runs the tests.
 # Both create .venv and install the project into it on first use.
 PYTHON ?= python3
 VENV := .venv
@@ -13,13 +14,14 @@ $(BIN)/cosim: pyproject.toml
 	touch $@
 
 demo: $(BIN)/cosim
-	$(BIN)/cosim run scenes/tube_fom.toml --out runs/fom_mu1
+	COSIM=$(BIN)/cosim bash scripts/tube_demo.sh
 
 test: $(BIN)/cosim
 	$(BIN)/python -m pytest -q
 
 bench: $(BIN)/cosim
 	$(BIN)/python benchmarks/tube_run.py
+	$(BIN)/python benchmarks/rom_call.py
 
 clean:
 	rm -rf $(VENV) runs

@@ -1,4 +1,4 @@
-"""The ``cosim`` command line: run, serve."""
+"""The ``cosim`` command line: run, train, report, serve."""
 
 from __future__ import annotations
 
@@ -20,6 +20,31 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _train(args: argparse.Namespace) -> int:
+    from rom_component.train import load_config, train
+    train(args.results, args.out, load_config(args.config, args.set or []))
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from rom_component.report import Run, write_report
+    if not args.runs:
+        raise SystemExit("cosim report: name at least one run directory")
+    pairs = []
+    for item in args.runs:
+        run_dir, _, ref_dir = item.partition("=")
+        ref_dir = ref_dir or args.reference
+        if not ref_dir:
+            from cosim.errors import SceneError
+            raise SceneError(f"run '{run_dir}' has no reference: write RUN=REFERENCE or pass --reference")
+        pairs.append((Run.read(run_dir), Run.read(ref_dir)))
+    write_report(pairs, Path(args.out))
+    print(f"report written to {args.out}")
+    return 0
+
+
 def _serve(args: argparse.Namespace) -> int:
     from cosim.server import serve
     return serve(args.entry, args.bind, args.name, args.parent_pid)
@@ -34,6 +59,17 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
+    train = sub.add_parser("train", help="train a solid ROM from the snapshots of a run")
+    train.add_argument("results", help="results.h5 of a run that recorded the solid")
+    train.add_argument("--out", required=True, help="model file to write (.npz)")
+    train.add_argument("--config", help="ROM configuration (TOML), e.g. scenes/tube_rom.toml")
+    train.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a configuration value")
+    train.set_defaults(func=_train)
+    report = sub.add_parser("report", help="compare ROM-FOM runs with FOM-FOM references")
+    report.add_argument("runs", nargs="+", metavar="RUN[=REFERENCE]", help="run directory, optionally with its reference")
+    report.add_argument("--reference", help="FOM-FOM run directory for runs given without one")
+    report.add_argument("--out", default="runs/report", help="report directory (default: runs/report)")
+    report.set_defaults(func=_report)
     serve = sub.add_parser("serve", help="serve one component over ZeroMQ")
     serve.add_argument("entry", help="package.module:Class")
     serve.add_argument("--bind", default="tcp://127.0.0.1:*", help="address to bind (default: loopback, any port)")

@@ -31,6 +31,12 @@ COMPONENT = {
     "record": False,        # record every call into /snapshots/<name>
     "timeout": 120.0,       # seconds per request
     "startup_timeout": 60.0,
+    "backend": "fom",       # "fom": the entry above; "rom": a trained ROM (see [components.<name>.rom])
+    "rom": {
+        "entry": "rom_component.component:RomSolid",
+        "model": "",        # the .npz written by `cosim train`
+        "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
+    },
 }
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": "identity"}
 MEASURE = {"data": Required(str), "type": "relative", "limit": Required(float)}
@@ -71,7 +77,7 @@ class Scene:
         return self.data[key]
 
     def component_parameters(self, name: str) -> dict[str, Any]:
-        """A component's parameters plus the model sections it names."""
+        """A component's full-order parameters plus the model sections it names."""
         spec = self.data["components"][name]
         parameters = {section: self.data[section] for section in spec["sections"]}
         parameters.update(spec["parameters"])
@@ -142,6 +148,10 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
         if key not in known:
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
     for name, spec in components.items():
+        _one_of(spec["backend"], ("fom", "rom"), f"components.{name}.backend", source)
+        if spec["backend"] == "rom" and not spec["rom"]["model"]:
+            raise SceneError(f"{source}: components.{name}.backend is 'rom' but 'components.{name}.rom.model' "
+                             "(the trained .npz) is not set")
         if bool(spec["entry"]) == bool(spec["address"]):
             raise SceneError(f"{source}: components.{name} needs exactly one of 'entry' or 'address'")
         for section in spec["sections"]:

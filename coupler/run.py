@@ -9,6 +9,7 @@ before an error stays readable.
 
 from __future__ import annotations
 
+import json
 import math
 import socket
 import time
@@ -19,6 +20,7 @@ from coupler.acceleration import make_acceleration
 from coupler.convergence import ConvergenceMeasure
 from coupler.mapping import make_mapping
 from coupler.recording import CallRecorder
+from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange
 from cosim.errors import ComponentError, CosimError, SceneError
 from cosim.launcher import Launcher
@@ -39,25 +41,64 @@ class RunSummary:
         return self.iterations / max(self.windows, 1)
 
 
-def start_components(scene: Scene, launcher: Launcher) -> dict[str, ComponentProxy]:
-    """Spawn every local component first (they start in parallel), then handshake each."""
-    specs = scene["components"]
-    processes = {name: launcher.spawn(name, spec["entry"]) for name, spec in specs.items() if spec["entry"]}
-    proxies = {}
-    for name, spec in specs.items():
-        process = processes.get(name)
+@dataclass
+class Backend:
+    """One component process (or address) serving a scene component from ``start_time`` on."""
+
+    participant: str
+    name: str
+    kind: str            # "fom" or "rom"
+    entry: str
+    address: str
+    parameters: dict
+    start_time: float
+    proxy: ComponentProxy | None = None
+
+
+def plan_backends(scene: Scene) -> list[Backend]:
+    """The processes the scene's schedule needs: the ROM alone if it serves from the start."""
+    start = scene["time"]["start"]
+    backends = []
+    for name, spec in scene["components"].items():
+        fom = Backend(name, name, "fom", spec["entry"], spec["address"], scene.component_parameters(name), start)
+        if spec["backend"] == "fom":
+            backends.append(fom)
+            continue
+        rom = spec["rom"]
+        switch = rom["switch_time"]
+        if switch > start + 1e-9 * max(1.0, abs(start)):
+            backends.append(fom)
+        backends.append(Backend(name, f"{name}_rom", "rom", rom["entry"], "", {"model": rom["model"]},
+                                max(switch, start)))
+    return backends
+
+
+def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) -> None:
+    """Spawn every local backend first (they start in parallel), then handshake each."""
+    processes = {b.name: launcher.spawn(b.name, b.entry) for b in backends if b.entry}
+    for backend in backends:
+        spec = scene["components"][backend.participant]
+        process = processes.get(backend.name)
         if process is not None:
             launcher.startup_timeout = spec["startup_timeout"]
             endpoint = launcher.handshake(process)
         else:
-            endpoint = spec["address"]
-        proxies[name] = ComponentProxy(name, endpoint, process=process, timeout=spec["timeout"])
+            endpoint = backend.address
+        backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"])
         if process is None:
-            proxies[name].pid = int(proxies[name].call("ping", timeout=spec["startup_timeout"])[0]["pid"])
-    return proxies
+            backend.proxy.pid = int(backend.proxy.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
 
 
-def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy],
+def participants_of(backends: list[Backend]) -> dict[str, ComponentProxy | BackendSchedule]:
+    """Each scene component as the scheme sees it: a proxy, or a schedule of backends."""
+    grouped: dict[str, list[Backend]] = {}
+    for backend in backends:
+        grouped.setdefault(backend.participant, []).append(backend)
+    return {name: group[0].proxy if len(group) == 1 else
+            BackendSchedule(name, [(b.start_time, b.proxy) for b in group]) for name, group in grouped.items()}
+
+
+def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedule],
                  recorders: dict[str, CallRecorder]) -> CouplingScheme:
     """The scene's coupling scheme over described components; checks every exchanged variable."""
     coupling = scene["coupling"]
@@ -99,23 +140,25 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True) -> RunSu
     if abs(start + n_windows * dt - end) > 1e-9 * max(1.0, abs(end)):
         raise SceneError(f"{scene.source}: time.end - time.start = {end - start:g} is not a multiple of time.dt = {dt:g}")
     store = ResultsStore(out_dir / "results.h5", scene.text)
+    store.set_attributes("/", scene_resolved=json.dumps(scene.data))
     wall_start = time.perf_counter()
     windows = iterations = 0
-    proxies: dict[str, ComponentProxy] = {}
+    backends = plan_backends(scene)
     try:
         with Launcher(out_dir / "logs") as launcher:
             try:
-                proxies = start_components(scene, launcher)
-                for name, proxy in proxies.items():
-                    spec = scene["components"][name]
-                    backend = spec["entry"] or spec["address"]
-                    store.add_component(name, proxy.pid, socket.gethostname() if spec["entry"] else spec["address"],
-                                        backend, proxy.endpoint)
-                    proxy.instantiate(scene.component_parameters(name))
-                    proxy.enter_initialization_mode(start, end)
-                    proxy.exit_initialization_mode()
+                start_backends(scene, backends, launcher)
+                for b in backends:
+                    host = b.address or socket.gethostname()
+                    store.add_component(b.name, b.proxy.pid, host, b.entry or b.address, b.proxy.endpoint)
+                    store.set_attributes(f"components/{b.name}", participant=b.participant, kind=b.kind,
+                                         start_time=b.start_time)
+                    b.proxy.instantiate(b.parameters)
+                    b.proxy.enter_initialization_mode(start, end)
+                    b.proxy.exit_initialization_mode()
                 recorders = {n: CallRecorder() for n, s in scene["components"].items() if s["record"]}
-                scheme = build_scheme(scene, proxies, recorders)
+                scheme = build_scheme(scene, participants_of(backends), recorders)
+                store.write_arrays("initial", scheme.values)
                 bar = _progress(n_windows, progress)
                 try:
                     for window in range(n_windows):
@@ -124,7 +167,7 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True) -> RunSu
                         result = scheme.advance(t, dt)
                         store.append_window(
                             result.time, result.iterations, result.converged, time.perf_counter() - window_start,
-                            scheme.values, {n: _take_timings(p) for n, p in proxies.items()},
+                            scheme.values, {b.name: _take_timings(b.proxy) for b in backends},
                             {n: r.take() for n, r in recorders.items()})
                         windows += 1
                         iterations += result.iterations
@@ -134,12 +177,12 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True) -> RunSu
                 finally:
                     if bar is not None:
                         bar.close()
-                for name, proxy in proxies.items():
-                    final = proxy.terminate()
+                for b in backends:
+                    final = b.proxy.terminate()
                     if final:
-                        store.write_arrays(f"components/{name}/final", final)
+                        store.write_arrays(f"components/{b.name}/final", final)
             finally:
-                _shutdown(proxies)
+                _shutdown([b.proxy for b in backends if b.proxy is not None])
     finally:
         wall = time.perf_counter() - wall_start
         store.set_attributes("/", wall_seconds=wall, windows_completed=windows)
@@ -156,9 +199,9 @@ def _take_timings(proxy: ComponentProxy) -> tuple[list[float], list[float]]:
     return compute, roundtrip
 
 
-def _shutdown(proxies: dict[str, ComponentProxy]) -> None:
+def _shutdown(proxies: list[ComponentProxy]) -> None:
     """Ask each live component to stop (the launcher kills the rest)."""
-    for proxy in proxies.values():
+    for proxy in proxies:
         try:
             if proxy.process is None or proxy.process.poll() is None:
                 proxy.shutdown(timeout=2.0)

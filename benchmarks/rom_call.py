@@ -1,0 +1,132 @@
+"""Benchmark of one solid call of the tube: FOM, ROM online path, and baselines, in-process.
+
+Prints per-call times (median of repeated timings, microseconds) measured in this run:
+- the solid FOM as implemented (exact root on each branch, vectorised over nodes);
+- a paper-style solid FOM (one scalar root solve per node, scipy brentq): the kind of
+  solver behind the paper's sigma ~ 96, as a baseline;
+- the ROM's offline path (estimator.predict on one row: encoder, RBFInterpolator, decoder);
+- the ROM's online path (OnlineRom, the arrays of the saved model) and the ROM component's
+  step (input checks included);
+plus the training and cross-validation times, and the coupler round trips of a ROM-FOM run.
+
+Usage: python benchmarks/rom_call.py [--results FOM_RESULTS.h5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+import timeit
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.tube_run import machine  # noqa: E402
+from coupler.run import run_scene  # noqa: E402
+from cosim.scene import load_scene  # noqa: E402
+from rom_component import persistence  # noqa: E402
+from rom_component.component import RomSolid  # noqa: E402
+from rom_component.estimator import SolidRom  # noqa: E402
+from rom_component.selection import holdout_table  # noqa: E402
+from rom_component.train import load_config, read_snapshots  # noqa: E402
+from solid_component.tube import TubeSolid  # noqa: E402
+
+PAPER_ROM_CALL_US = 2800.0
+
+
+def per_call_us(function, repeat: int = 7, number: int | None = None) -> float:
+    timer = timeit.Timer(function)
+    if number is None:
+        number, _ = timer.autorange()
+    return min(timer.repeat(repeat=repeat, number=number)) / number * 1e6
+
+
+def paper_style_solid(solid: TubeSolid):
+    """One bracketed scalar root solve of p r = sigma((r - r0) / r0) per node."""
+    from scipy.optimize import brentq
+    r0 = solid.r0
+
+    def section(p: np.ndarray) -> np.ndarray:
+        radii = [brentq(lambda r, pi=pi: pi * r - solid.stress(np.array((r - r0) / r0)), 0.5 * r0, 1.5 * r0,
+                        xtol=1e-14) for pi in p]
+        return math.pi * np.square(radii)
+    return section
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--results", help="a tube FOM-FOM results.h5 (default: run 0-18 s now)")
+    parser.add_argument("--out", default=str(ROOT / "runs" / "bench_rom"))
+    args = parser.parse_args()
+    out = Path(args.out)
+    print(f"machine: {machine()}")
+    results = Path(args.results) if args.results else None
+    if results is None:
+        run_scene(load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=18"]), out / "fom_train", progress=False)
+        results = out / "fom_train" / "results.h5"
+    config = load_config(ROOT / "scenes/tube_rom.toml")
+    F, U, _ = read_snapshots(results, config["snapshots"])
+    params = config["model"]
+
+    started = time.perf_counter()
+    estimator = SolidRom(**params).fit(F, U)
+    fit_seconds = time.perf_counter() - started
+    selection = config["selection"]
+    started = time.perf_counter()
+    holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
+                  selection["test_fraction"], selection["seed"])
+    cv_seconds = time.perf_counter() - started
+    model_path = persistence.save(out / "model.npz", estimator.online_arrays(),
+                                  {"regressor": params["regressor"], "params": params,
+                                   "input_variable": "pressure", "output_variable": "section"})
+    online = persistence.load(model_path)
+    component = RomSolid()
+    component.instantiate({"model": str(model_path)})
+    solid = TubeSolid()
+    solid.instantiate({})
+    paper_solid = paper_style_solid(solid)
+    f = np.ascontiguousarray(F[len(F) // 2])
+    np.testing.assert_allclose(paper_solid(f), math.pi * solid.radius(f) ** 2, rtol=1e-12)
+
+    rows = [
+        ("solid FOM, paper-style scalar root solve per node (baseline)", per_call_us(lambda: paper_solid(f), 3, 20)),
+        ("solid FOM, exact per-branch root, vectorised (ours)", per_call_us(lambda: math.pi * solid.radius(f) ** 2)),
+        ("ROM offline path: estimator.predict(one row) (baseline)", per_call_us(lambda: estimator.predict(f[None]))),
+        ("ROM online path: OnlineRom(f) (ours)", per_call_us(lambda: online(f))),
+        ("ROM component step (input checks included)", per_call_us(lambda: component.step(0.0, 0.1, {"pressure": f}))),
+    ]
+    m = len(online.minus_2c) if online.regressor == "rbf" else len(online.qi)
+    r_f, r_u, n = online.E.shape[0], online.A.shape[1], online.n_inputs
+    flops = 2 * r_f * n + 2 * m * r_f + 4 * m + 2 * r_u * (m + r_f + 1) + 2 * n * r_u
+    print(f"\nTube solid ROM: {len(F)} snapshots, r_f = {r_f}, r_u = {r_u}, {params['regressor']} "
+          f"({m} centres), {params['decoder']} decoder; online path {flops} flops in 12 numpy calls")
+    print(f"  training (fit): {fit_seconds * 1e3:.1f} ms; hold-out cross-validation over "
+          f"{len(selection['force_modes']) * len(selection['disp_modes'])} (r_f, r_u) pairs: {cv_seconds:.2f} s")
+    print(f"  {'per call, in-process':<64}{'us':>10}{'vs online ROM':>15}")
+    online_us = rows[3][1]
+    for label, us in rows:
+        print(f"  {label:<64}{us:>10.1f}{us / online_us:>14.1f}x")
+    print(f"  {'paper: ROM call of the double flap (for scale)':<64}{PAPER_ROM_CALL_US:>10.1f}")
+    print("  target for the tube ROM online call: <= 20 us; the paper's own ROM code measures about 50 us here")
+
+    rom_run = out / "rom_mu1"
+    scene = load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=30", "components.solid.backend=rom",
+                                                       f"components.solid.rom.model={model_path}",
+                                                       "components.solid.rom.switch_time=18"])
+    run_scene(scene, rom_run, progress=False)
+    with h5py.File(rom_run / "results.h5") as h:
+        print("\nThrough the coupler (ROM-FOM mu1, 0-30 s, ROM from 18 s), microseconds per call, median")
+        print(f"  {'backend':<12}{'compute':>10}{'round trip':>12}{'overhead':>10}")
+        for name in ("solid", "solid_rom", "fluid"):
+            c, r = h[f"components/{name}/compute_seconds"][:], h[f"components/{name}/roundtrip_seconds"][:]
+            print(f"  {name:<12}{np.median(c) * 1e6:>10.1f}{np.median(r) * 1e6:>12.1f}{np.median(r - c) * 1e6:>10.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,59 @@
+"""A participant served by different backends over time: the full-order solver until a
+switch time, then its ROM. Only stateless (quasi-static) backends can be switched."""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from cosim.errors import SceneError
+from cosim.proxy import ComponentProxy
+
+
+class BackendSchedule:
+    """Looks like one component proxy to the coupling scheme; picks the backend by window time."""
+
+    def __init__(self, name: str, stages: Sequence[tuple[float, ComponentProxy]]):
+        self.name = name
+        self.stages = sorted(stages, key=lambda stage: stage[0])
+        first = self.stages[0][1]
+        for _, proxy in self.stages[1:]:
+            mine = {(v.name, v.causality, v.size) for v in first.variables.values()}
+            theirs = {(v.name, v.causality, v.size) for v in proxy.variables.values()}
+            if mine != theirs:
+                raise SceneError(f"components.{name}: backends '{first.name}' and '{proxy.name}' declare different "
+                                 f"variables: {sorted(mine)} vs {sorted(theirs)}")
+        for _, proxy in self.stages:
+            if proxy.can_get_and_set_state:
+                raise SceneError(f"components.{name}: backend '{proxy.name}' is stateful; "
+                                 "only stateless backends can be switched during a run")
+        self.variables = first.variables
+        self.coordinates = first.coordinates
+        self.can_get_and_set_state = False
+        self._sent: ComponentProxy | None = None
+
+    def active(self, t: float) -> ComponentProxy:
+        """The backend serving the window that starts at ``t``."""
+        current = self.stages[0][1]
+        for start, proxy in self.stages:
+            if t >= start - 1e-9 * max(1.0, abs(start)):
+                current = proxy
+        return current
+
+    def output_names(self) -> list[str]:
+        return self.stages[0][1].output_names()
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        return self.stages[0][1].get_values(names)
+
+    def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> None:
+        self._sent = self.active(t)
+        self._sent.send_step(t, dt, inputs, restore)
+
+    def receive_step(self) -> dict[str, np.ndarray]:
+        return self._sent.receive_step()
+
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> dict[str, np.ndarray]:
+        self.send_step(t, dt, inputs, restore)
+        return self.receive_step()

@@ -1,0 +1,1 @@
+"""Non-intrusive solid ROM: POD encoder/decoder, regression, selection, persistence, component."""

@@ -1,0 +1,88 @@
+"""The ROM behind the component contract, in the solid's place.
+
+Inputs and outputs carry the names the model was trained on (for the tube:
+``pressure`` in, ``section`` out). Per call only the interface path runs; the reduced
+displacements of each window's last call (the converged one) are kept, and the full
+displacement field is rebuilt once, at ``terminate``, for the results file.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from cosim.component import Component, Variable, check_inputs
+from cosim.errors import ComponentError
+from cosim.schema import Required, validate
+from rom_component.persistence import ModelFileError, load
+
+ROM_SCHEMA = {"model": Required(str)}
+
+
+class RomSolid(Component):
+    """A trained solid ROM (``model`` parameter: path of the .npz)."""
+
+    name = "solid_rom"
+
+    def instantiate(self, parameters: Mapping[str, Any]) -> None:
+        prm = validate(parameters, ROM_SCHEMA)
+        if not prm["model"]:
+            raise ComponentError(self.name, "parameter 'model' (path of the trained .npz) is not set")
+        try:
+            self.rom = load(prm["model"])
+        except ModelFileError as exc:
+            raise ComponentError(self.name, str(exc)) from None
+        meta = self.rom.metadata
+        self.input_name = meta.get("input_variable", "pressure")
+        self.output_name = meta.get("output_variable", "section")
+        self.coords = np.asarray(self.rom.arrays.get("coordinates", np.zeros((0, 1))))
+        self.force = np.zeros(self.rom.n_inputs)
+        self.displacement = self.rom(np.zeros(self.rom.n_inputs))  # at rest until the first step
+        self._window_time: float | None = None
+        self._times: list[float] = []
+        self._reduced: list[np.ndarray] = []
+        self._last_reduced: np.ndarray | None = None
+
+    def variables(self) -> list[Variable]:
+        return [Variable(self.input_name, "input", self.rom.n_inputs),
+                Variable(self.output_name, "output", self.rom.n_outputs)]
+
+    def coordinates(self) -> np.ndarray:
+        return self.coords
+
+    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
+        check_inputs(self, values, {self.input_name: self.rom.n_inputs})
+        if self.input_name in values:
+            self.force = values[self.input_name]
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        known = {self.output_name: self.displacement, self.input_name: self.force}
+        return {name: np.array(known[name]) for name in names}
+
+    def do_step(self, t: float, dt: float) -> None:
+        if self._window_time is not None and t != self._window_time:
+            self._keep_converged()
+        self._window_time = t
+        self.displacement = self.rom(self.force)
+        self._last_reduced = self.rom.reduced
+        self._dt = dt
+
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        self.set_values(inputs)
+        self.do_step(t, dt)
+        return {self.output_name: self.displacement}
+
+    def _keep_converged(self) -> None:
+        self._times.append(self._window_time + self._dt)
+        self._reduced.append(self._last_reduced)
+
+    def terminate(self) -> dict[str, np.ndarray]:
+        """Reduced displacements of every converged window and the full field rebuilt from them."""
+        if self._last_reduced is not None:
+            self._keep_converged()
+            self._last_reduced = None
+        if not self._reduced:
+            return {}
+        reduced = np.stack(self._reduced)
+        return {"time": np.array(self._times), "reduced": reduced, "full_field": self.rom.full_field(reduced)}

@@ -1,0 +1,272 @@
+"""``cosim report``: ROM-FOM runs against their FOM-FOM references.
+
+Per run: the relative L2 error of a monitored value (the tube's inlet pressure) over
+the predicted range, per-window errors of every exchanged field and of the full
+displacement field (the paper's e(t) = ||U - U_rom|| / mean_t ||U||), accumulated
+coupling iterations against the reference, the solid speed-up sigma (compute and
+round trip per call), the total speed-up and its bound (T_f + T_s) / (T_f + T_s / sigma).
+Writes ``report.json``, ``report.txt`` and PNG plots.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from cosim.errors import SceneError
+from rom_component.persistence import ModelFileError, load_arrays
+
+
+@dataclass
+class Run:
+    """What the report needs from one results file."""
+
+    path: Path
+    label: str
+    scene: dict[str, Any]
+    time: np.ndarray
+    iterations: np.ndarray
+    wall: float
+    fields: dict[str, np.ndarray]
+    components: dict[str, dict[str, Any]]
+    rom_backend: str | None = None
+    switch_time: float | None = None
+    full_field: tuple[np.ndarray, np.ndarray] | None = None   # (time, rows) rebuilt by the ROM
+    initial: dict[str, np.ndarray] = field(default_factory=dict)  # data values before the first window
+    model: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def read(cls, directory: str | Path) -> "Run":
+        directory = Path(directory)
+        path = directory / "results.h5" if directory.is_dir() else directory
+        if not path.is_file():
+            raise SceneError(f"no results file at '{path}'")
+        with h5py.File(path, "r") as f:
+            scene = json.loads(f.attrs["scene_resolved"]) if "scene_resolved" in f.attrs \
+                else tomllib.loads(f.attrs["scene"])
+            initial = {k: v[:] for k, v in f["initial"].items()} if "initial" in f else {}
+            components = {}
+            for name, group in f["components"].items():
+                info = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
+                for key in ("compute_seconds", "roundtrip_seconds"):
+                    info[key] = group[key][:] if key in group else np.zeros(0)
+                components[name] = info
+            run = cls(path, directory.name if directory.is_dir() else path.parent.name, scene,
+                      f["windows/time"][:], f["windows/iterations"][:], float(f.attrs.get("wall_seconds", np.nan)),
+                      {k: v[:] for k, v in f["fields"].items()}, components, initial=initial)
+            for name, info in components.items():
+                if info.get("kind") == "rom":
+                    run.rom_backend, run.switch_time = name, float(info["start_time"])
+                    final = f"components/{name}/final"
+                    if final in f and "full_field" in f[final]:
+                        run.full_field = (f[f"{final}/time"][:], f[f"{final}/full_field"][:])
+        if run.rom_backend:
+            participant = components[run.rom_backend]["participant"]
+            model_path = scene.get("components", {}).get(participant, {}).get("rom", {}).get("model", "")
+            try:
+                run.model = load_arrays(model_path)[1] if model_path else {}
+            except ModelFileError:
+                run.model = {}
+        return run
+
+    def predicted(self) -> np.ndarray:
+        """Windows served by the ROM (all windows of a run without one)."""
+        if self.switch_time is None:
+            return np.ones(len(self.time), dtype=bool)
+        half_window = 0.5 * (self.time[1] - self.time[0]) if len(self.time) > 1 else 1e-9
+        return self.time > self.switch_time + half_window
+
+    @property
+    def participant(self) -> str | None:
+        return self.components[self.rom_backend]["participant"] if self.rom_backend else None
+
+    def output_of(self, participant: str) -> str:
+        """The data item the participant sends (the solid's displacement)."""
+        for exchange in self.scene.get("exchange", []):
+            if exchange["from"] == participant:
+                return exchange["data"]
+        raise SceneError(f"{self.path}: component '{participant}' sends no data")
+
+    def displacement_field(self, participant: str) -> np.ndarray:
+        """Per-window full displacement field: the FOM's output, the ROM's rebuilt field after the switch."""
+        U = self.fields[self.output_of(participant)].copy()
+        if self.full_field is not None:
+            times, rows = self.full_field
+            index = np.searchsorted(self.time, times - 1e-9)
+            if rows.shape[1] == U.shape[1]:
+                U[index] = rows
+        return U
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+def compare(run: Run, reference: Run) -> dict[str, Any]:
+    """The report's figures for ``run`` against ``reference``."""
+    if len(run.time) != len(reference.time) or not np.allclose(run.time, reference.time):
+        raise SceneError(f"'{run.path}' and its reference '{reference.path}' have different time windows")
+    predicted = run.predicted()
+    output = run.scene.get("output", {})
+    monitor, index = output.get("plot_field", "pressure"), int(output.get("plot_index", 0))
+    result: dict[str, Any] = {
+        "run": str(run.path.parent), "reference": str(reference.path.parent),
+        "switch_time": run.switch_time, "predicted_windows": int(predicted.sum()),
+        "monitor": f"{monitor}[{index}]",
+        "monitor_error": _relative(run.fields[monitor][predicted, index], reference.fields[monitor][predicted, index]),
+        "iterations": int(run.iterations.sum()), "reference_iterations": int(reference.iterations.sum()),
+        "wall_seconds": run.wall, "reference_wall_seconds": reference.wall,
+        "model": run.model.get("params", {}),
+    }
+    result["iterations_ratio"] = result["iterations"] / result["reference_iterations"]
+    result["predicted_iterations_ratio"] = float(run.iterations[predicted].sum() / reference.iterations[predicted].sum())
+    result["field_errors"] = {}
+    for name, values in run.fields.items():
+        per_window = np.linalg.norm(values - reference.fields[name], axis=1) / np.linalg.norm(reference.fields[name], axis=1)
+        result["field_errors"][name] = {"mean": float(per_window[predicted].mean()), "max": float(per_window[predicted].max())}
+    participant = run.participant
+    if participant:
+        U_ref = reference.displacement_field(participant)
+        U_run = run.displacement_field(participant)
+        rest = reference.initial.get(reference.output_of(participant), np.zeros(U_ref.shape[1]))
+        # e(t) = ||U - U_rom|| / mean_t ||U - U_rest||: displacements from the rest state (the tube: a - a0)
+        e = np.linalg.norm(U_run - U_ref, axis=1) / np.linalg.norm(U_ref - rest, axis=1).mean()
+        result["displacement_error"] = {"mean": float(e[predicted].mean()), "max": float(e[predicted].max())}
+        result["_e"] = e
+        fom, rom = reference.components[participant], run.components[run.rom_backend]
+        sigma = fom["compute_seconds"].mean() / rom["compute_seconds"].mean()
+        sigma_rt = fom["roundtrip_seconds"].mean() / rom["roundtrip_seconds"].mean()
+        solid_total = fom["compute_seconds"].sum()
+        others = sum(c["compute_seconds"].sum() for n, c in reference.components.items() if n != participant)
+        result["solid"] = {
+            "fom_compute_per_call_s": float(fom["compute_seconds"].mean()),
+            "rom_compute_per_call_s": float(rom["compute_seconds"].mean()),
+            "fom_roundtrip_per_call_s": float(fom["roundtrip_seconds"].mean()),
+            "rom_roundtrip_per_call_s": float(rom["roundtrip_seconds"].mean()),
+            "speedup_compute": float(sigma), "speedup_roundtrip": float(sigma_rt)}
+        result["total_speedup"] = reference.wall / run.wall
+        result["total_speedup_bound"] = float((others + solid_total) / (others + solid_total / sigma))
+        result["reference_fluid_compute_s"], result["reference_solid_compute_s"] = float(others), float(solid_total)
+    return result
+
+
+def write_report(pairs: list[tuple[Run, Run]], out: str | Path, echo=print) -> dict[str, Any]:
+    """Compare each (run, reference) pair; write report.json, report.txt and the PNGs."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = [compare(run, ref) for run, ref in pairs]
+    text = _table(rows)
+    echo(text)
+    (out / "report.txt").write_text(text + "\n")
+    _plots(pairs, rows, out)
+    clean = [{k: v for k, v in row.items() if not k.startswith("_")} for row in rows]
+    document = {"runs": clean}
+    (out / "report.json").write_text(json.dumps(document, indent=2, default=float))
+    return document
+
+
+def _table(rows: list[dict[str, Any]]) -> str:
+    head = (f"{'run':<16}{'reference':<12}{'T_switch':>9}{'monitor err':>12}{'e(t) mean':>11}{'iter ratio':>11}"
+            f"{'sigma':>8}{'sigma rt':>9}{'speed-up':>9}{'bound':>7}{'wall s':>8}  model")
+    lines = [head]
+    for r in rows:
+        solid = r.get("solid", {})
+        model = r.get("model", {})
+        desc = (f"r_f={model.get('n_force_modes')} r_u={model.get('n_disp_modes')} {model.get('regressor')} "
+                f"{model.get('decoder')} s={model.get('rbf_smoothing')}") if model else "-"
+        lines.append(
+            f"{Path(r['run']).name:<16}{Path(r['reference']).name:<12}{_num(r['switch_time'], '9.1f')}"
+            f"{r['monitor_error']:>12.2e}{_num(r.get('displacement_error', {}).get('mean'), '11.2e')}"
+            f"{(r['iterations_ratio'] - 1) * 100:>+10.2f}%{_num(solid.get('speedup_compute'), '8.1f')}"
+            f"{_num(solid.get('speedup_roundtrip'), '9.2f')}{_num(r.get('total_speedup'), '9.2f')}"
+            f"{_num(r.get('total_speedup_bound'), '7.2f')}{r['wall_seconds']:>8.2f}  {desc}")
+    lines.append("monitor err: ||m_rom - m_fom|| / ||m_fom|| of the monitored value over t > T_switch; "
+                 "e(t) = ||U - U_rom|| / mean_t ||U - U_rest||; iter ratio: accumulated coupling iterations vs the reference; "
+                 "sigma: solid FOM compute per call / ROM compute per call (rt: round trips)")
+    return "\n".join(lines)
+
+
+def _num(value: Any, spec: str) -> str:
+    width = int(spec.split(".")[0])
+    return f"{value:{spec}}" if isinstance(value, (int, float)) and not (isinstance(value, float) and math.isnan(value)) \
+        else f"{'-':>{width}}"
+
+
+def _plots(pairs: list[tuple[Run, Run]], rows: list[dict[str, Any]], out: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    for (run, ref), row in zip(pairs, rows):
+        monitor, index = row["monitor"].split("[")[0], int(row["monitor"].split("[")[1][:-1])
+        fig, ax = plt.subplots(figsize=(10, 4), constrained_layout=True)
+        ax.plot(ref.time, ref.fields[monitor][:, index], "g--", lw=1.0, label=f"FOM-FOM ({Path(row['reference']).name})")
+        ax.plot(run.time, run.fields[monitor][:, index], "b-", lw=0.8, label=f"ROM-FOM ({run.label})")
+        if run.switch_time is not None:
+            ax.axvline(run.switch_time, color="k", lw=1.0)
+        ax.set_xlabel("time")
+        ax.set_ylabel(run.scene.get("output", {}).get("plot_label") or row["monitor"])
+        ax.set_title(f"{run.label}: relative L2 error {row['monitor_error']:.2e} over t > {row['switch_time']}")
+        ax.legend(loc="upper right")
+        fig.savefig(out / f"monitor_{run.label}.png", dpi=110)
+        plt.close(fig)
+        if "pressure" in run.fields and "section" in run.fields and "tube" in run.scene:
+            _stress_strain(run, ref, out, plt)
+
+    fig, (ax_e, ax_i) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, constrained_layout=True)
+    for (run, ref), row in zip(pairs, rows):
+        if "_e" in row:
+            mask = run.predicted()
+            ax_e.semilogy(run.time[mask], np.maximum(row["_e"][mask], 1e-16), lw=0.8, label=run.label)
+        ax_i.plot(run.time, 100 * (np.cumsum(run.iterations) / np.cumsum(ref.iterations) - 1), lw=1.0, label=run.label)
+    ax_e.set_ylabel("e(t) = ||U - U_rom|| / mean ||U - U_rest||")
+    ax_e.legend(fontsize=8)
+    ax_i.set_ylabel("accumulated iterations vs FOM-FOM [%]")
+    ax_i.set_xlabel("time")
+    ax_i.axhline(0, color="k", lw=0.5)
+    ax_i.legend(fontsize=8)
+    fig.savefig(out / "error_and_iterations.png", dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    for (run, _), row in zip(pairs, rows):
+        if row.get("solid"):
+            solid_time = row["solid"]["rom_compute_per_call_s"] * row["iterations"]
+            ax.loglog(solid_time, row["monitor_error"], "o")
+            ax.annotate(run.label, (solid_time, row["monitor_error"]), fontsize=8)
+    ax.set_xlabel("total solid compute time of the run [s]")
+    ax.set_ylabel(f"relative L2 error of {rows[0]['monitor'] if rows else ''}")
+    ax.grid(alpha=0.3, which="both")
+    fig.savefig(out / "error_vs_runtime.png", dpi=110)
+    plt.close(fig)
+
+
+def _stress_strain(run: Run, ref: Run, out: Path, plt) -> None:
+    """Hoop stress p r against strain (r - r0) / r0 from the converged fields of both runs."""
+    a0 = float(run.scene["tube"].get("a0", 1.0))
+    r0 = math.sqrt(a0 / math.pi)
+    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    predicted = run.predicted()
+    strains = []
+    for source, mask, style, label in ((ref, ~predicted, dict(s=2, c="0.6"), "FOM-FOM, before the switch"),
+                                       (run, predicted, dict(s=1, c="tab:blue"), "ROM-FOM prediction")):
+        r = np.sqrt(source.fields["section"][mask] / math.pi)
+        strains.append(((r - r0) / r0).ravel())
+        ax.scatter(strains[-1], (source.fields["pressure"][mask] * r).ravel(), label=label, **style)
+    solid = run.scene.get("components", {}).get("solid", {}).get("parameters", {})
+    E1, E2, s0, e0 = (solid.get(k, d) for k, d in (("E_small", 12500.0), ("E_large", 2500.0), ("s0", 20.0), ("eps0", 2e-3)))
+    extent = 1.2 * max(float(np.abs(np.concatenate(strains)).max()), 2 * e0)
+    eps = np.linspace(-extent, extent, 400)
+    ax.plot(eps, np.where(np.abs(eps) < e0, E1 * eps, E2 * eps + np.sign(eps) * s0), "k-", lw=0.8, label="law")
+    ax.set_xlabel("hoop strain")
+    ax.set_ylabel("hoop stress p r")
+    ax.legend(markerscale=5)
+    fig.savefig(out / f"stress_strain_{run.label}.png", dpi=110)
+    plt.close(fig)

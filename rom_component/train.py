@@ -1,0 +1,123 @@
+"""``cosim train``: fit a solid ROM on the snapshots recorded in a results file.
+
+Selects the recorded calls of one component (by window end time, optionally only the
+converged ones), prints the hold-out cross-validation table over a grid of mode
+numbers, fits the model with the configured (or selected) numbers of modes, and
+saves the online arrays plus metadata.
+"""
+
+from __future__ import annotations
+
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from cosim.errors import SceneError
+from cosim.scene import apply_override, parse_override
+from cosim.schema import validate
+from rom_component import persistence
+from rom_component.estimator import SolidRom
+from rom_component.selection import energy_choice, holdout_table
+
+CONFIG = {
+    "snapshots": {"component": "solid", "input": "pressure", "output": "section",
+                  "t_min": 0.0, "t_max": 1e300, "converged_only": False},
+    "model": {"n_force_modes": 3, "n_disp_modes": 9, "decoder": "linear", "regressor": "rbf",
+              "input_scaling": "global", "manifold_regularization": 1e-6, "rbf_smoothing": 0.0},
+    "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],
+                  "disp_modes": [1, 3, 5, 7, 9, 11, 13], "test_fraction": 0.2, "seed": 0, "energy": 0.9999},
+}
+
+
+def load_config(path: str | Path | None, overrides: list[str] = ()) -> dict[str, Any]:
+    raw: dict[str, Any] = {}
+    source = "ROM config"
+    if path:
+        source = str(path)
+        try:
+            raw = tomllib.loads(Path(path).read_text())
+        except OSError as exc:
+            raise SceneError(f"cannot read ROM config '{path}': {exc.strerror}") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(f"{path}: {exc}") from None
+    for item in overrides:
+        apply_override(raw, *parse_override(item))
+    config = validate(raw, CONFIG, source=source)
+    if config["selection"]["choose"] not in ("fixed", "holdout", "energy"):
+        raise SceneError(f"{source}: 'selection.choose' is {config['selection']['choose']!r}; "
+                         "allowed: fixed, holdout, energy")
+    return config
+
+
+def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Force rows, displacement rows and window end times of the selected calls."""
+    path = Path(results)
+    if not path.is_file():
+        raise SceneError(f"results file '{path}' does not exist")
+    base = f"snapshots/{spec['component']}"
+    with h5py.File(path, "r") as f:
+        if base not in f:
+            available = list(f["snapshots"]) if "snapshots" in f else []
+            raise SceneError(f"'{path}' has no recorded calls of '{spec['component']}' "
+                             f"(recorded: {', '.join(available) or 'none'}; set record = true in the scene)")
+        group = f[base]
+        for kind, var in (("inputs", spec["input"]), ("outputs", spec["output"])):
+            if var not in group.get(kind, {}):
+                raise SceneError(f"'{path}': {base}/{kind} has no '{var}' (has: {', '.join(group[kind])})")
+        window_time = f["windows/time"][:]
+        windows = group["window"][:]
+        times = window_time[np.minimum(windows, len(window_time)) - 1]
+        keep = (times >= spec["t_min"] - 1e-9) & (times <= spec["t_max"] + 1e-9) & (windows <= len(window_time))
+        if spec["converged_only"]:
+            keep &= group["converged"][:]
+        F = group[f"inputs/{spec['input']}"][:][keep]
+        U = group[f"outputs/{spec['output']}"][:][keep]
+    if len(F) < 3:
+        raise SceneError(f"'{path}': only {len(F)} snapshots of '{spec['component']}' fall in "
+                         f"t in [{spec['t_min']:g}, {spec['t_max']:g}]")
+    return F, U, times[keep]
+
+
+def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=print) -> dict[str, Any]:
+    """Train, print the selection table, save; returns the metadata written."""
+    F, U, times = read_snapshots(results, config["snapshots"])
+    echo(f"{len(F)} snapshots of '{config['snapshots']['component']}' for t in [{times.min():g}, {times.max():g}]: "
+         f"F {F.shape}, U {U.shape}")
+    params = dict(config["model"])
+    selection = config["selection"]
+    table = None
+    started = time.perf_counter()
+    if selection["table"] or selection["choose"] == "holdout":
+        table = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
+                              selection["test_fraction"], selection["seed"], selection["energy"])
+        echo(table.format())
+        echo(f"cross-validation time: {time.perf_counter() - started:.2f} s")
+    if selection["choose"] == "holdout":
+        params["n_force_modes"], params["n_disp_modes"] = table.best
+    elif selection["choose"] == "energy":
+        params["n_force_modes"], params["n_disp_modes"] = energy_choice(F, U, selection["energy"])
+    fit_started = time.perf_counter()
+    model = SolidRom(**params).fit(F, U)
+    fit_seconds = time.perf_counter() - fit_started
+    U_fit = model.predict(F)
+    training_error = float(np.linalg.norm(U_fit - U, axis=1).mean())
+    metadata = {
+        "regressor": params["regressor"], "params": params,
+        "input_variable": config["snapshots"]["input"], "output_variable": config["snapshots"]["output"],
+        "component": config["snapshots"]["component"], "results": str(results),
+        "t_range": [float(times.min()), float(times.max())], "n_snapshots": int(len(F)),
+        "fit_seconds": fit_seconds, "training_error": training_error,
+    }
+    if table is not None:
+        metadata["selection"] = {"force_modes": table.force_modes, "disp_modes": table.disp_modes,
+                                 "errors": table.errors.tolist(), "best": list(table.best),
+                                 "energy_choice": list(table.energy_choice)}
+    persistence.save(out, model.online_arrays(), metadata)
+    echo(f"fitted r_f = {params['n_force_modes']}, r_u = {params['n_disp_modes']}, {params['regressor']} regression, "
+         f"{params['decoder']} decoder in {fit_seconds:.3f} s (training time); mean training error {training_error:.3e}")
+    echo(f"saved {out}")
+    return metadata

@@ -1,0 +1,148 @@
+"""The ROM's mathematics, persistence and scikit-learn behaviour (in-process)."""
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.model_selection import GridSearchCV
+
+from rom_component import persistence
+from rom_component.estimator import SolidRom
+from rom_component.manifold import quadratic_terms
+from rom_component.pod import centred_pod, energy_rank
+from rom_component.regression import RbfRegression, SparseQuadraticRegression
+
+
+def smooth_data(m=300, n_in=40, n_out=30, seed=0):
+    """Forces on a 3-D latent manifold and displacements a smooth nonlinear function of them."""
+    rng = np.random.default_rng(seed)
+    latent = rng.uniform(-1, 1, (m, 3))
+    F = latent @ rng.standard_normal((3, n_in)) + 5.0
+    modes = np.linalg.qr(rng.standard_normal((n_out, 4)))[0]
+    Z = np.column_stack([latent[:, 0], latent[:, 1] + 0.3 * latent[:, 0] ** 2, np.sin(latent[:, 2]), latent[:, 0] * latent[:, 1]])
+    return F, Z @ modes.T + 1.0
+
+
+def test_pod_reproduces_rank_r_data_exactly():
+    rng = np.random.default_rng(1)
+    X = rng.standard_normal((50, 4)) @ rng.standard_normal((4, 80)) + rng.standard_normal(80)
+    mean, modes, s = centred_pod(X, rank=4)
+    np.testing.assert_allclose(modes.T @ modes, np.eye(4), atol=1e-12)
+    np.testing.assert_allclose(((X - mean) @ modes) @ modes.T + mean, X, atol=1e-12)
+    assert s[4] < 1e-12 * s[0] and energy_rank(s, 0.9999) <= 4
+    _, three, _ = centred_pod(X, rank=3)
+    assert np.abs(((X - mean) @ three) @ three.T + mean - X).max() > 1e-3
+
+
+def test_energy_rank():
+    assert energy_rank(np.array([10.0, 1.0, 0.01]), 0.99) == 1  # 100 / 101.0001 = 0.9901
+    assert energy_rank(np.array([10.0, 1.0, 0.01]), 0.995) == 2
+    assert energy_rank(np.array([10.0, 1.0, 0.01]), 0.9999999) == 3
+
+
+def test_quadratic_manifold_reproduces_data_on_a_quadratic_manifold():
+    rng = np.random.default_rng(2)
+    N, r, m = 60, 3, 200
+    basis = np.linalg.qr(rng.standard_normal((N, r + 6)))[0]
+    V, W = basis[:, :r], basis[:, r:]          # orthogonal: the quadratic part lies outside span(V)
+    half = rng.uniform(-1, 1, (m // 2, r))
+    Z = np.vstack([half, -half])  # a symmetric sample: no correlation between z and q(z), POD finds span(V)
+    U = 2.0 + Z @ V.T + quadratic_terms(Z) @ W.T
+    quadratic = SolidRom(n_force_modes=r, n_disp_modes=r, decoder="quadratic", manifold_regularization=1e-12)
+    linear = SolidRom(n_force_modes=r, n_disp_modes=r, decoder="linear")
+    F = Z @ rng.standard_normal((r, 20))
+    quadratic.fit(F, U)
+    linear.fit(F, U)
+    Zu = (U - quadratic.u_mean_) @ quadratic.Phi_u_
+    error_quadratic = np.abs(quadratic.decode(Zu) - U).max()
+    error_linear = np.abs(linear.decode((U - linear.u_mean_) @ linear.Phi_u_) - U).max()
+    assert error_linear > 0.05
+    assert error_quadratic < 1e-6 * error_linear
+
+
+def test_lasso_bic_recovers_the_support_of_a_sparse_quadratic():
+    rng = np.random.default_rng(3)
+    X = rng.standard_normal((400, 4))
+    terms = SparseQuadraticRegression.features(X)  # 10 quadratic terms, then 4 linear
+    truth = np.zeros(terms.shape[1])
+    truth[[0, 5, 11]] = [1.5, -2.0, 0.8]     # x0^2, x1 x3, x1
+    y = terms @ truth + 0.3 + 1e-3 * rng.standard_normal(400)
+    model = SparseQuadraticRegression().fit(X, y[:, None])
+    np.testing.assert_array_equal(np.flatnonzero(model.coefficients[:, 0]), [0, 5, 11])
+    np.testing.assert_allclose(model.predict(X)[:, 0], terms @ truth + 0.3, atol=1e-2)
+
+
+def test_rbf_regressor_interpolates_its_centres():
+    rng = np.random.default_rng(4)
+    X = rng.uniform(-1, 1, (80, 3))
+    Y = np.column_stack([np.sin(3 * X[:, 0]), X[:, 1] * X[:, 2]])
+    rbf = RbfRegression().fit(X, Y)
+    np.testing.assert_allclose(rbf.predict(X), Y, atol=1e-9)
+    test = rng.uniform(-0.8, 0.8, (50, 3))
+    error = np.abs(rbf.predict(test) - np.column_stack([np.sin(3 * test[:, 0]), test[:, 1] * test[:, 2]]))
+    assert np.median(error) < 0.02 and error.max() < 0.3
+
+
+@pytest.mark.parametrize("regressor, decoder", [("rbf", "linear"), ("rbf", "quadratic"), ("poly", "linear"),
+                                                ("poly", "quadratic")])
+def test_online_path_equals_offline_prediction(regressor, decoder):
+    F, U = smooth_data()
+    model = SolidRom(3, 4, decoder=decoder, regressor=regressor).fit(F, U)
+    online = model.to_online()
+    test = F[:40] + 0.01
+    np.testing.assert_allclose(online.predict(test), model.predict(test), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(online.full_field(model.reduced_predict(test)), model.predict(test), atol=1e-12)
+
+
+def test_rom_is_accurate_on_unseen_smooth_data():
+    F, U = smooth_data(m=400)
+    model = SolidRom(3, 4).fit(F[:300], U[:300])
+    error = np.linalg.norm(model.predict(F[300:]) - U[300:], axis=1) / np.linalg.norm(U[300:] - U.mean(0), axis=1)
+    assert np.median(error) < 0.05
+
+
+def test_save_load_round_trips_bit_for_bit(tmp_path):
+    F, U = smooth_data()
+    model = SolidRom(3, 4, decoder="quadratic").fit(F, U)
+    arrays = model.online_arrays()
+    path = persistence.save(tmp_path / "model.npz", arrays, {"regressor": "rbf", "note": "x"})
+    loaded_arrays, metadata = persistence.load_arrays(path)
+    assert metadata["note"] == "x" and metadata["format"] == persistence.FORMAT
+    assert set(loaded_arrays) == set(arrays)
+    for name, value in arrays.items():
+        assert loaded_arrays[name].dtype == value.dtype and loaded_arrays[name].tobytes() == value.tobytes(), name
+    reloaded = persistence.load(path)
+    direct = model.to_online()
+    for f in F[:20]:
+        assert reloaded(f).tobytes() == direct(f).tobytes()
+
+
+def test_model_files_with_pickles_or_garbage_are_refused(tmp_path):
+    pickled = tmp_path / "pickled.npz"
+    np.savez(pickled, metadata_json=np.frombuffer(b"{}", dtype=np.uint8), evil=np.array([{"a": 1}], dtype=object))
+    with pytest.raises(persistence.ModelFileError, match="carries pickled objects; refusing to load"):
+        persistence.load(pickled)
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"this is not a zip file")
+    with pytest.raises(persistence.ModelFileError, match="not a valid .npz"):
+        persistence.load(garbage)
+    with pytest.raises(persistence.ModelFileError, match="does not exist"):
+        persistence.load(tmp_path / "missing.npz")
+    with pytest.raises(persistence.ModelFileError, match="dtype object"):
+        persistence.save(tmp_path / "x.npz", {"a": np.array([None], dtype=object)}, {})
+
+
+def test_clone_and_grid_search_work_on_the_estimator():
+    F, U = smooth_data()
+    model = SolidRom(2, 2, rbf_smoothing=1e-6)
+    copy = clone(model)
+    assert copy.get_params() == model.get_params() and copy is not model
+    search = GridSearchCV(SolidRom(), {"n_force_modes": [1, 3], "n_disp_modes": [1, 4]}, cv=3,
+                          scoring="neg_mean_squared_error")
+    search.fit(F, U)
+    assert search.best_params_ == {"n_force_modes": 3, "n_disp_modes": 4}
+
+
+def test_bad_mode_numbers_are_reported():
+    F, U = smooth_data(m=20)
+    with pytest.raises(ValueError, match="n_disp_modes = 50 is outside 1..19"):
+        SolidRom(3, 50).fit(F, U)

@@ -1,0 +1,124 @@
+"""ROM training from recorded snapshots and ROM-FOM runs through real processes."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from coupler.run import run_scene
+from cosim.errors import ComponentError
+from cosim.scene import load_scene
+from rom_component.estimator import SolidRom
+from rom_component.selection import holdout_table
+from rom_component.train import load_config, read_snapshots
+
+from tests.conftest import ROOT, TUBE_SCENE, children_of
+
+TRAIN_END = 6.0
+END = 8.0
+
+
+def cosim(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "cosim", *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def fom(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fom")
+    run_scene(load_scene(TUBE_SCENE, [f"time.end={END}"]), out, progress=False)
+    return out
+
+
+@pytest.fixture(scope="module")
+def model(fom, tmp_path_factory):
+    path = tmp_path_factory.mktemp("model") / "model.npz"
+    done = cosim("train", str(fom / "results.h5"), "--config", "scenes/tube_rom.toml", "--out", str(path),
+                 "--set", f"snapshots.t_max={TRAIN_END}", "--set", "selection.disp_modes=[1, 5, 9]",
+                 "--set", "selection.force_modes=[1, 3]")
+    assert done.returncode == 0, done.stderr
+    assert "hold-out error eps" in done.stdout and "training time" in done.stdout and "energy criterion" in done.stdout
+    return path
+
+
+def rom_run(out, model, switch, *extra):
+    scene = load_scene(TUBE_SCENE, [f"time.end={END}", "components.solid.backend=rom",
+                                    f"components.solid.rom.model={model}", f"components.solid.rom.switch_time={switch}",
+                                    *extra])
+    return run_scene(scene, out, progress=False)
+
+
+def test_rom_fom_run_switches_backend_and_stays_close_to_fom_fom(fom, model, tmp_path):
+    rom_run(tmp_path / "rom", model, TRAIN_END)
+    assert children_of(os.getpid()) == []
+    with h5py.File(fom / "results.h5") as f, h5py.File(tmp_path / "rom/results.h5") as r:
+        components = r["components"]
+        assert set(components) == {"fluid", "solid", "solid_rom"}
+        pids = {int(components[n].attrs["pid"]) for n in components}
+        assert len(pids | {os.getpid()}) == 4
+        assert components["solid_rom"].attrs["kind"] == "rom" and components["solid_rom"].attrs["start_time"] == TRAIN_END
+        time = r["windows/time"][:]
+        after = time > TRAIN_END + 0.05
+        assert r["windows/converged"][:].all()
+        # identical before the switch, close after it
+        np.testing.assert_array_equal(r["fields/pressure"][~after], f["fields/pressure"][~after])
+        p_rom, p_fom = r["fields/pressure"][after, 0], f["fields/pressure"][after, 0]
+        assert np.linalg.norm(p_rom - p_fom) / np.linalg.norm(p_fom) < 5e-3
+        # the ROM served exactly the windows after the switch, and its rebuilt full field is its output
+        assert len(components["solid_rom/compute_seconds"]) == r["windows/iterations"][after].sum()
+        final = components["solid_rom/final"]
+        np.testing.assert_allclose(final["time"][:], time[after])
+        np.testing.assert_allclose(final["full_field"][:], r["fields/section"][after], rtol=0, atol=1e-12)
+        assert final["reduced"].shape == (after.sum(), 9)
+        # the participant's snapshots hold the ROM's calls too
+        assert len(r["snapshots/solid/window"]) == r["windows/iterations"][:].sum()
+
+
+def test_rom_from_the_start_launches_only_the_rom(model, tmp_path):
+    rom_run(tmp_path / "rom0", model, 0.0, "time.end=1")
+    with h5py.File(tmp_path / "rom0/results.h5") as r:
+        assert set(r["components"]) == {"fluid", "solid_rom"}
+        assert r["windows/converged"][:].all()
+
+
+def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
+    rom_run(tmp_path / "rom", model, TRAIN_END)
+    done = cosim("report", f"{tmp_path / 'rom'}={fom}", "--out", str(tmp_path / "report"))
+    assert done.returncode == 0, done.stderr
+    document = json.loads((tmp_path / "report/report.json").read_text())
+    row = document["runs"][0]
+    assert row["switch_time"] == TRAIN_END and row["predicted_windows"] == round((END - TRAIN_END) / 0.1)
+    assert 0 < row["monitor_error"] < 5e-3
+    assert 0 < row["displacement_error"]["mean"] < 0.05
+    assert row["iterations_ratio"] == pytest.approx(row["iterations"] / row["reference_iterations"])
+    solid = row["solid"]
+    assert solid["speedup_compute"] == pytest.approx(solid["fom_compute_per_call_s"] / solid["rom_compute_per_call_s"])
+    assert 1.0 <= row["total_speedup_bound"] < 2.0  # the fluid dominates the tube's cost
+    assert row["model"]["n_disp_modes"] == 9 and row["model"]["n_force_modes"] == 3
+    for png in ("monitor_rom.png", "error_and_iterations.png", "error_vs_runtime.png", "stress_strain_rom.png"):
+        assert (tmp_path / "report" / png).stat().st_size > 10_000, png
+
+
+def test_global_input_scaling_beats_per_mode_scaling_on_tube_snapshots(fom):
+    config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={END}"])
+    F, U, _ = read_snapshots(fom / "results.h5", config["snapshots"])
+    errors = {}
+    for scaling in ("global", "standard", "minmax"):
+        table = holdout_table(SolidRom(input_scaling=scaling), F, U, [5], [9], 0.2, 0)
+        errors[scaling] = table.error_at(5, 9)
+    assert errors["global"] < 0.5 * min(errors["standard"], errors["minmax"]), errors
+
+
+def test_missing_or_broken_model_is_named(tmp_path):
+    with pytest.raises(ComponentError, match=r"component 'solid_rom'.*model file '.*nothing.npz' does not exist"):
+        rom_run(tmp_path / "x", tmp_path / "nothing.npz", 0.0, "time.end=1")
+    broken = tmp_path / "broken.npz"
+    broken.write_bytes(b"PK\x03\x04 truncated")
+    with pytest.raises(ComponentError, match="not a valid .npz"):
+        rom_run(tmp_path / "y", broken, 0.0, "time.end=1")
+    assert children_of(os.getpid()) == []
