@@ -1,13 +1,16 @@
-"""Benchmark of one solid call of the tube: FOM, ROM online path, and baselines, in-process.
+"""Benchmark of one solid call of the tube: FOM, ROM (Python and FMU), and baselines.
 
 Prints per-call times (median of repeated timings, microseconds) measured in this run:
 - the solid FOM as implemented (exact root on each branch, vectorised over nodes);
 - a paper-style solid FOM (one scalar root solve per node, scipy brentq): the kind of
   solver behind the paper's sigma ~ 96, as a baseline;
 - the ROM's offline path (estimator.predict on one row: encoder, RBFInterpolator, decoder);
-- the ROM's online path (OnlineRom, the arrays of the saved model) and the ROM component's
-  step (input checks included);
-plus the training and cross-validation times, and the coupler round trips of a ROM-FOM run.
+- the ROM's online path (OnlineRom, the arrays of the saved model) in both arithmetics and the
+  ROM component's step (input checks included);
+- the exported FMU through the fmu component (raw fmi2SetReal/DoStep/GetReal with
+  preallocated ctypes arrays) and, as a baseline, through fmpy's setReal/doStep/getReal;
+plus the training and cross-validation times, and the coupler round trips of ROM-FOM runs
+with the rom and the fmu backends.
 
 Usage: python benchmarks/rom_call.py [--results FOM_RESULTS.h5]
 """
@@ -33,6 +36,9 @@ from cosim.scene import load_scene  # noqa: E402
 from rom_component import persistence  # noqa: E402
 from rom_component.component import RomSolid  # noqa: E402
 from rom_component.estimator import SolidRom  # noqa: E402
+from rom_component.fmu_export import export_fmu  # noqa: E402
+from rom_component.online import OnlineRom  # noqa: E402
+from solid_component.fmu import FmuSolid  # noqa: E402
 from rom_component.selection import holdout_table  # noqa: E402
 from rom_component.train import load_config, read_snapshots  # noqa: E402
 from solid_component.tube import TubeSolid  # noqa: E402
@@ -86,6 +92,18 @@ def main() -> None:
                                   {"regressor": params["regressor"], "params": params,
                                    "input_variable": "pressure", "output_variable": "section"})
     online = persistence.load(model_path)
+    fast = OnlineRom(*persistence.load_arrays(model_path), arithmetic="fast")
+    fmu_path = export_fmu(model_path, out / "solid_rom.fmu")
+    fmu = FmuSolid()
+    fmu.instantiate({"fmu": str(fmu_path)})
+    fmu.enter_initialization_mode(0.0, 1.0)
+    fmu.exit_initialization_mode()
+    slave, refs_in, refs_out = fmu.slave, list(fmu.inputs["pressure"][0]), list(fmu.outputs["section"][0])
+
+    def fmpy_convenience() -> list:
+        slave.setReal(refs_in, list(f))
+        slave.doStep(0.0, 0.1)
+        return slave.getReal(refs_out)
     component = RomSolid()
     component.instantiate({"model": str(model_path)})
     solid = TubeSolid()
@@ -98,9 +116,14 @@ def main() -> None:
         ("solid FOM, paper-style scalar root solve per node (baseline)", per_call_us(lambda: paper_solid(f), 3, 20)),
         ("solid FOM, exact per-branch root, vectorised (ours)", per_call_us(lambda: math.pi * solid.radius(f) ** 2)),
         ("ROM offline path: estimator.predict(one row) (baseline)", per_call_us(lambda: estimator.predict(f[None]))),
-        ("ROM online path: OnlineRom(f) (ours)", per_call_us(lambda: online(f))),
-        ("ROM component step (input checks included)", per_call_us(lambda: component.step(0.0, 0.1, {"pressure": f}))),
+        ("ROM online path, fast arithmetic (BLAS)", per_call_us(lambda: fast(f))),
+        ("ROM online path, reproducible arithmetic (= the FMU, bit for bit)", per_call_us(lambda: online(f))),
+        ("ROM component step (reproducible, input checks included)",
+         per_call_us(lambda: component.step(0.0, 0.1, {"pressure": f}))),
+        ("FMU ROM through the fmu component (raw fmi2 calls)", per_call_us(lambda: fmu.step(0.0, 0.1, {"pressure": f}))),
+        ("FMU ROM through fmpy setReal/doStep/getReal (baseline)", per_call_us(fmpy_convenience)),
     ]
+    np.testing.assert_array_equal(fmu.step(0.0, 0.1, {"pressure": f})["section"], online(f))
     m = len(online.minus_2c) if online.regressor == "rbf" else len(online.qi)
     r_f, r_u, n = online.E.shape[0], online.A.shape[1], online.n_inputs
     flops = 2 * r_f * n + 2 * m * r_f + 4 * m + 2 * r_u * (m + r_f + 1) + 2 * n * r_u
@@ -109,23 +132,26 @@ def main() -> None:
     print(f"  training (fit): {fit_seconds * 1e3:.1f} ms; hold-out cross-validation over "
           f"{len(selection['force_modes']) * len(selection['disp_modes'])} (r_f, r_u) pairs: {cv_seconds:.2f} s")
     print(f"  {'per call, in-process':<64}{'us':>10}{'vs online ROM':>15}")
-    online_us = rows[3][1]
+    online_us = rows[3][1]  # the fast Python path
     for label, us in rows:
         print(f"  {label:<64}{us:>10.1f}{us / online_us:>14.1f}x")
     print(f"  {'paper: ROM call of the double flap (for scale)':<64}{PAPER_ROM_CALL_US:>10.1f}")
     print("  target for the tube ROM online call: <= 20 us; the paper's own ROM code measures about 50 us here")
 
-    rom_run = out / "rom_mu1"
-    scene = load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=30", "components.solid.backend=rom",
-                                                       f"components.solid.rom.model={model_path}",
-                                                       "components.solid.rom.switch_time=18"])
-    run_scene(scene, rom_run, progress=False)
-    with h5py.File(rom_run / "results.h5") as h:
-        print("\nThrough the coupler (ROM-FOM mu1, 0-30 s, ROM from 18 s), microseconds per call, median")
-        print(f"  {'backend':<12}{'compute':>10}{'round trip':>12}{'overhead':>10}")
-        for name in ("solid", "solid_rom", "fluid"):
-            c, r = h[f"components/{name}/compute_seconds"][:], h[f"components/{name}/roundtrip_seconds"][:]
-            print(f"  {name:<12}{np.median(c) * 1e6:>10.1f}{np.median(r) * 1e6:>12.1f}{np.median(r - c) * 1e6:>10.1f}")
+    fmu.terminate()
+    print("\nThrough the coupler (ROM-FOM mu1, 0-30 s, the reduced backend from 18 s), microseconds per call, median")
+    print(f"  {'backend':<12}{'compute':>10}{'round trip':>12}{'overhead':>10}   run")
+    for backend, key, value in (("rom", "model", model_path), ("fmu", "path", fmu_path)):
+        run_dir = out / f"{backend}_mu1"
+        scene = load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=30", f"components.solid.backend={backend}",
+                                                           f"components.solid.{backend}.{key}={value}",
+                                                           f"components.solid.{backend}.switch_time=18"])
+        run_scene(scene, run_dir, progress=False)
+        with h5py.File(run_dir / "results.h5") as h:
+            for name in ("solid", f"solid_{backend}", "fluid"):
+                c, r = h[f"components/{name}/compute_seconds"][:], h[f"components/{name}/roundtrip_seconds"][:]
+                print(f"  {name:<12}{np.median(c) * 1e6:>10.1f}{np.median(r) * 1e6:>12.1f}"
+                      f"{np.median(r - c) * 1e6:>10.1f}   {backend} backend")
 
 
 if __name__ == "__main__":

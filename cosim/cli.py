@@ -1,4 +1,4 @@
-"""The ``cosim`` command line: run, train, report, serve."""
+"""The ``cosim`` command line: run, train, report, export-fmu, serve."""
 
 from __future__ import annotations
 
@@ -45,6 +45,13 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export_fmu(args: argparse.Namespace) -> int:
+    from rom_component.fmu_export import export_fmu
+    path = export_fmu(args.model, args.out, args.components_per_node)
+    print(f"wrote {path}")
+    return 0
+
+
 def _serve(args: argparse.Namespace) -> int:
     from cosim.server import serve
     return serve(args.entry, args.bind, args.name, args.parent_pid)
@@ -70,6 +77,11 @@ def parser() -> argparse.ArgumentParser:
     report.add_argument("--reference", help="FOM-FOM run directory for runs given without one")
     report.add_argument("--out", default="runs/report", help="report directory (default: runs/report)")
     report.set_defaults(func=_report)
+    export = sub.add_parser("export-fmu", help="export a trained ROM as an FMI 2.0 Co-Simulation FMU")
+    export.add_argument("model", help="model file (.npz) written by cosim train")
+    export.add_argument("--out", required=True, help="FMU to write")
+    export.add_argument("--components-per-node", type=int, help="values per interface node (default: 1)")
+    export.set_defaults(func=_export_fmu)
     serve = sub.add_parser("serve", help="serve one component over ZeroMQ")
     serve.add_argument("entry", help="package.module:Class")
     serve.add_argument("--bind", default="tcp://127.0.0.1:*", help="address to bind (default: loopback, any port)")

@@ -31,13 +31,21 @@ COMPONENT = {
     "record": False,        # record every call into /snapshots/<name>
     "timeout": 120.0,       # seconds per request
     "startup_timeout": 60.0,
-    "backend": "fom",       # "fom": the entry above; "rom": a trained ROM (see [components.<name>.rom])
-    "rom": {
+    "backend": "fom",       # "fom": the entry above; "rom" or "fmu": see the tables below
+    "rom": {                # a trained ROM (the .npz written by `cosim train`)
         "entry": "rom_component.component:RomSolid",
-        "model": "",        # the .npz written by `cosim train`
+        "model": "",
         "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
+        "arithmetic": "reproducible",  # bit-identical to the exported FMU; "fast": BLAS products
+    },
+    "fmu": {                # any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)
+        "entry": "solid_component.fmu:FmuSolid",
+        "path": "",
+        "switch_time": 0.0,
+        "stateful": False,   # true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate
     },
 }
+BACKEND_FILE = {"rom": "model", "fmu": "path"}
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": "identity"}
 MEASURE = {"data": Required(str), "type": "relative", "limit": Required(float)}
 SCHEMA = {
@@ -148,10 +156,11 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
         if key not in known:
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
     for name, spec in components.items():
-        _one_of(spec["backend"], ("fom", "rom"), f"components.{name}.backend", source)
-        if spec["backend"] == "rom" and not spec["rom"]["model"]:
-            raise SceneError(f"{source}: components.{name}.backend is 'rom' but 'components.{name}.rom.model' "
-                             "(the trained .npz) is not set")
+        backend = spec["backend"]
+        _one_of(backend, ("fom", "rom", "fmu"), f"components.{name}.backend", source)
+        if backend != "fom" and not spec[backend][BACKEND_FILE[backend]]:
+            raise SceneError(f"{source}: components.{name}.backend is '{backend}' but "
+                             f"'components.{name}.{backend}.{BACKEND_FILE[backend]}' is not set")
         if bool(spec["entry"]) == bool(spec["address"]):
             raise SceneError(f"{source}: components.{name} needs exactly one of 'entry' or 'address'")
         for section in spec["sections"]:

@@ -47,7 +47,7 @@ class Backend:
 
     participant: str
     name: str
-    kind: str            # "fom" or "rom"
+    kind: str            # "fom", "rom" or "fmu"
     entry: str
     address: str
     parameters: dict
@@ -64,12 +64,15 @@ def plan_backends(scene: Scene) -> list[Backend]:
         if spec["backend"] == "fom":
             backends.append(fom)
             continue
-        rom = spec["rom"]
-        switch = rom["switch_time"]
+        table = spec[spec["backend"]]
+        switch = table["switch_time"]
         if switch > start + 1e-9 * max(1.0, abs(start)):
             backends.append(fom)
-        backends.append(Backend(name, f"{name}_rom", "rom", rom["entry"], "", {"model": rom["model"]},
-                                max(switch, start)))
+        parameters = {k: v for k, v in table.items() if k not in ("entry", "switch_time")}
+        if spec["backend"] == "fmu":
+            parameters = {"fmu": parameters.pop("path"), **parameters}
+        backends.append(Backend(name, f"{name}_{spec['backend']}", spec["backend"], table["entry"], "",
+                                parameters, max(switch, start)))
     return backends
 
 

@@ -17,7 +17,7 @@ from cosim.errors import ComponentError
 from cosim.schema import Required, validate
 from rom_component.persistence import ModelFileError, load
 
-ROM_SCHEMA = {"model": Required(str)}
+ROM_SCHEMA = {"model": Required(str), "arithmetic": "reproducible"}
 
 
 class RomSolid(Component):
@@ -30,7 +30,7 @@ class RomSolid(Component):
         if not prm["model"]:
             raise ComponentError(self.name, "parameter 'model' (path of the trained .npz) is not set")
         try:
-            self.rom = load(prm["model"])
+            self.rom = load(prm["model"], prm["arithmetic"])
         except ModelFileError as exc:
             raise ComponentError(self.name, str(exc)) from None
         meta = self.rom.metadata

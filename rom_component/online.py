@@ -16,18 +16,31 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 import numpy as np
+from scipy.special import xlogy
 
 TINY = 1e-300
 REQUIRED = {"E", "e", "H", "A", "base", "u_mean", "Phi_u"}
 
 
 class OnlineRom:
-    """Evaluates a trained ROM from its arrays (see ``rom_component.persistence``)."""
+    """Evaluates a trained ROM from its arrays (see ``rom_component.persistence``).
 
-    def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]):
+    ``arithmetic="reproducible"`` (default) fixes the order of every floating-point
+    operation so that the C code of the exported FMU gives bit-identical results:
+    long dot products are numpy's pairwise row sums (mirrored in ``solid_rom.c``), short
+    ones sequential sums, and the kernel uses libm's ``log`` (through
+    ``scipy.special.xlogy``). Results then also do not depend on the BLAS build or its
+    threads. ``arithmetic="fast"`` uses BLAS matrix-vector products instead.
+    """
+
+    def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any],
+                 arithmetic: str = "reproducible"):
         missing = REQUIRED - set(arrays)
         if missing:
             raise ValueError(f"ROM arrays lack {sorted(missing)}")
+        if arithmetic not in ("reproducible", "fast"):
+            raise ValueError(f"arithmetic {arithmetic!r} not in ('reproducible', 'fast')")
+        self.arithmetic = arithmetic
         self.arrays = {k: np.ascontiguousarray(v) for k, v in arrays.items()}
         self.metadata = dict(metadata)
         a = self.arrays
@@ -40,6 +53,7 @@ class OnlineRom:
             centres = a["centres"]
             self.minus_2c = -2.0 * centres
             self.c2 = np.einsum("ij,ij->i", centres, centres)
+            self.centres_t = np.ascontiguousarray(centres.T)
             m = len(centres)
         else:
             self.qi, self.qj = a["quad_i"], a["quad_j"]
@@ -52,13 +66,24 @@ class OnlineRom:
         self._kernel = self._z[:m]
         self._x_slot = self._z[m:m + r_f]
         self._log = np.empty(m)
+        self._d = np.empty(m)
+        self._E_products = np.empty_like(self.E)
+        self._H_products = np.empty_like(self.H)
+        self._A_t = np.ascontiguousarray(self.A.T)
+        self._A_products = np.empty_like(self._A_t)
         if self.quadratic_decoder:
             self.B = a["B"]
+            self._B_t = np.ascontiguousarray(self.B.T)
+            self._B_products = np.empty_like(self._B_t)
             self.ui, self.uj = np.triu_indices(r_u)
         self.reduced = np.zeros(r_u)
+        self._evaluate = self._reproducible if arithmetic == "reproducible" else self._fast
 
     def __call__(self, f: np.ndarray) -> np.ndarray:
         """Interface displacements for interface forces ``f``; sets ``self.reduced``."""
+        return self._evaluate(f)
+
+    def _fast(self, f: np.ndarray) -> np.ndarray:
         x = self.E @ f
         x -= self.e
         if self.regressor == "rbf":
@@ -77,6 +102,30 @@ class OnlineRom:
         u += self.base
         if self.quadratic_decoder:
             u += self.B @ (reduced[self.ui] * reduced[self.uj])
+        return u
+
+    def _reproducible(self, f: np.ndarray) -> np.ndarray:
+        x = np.multiply(self.E, f, out=self._E_products).sum(axis=1)   # pairwise row sums
+        x -= self.e
+        if self.regressor == "rbf":
+            d, d2 = self._d, self._log
+            np.subtract(x[0], self.centres_t[0], out=d2)                # |x - c|^2, sequential over r_f
+            np.multiply(d2, d2, out=d2)
+            for k in range(1, self._r_f):
+                np.subtract(x[k], self.centres_t[k], out=d)
+                np.multiply(d, d, out=d)
+                np.add(d2, d, out=d2)
+            xlogy(d2, d2, out=self._kernel)                              # d2 log d2 with libm's log
+        else:
+            np.multiply(x[self.qi], x[self.qj], out=self._kernel)
+        self._x_slot[:] = x
+        reduced = np.multiply(self.H, self._z, out=self._H_products).sum(axis=1)
+        self.reduced = reduced
+        u = np.multiply(self._A_t, reduced[:, None], out=self._A_products).sum(axis=0)  # sequential over r_u
+        u += self.base
+        if self.quadratic_decoder:
+            q = reduced[self.ui] * reduced[self.uj]
+            u += np.multiply(self._B_t, q[:, None], out=self._B_products).sum(axis=0)
         return u
 
     def predict(self, F: np.ndarray) -> np.ndarray:

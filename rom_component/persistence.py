@@ -65,10 +65,10 @@ def load_arrays(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]
     return arrays, metadata
 
 
-def load(path: str | Path) -> OnlineRom:
-    """The online ROM stored in ``path``."""
+def load(path: str | Path, arithmetic: str = "reproducible") -> OnlineRom:
+    """The online ROM stored in ``path`` (``arithmetic``: see ``OnlineRom``)."""
     arrays, metadata = load_arrays(path)
     try:
-        return OnlineRom(arrays, metadata)
+        return OnlineRom(arrays, metadata, arithmetic)
     except (KeyError, ValueError) as exc:
         raise ModelFileError(f"model file '{path}' is incomplete: {exc}") from None

@@ -62,7 +62,7 @@ class Run:
                       f["windows/time"][:], f["windows/iterations"][:], float(f.attrs.get("wall_seconds", np.nan)),
                       {k: v[:] for k, v in f["fields"].items()}, components, initial=initial)
             for name, info in components.items():
-                if info.get("kind") == "rom":
+                if info.get("kind") in ("rom", "fmu"):
                     run.rom_backend, run.switch_time = name, float(info["start_time"])
                     final = f"components/{name}/final"
                     if final in f and "full_field" in f[final]:

@@ -3,7 +3,8 @@
 #   FOM-FOM mu1 on [0, 120] (the first 18 s are the training run), train the ROM on t <= 18
 #   (9 section modes, 3 pressure modes, thin-plate-spline RBF, linear decoder), ROM-FOM mu1 switching
 #   at 18 s, FOM-FOM and ROM-FOM (T_i = 0.1 s) for mu2, ROM variants for the error-against-run-time
-#   table, then the report. Everything goes to runs/demo/.
+#   table, the ROM exported as an FMU and run in the solid's place, then the report.
+#   Everything goes to runs/demo/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 COSIM=${COSIM:-cosim}
@@ -37,6 +38,13 @@ for spec in "energy:--set selection.choose=energy" "no_smoothing:--set model.rbf
   variants+=("$OUT/variants/$name=$OUT/fom_mu1")
 done
 
+# the same ROM as an FMI 2.0 Co-Simulation FMU in the solid's place: bit-identical to rom_mu1
+echo "== cosim export-fmu"
+"$COSIM" export-fmu $OUT/model.npz --out $OUT/solid_rom.fmu
+run --set components.solid.backend=fmu --set components.solid.fmu.path=$OUT/solid_rom.fmu \
+    --set components.solid.fmu.switch_time=18 --out $OUT/fmu_mu1
+
 echo "== cosim report"
-"$COSIM" report $OUT/rom_mu1=$OUT/fom_mu1 $OUT/rom_mu2=$OUT/fom_mu2 "${variants[@]}" --out $OUT/report
+"$COSIM" report $OUT/rom_mu1=$OUT/fom_mu1 $OUT/rom_mu2=$OUT/fom_mu2 $OUT/fmu_mu1=$OUT/fom_mu1 "${variants[@]}" \
+    --out $OUT/report
 printf 'demo finished in %.0f s; see %s/report\n' "$(echo "$(date +%s.%N) - $start" | bc)" "$OUT"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from coupler.run import run_scene
-from cosim.errors import ComponentError
+from cosim.errors import ComponentError, SceneError
 from cosim.scene import load_scene
 from rom_component.estimator import SolidRom
 from rom_component.selection import holdout_table
@@ -122,3 +122,39 @@ def test_missing_or_broken_model_is_named(tmp_path):
     with pytest.raises(ComponentError, match="not a valid .npz"):
         rom_run(tmp_path / "y", broken, 0.0, "time.end=1")
     assert children_of(os.getpid()) == []
+
+
+def test_fmu_backend_reproduces_the_rom_backend(fom, model, tmp_path):
+    fmu = tmp_path / "solid_rom.fmu"
+    done = cosim("export-fmu", str(model), "--out", str(fmu))
+    assert done.returncode == 0, done.stderr
+    rom_run(tmp_path / "rom", model, TRAIN_END)
+    scene = load_scene(TUBE_SCENE, [f"time.end={END}", "components.solid.backend=fmu",
+                                    f"components.solid.fmu.path={fmu}", f"components.solid.fmu.switch_time={TRAIN_END}"])
+    run_scene(scene, tmp_path / "fmu", progress=False)
+    assert children_of(os.getpid()) == []
+    with h5py.File(tmp_path / "rom/results.h5") as r, h5py.File(tmp_path / "fmu/results.h5") as f:
+        assert set(f["components"]) == {"fluid", "solid", "solid_fmu"}
+        assert f["components/solid_fmu"].attrs["kind"] == "fmu"
+        np.testing.assert_array_equal(f["windows/iterations"][:], r["windows/iterations"][:])
+        for name in ("pressure", "section"):
+            a, b = r[f"fields/{name}"][:], f[f"fields/{name}"][:]
+            assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max()
+            np.testing.assert_array_equal(a, b)  # the C path repeats the Python arithmetic exactly
+
+
+def test_fmu_whose_sizes_do_not_fit_the_scene_is_refused(tmp_path):
+    F, U = np.random.default_rng(0).standard_normal((40, 50)), np.random.default_rng(1).standard_normal((40, 50))
+    small = persistence_save(tmp_path / "small.npz", SolidRom(3, 3).fit(F, U))
+    fmu = tmp_path / "small.fmu"
+    assert cosim("export-fmu", str(small), "--out", str(fmu)).returncode == 0
+    with pytest.raises(SceneError, match=r"exchange.0 \(pressure\): identity mapping needs equal sizes, got 101 and 50"):
+        run_scene(load_scene(TUBE_SCENE, ["time.end=1", "components.solid.backend=fmu",
+                                          f"components.solid.fmu.path={fmu}"]), tmp_path / "run", progress=False)
+    assert children_of(os.getpid()) == []
+
+
+def persistence_save(path, estimator):
+    from rom_component import persistence
+    return persistence.save(path, estimator.online_arrays(), {"regressor": "rbf", "input_variable": "pressure",
+                                                              "output_variable": "section"})

@@ -1,0 +1,183 @@
+"""Any FMI 2.0 Co-Simulation FMU as a solid component (loaded with fmpy).
+
+The FMU's scalar variables named ``name[node]`` or ``name[node].x|y|z`` are gathered
+into the array variables ``name`` (node-major). The hot path calls the FMU's raw
+``fmi2SetReal``/``fmi2DoStep``/``fmi2GetReal`` with preallocated ctypes arrays.
+By default the FMU is taken as stateless (its outputs depend on its inputs only, as a
+quasi-static solid's); ``stateful = true`` uses ``fmi2GetFMUstate``/``fmi2SetFMUstate``.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import re
+import shutil
+import sys
+import zipfile
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from cosim.component import Component, Variable, check_inputs
+from cosim.errors import ComponentError
+from cosim.schema import Required, validate
+
+FMU_SCHEMA = {"fmu": Required(str), "stateful": False}
+NAME = re.compile(r"^(?P<name>[A-Za-z_]\w*)\[(?P<node>\d+)\](?:\.(?P<axis>[xyz]))?$")
+OK, WARNING = 0, 1
+
+
+class FmuSolid(Component):
+    """A Co-Simulation FMU behind the component contract."""
+
+    name = "solid_fmu"
+
+    def instantiate(self, parameters: Mapping[str, Any]) -> None:
+        prm = validate(parameters, FMU_SCHEMA)
+        path = Path(prm["fmu"])
+        if not path.is_file():
+            raise ComponentError(self.name, f"FMU '{path}' does not exist")
+        if not zipfile.is_zipfile(path):
+            raise ComponentError(self.name, f"FMU '{path}' is not a zip archive (corrupt or truncated)")
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+        try:
+            md = read_model_description(str(path))
+        except Exception as exc:  # fmpy raises several types for a bad model description
+            raise ComponentError(self.name, f"FMU '{path}' has no valid modelDescription.xml: {exc}") from None
+        if md.fmiVersion != "2.0" or md.coSimulation is None:
+            raise ComponentError(self.name, f"FMU '{path}' is FMI {md.fmiVersion} "
+                                            f"{'without' if md.coSimulation is None else 'with'} Co-Simulation; "
+                                            "an FMI 2.0 Co-Simulation FMU is needed")
+        self.stateful = prm["stateful"]
+        if self.stateful and not md.coSimulation.canGetAndSetFMUstate:
+            raise ComponentError(self.name, f"FMU '{path}' cannot get and set its state (stateful = true)")
+        self.inputs = self._group(md, "input")
+        self.outputs = self._group(md, "output")
+        if not self.inputs or not self.outputs:
+            raise ComponentError(self.name, f"FMU '{path}' has no array-named inputs or outputs "
+                                            "(expected scalar names like 'force[1].x' or 'pressure[1]')")
+        try:
+            self.unzipped = extract(str(path))
+        except Exception as exc:
+            raise ComponentError(self.name, f"FMU '{path}' cannot be extracted: {exc}") from None
+        binary = Path(self.unzipped) / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+        if not binary.is_file():
+            raise ComponentError(self.name, f"FMU '{path}' has no linux64 binary ({binary.name})")
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.unzipped,
+                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.name)
+        try:
+            self.slave.instantiate(callbacks=self._callbacks())
+        except Exception as exc:
+            shutil.rmtree(self.unzipped, ignore_errors=True)
+            raise ComponentError(self.name, f"FMU '{path}' failed to instantiate ({exc}): "
+                                            f"{'; '.join(self.messages) or 'the FMU logged nothing'}") from None
+        self._bind_raw()
+
+    def _callbacks(self):
+        """FMI callbacks whose logger keeps the FMU's messages (and writes them to the log)."""
+        from fmpy import calloc, free
+        from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                               fmi2CallbackLoggerTYPE)
+        self.messages: list[str] = []
+
+        def logger(environment, instance, status, category, message):
+            text = message.decode(errors="replace") if message else ""
+            self.messages.append(text)
+            print(f"FMU {self.name} [status {status}]: {text}", file=sys.stderr)
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        try:
+            from fmpy.logging import addLoggerProxy
+            addLoggerProxy(ctypes.byref(callbacks))  # formats the FMU's printf-style arguments
+        except Exception:  # without the proxy, messages arrive unformatted
+            pass
+        self._callback_struct = callbacks  # must outlive the instance
+        return callbacks
+
+    @staticmethod
+    def _group(md, causality: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Array name -> (value references in node-major order, values buffer)."""
+        found: dict[str, list[tuple[int, int, int]]] = {}
+        for v in md.modelVariables:
+            match = NAME.match(v.name)
+            if v.causality == causality and v.type == "Real" and match:
+                axis = "xyz".index(match["axis"]) if match["axis"] else 0
+                found.setdefault(match["name"], []).append((int(match["node"]), axis, v.valueReference))
+        groups = {}
+        for name, entries in found.items():
+            entries.sort()
+            refs = np.array([vr for _, _, vr in entries], dtype=np.uint32)
+            groups[name] = (refs, np.zeros(len(refs)))
+        return groups
+
+    def _bind_raw(self) -> None:
+        from fmpy.fmi2 import fmi2Component, fmi2Real, fmi2ValueReference
+        dll = self.slave.dll
+        pointer_vr, pointer_real = ctypes.POINTER(fmi2ValueReference), ctypes.POINTER(fmi2Real)
+        self._set = dll.fmi2SetReal
+        self._get = dll.fmi2GetReal
+        self._do_step = dll.fmi2DoStep
+        for function in (self._set, self._get):
+            function.argtypes = [fmi2Component, pointer_vr, ctypes.c_size_t, pointer_real]
+            function.restype = ctypes.c_int
+        self._do_step.argtypes = [fmi2Component, fmi2Real, fmi2Real, ctypes.c_int]
+        self._do_step.restype = ctypes.c_int
+        self._pointers = {name: (refs.ctypes.data_as(pointer_vr), ctypes.c_size_t(len(refs)),
+                                 values.ctypes.data_as(pointer_real))
+                          for name, (refs, values) in {**self.inputs, **self.outputs}.items()}
+
+    def _check(self, status: int, call: str) -> None:
+        if status > WARNING:
+            last = self.messages[-1] if self.messages else "no message"
+            raise ComponentError(self.name, f"{call} returned status {status}: {last}")
+
+    # --- contract -----------------------------------------------------------
+    def variables(self) -> list[Variable]:
+        return [Variable(n, "input", len(r)) for n, (r, _) in self.inputs.items()] + \
+               [Variable(n, "output", len(r)) for n, (r, _) in self.outputs.items()]
+
+    def enter_initialization_mode(self, start: float, stop: float) -> None:
+        self.slave.setupExperiment(startTime=start)
+        self.slave.enterInitializationMode()
+
+    def exit_initialization_mode(self) -> None:
+        self.slave.exitInitializationMode()
+
+    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
+        check_inputs(self, values, {n: len(r) for n, (r, _) in self.inputs.items()})
+        for name, value in values.items():
+            np.copyto(self.inputs[name][1], value)
+            refs, count, data = self._pointers[name]
+            self._check(self._set(self.slave.component, refs, count, data), "fmi2SetReal")
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        out = {}
+        for name in names:
+            refs, count, data = self._pointers[name]
+            self._check(self._get(self.slave.component, refs, count, data), "fmi2GetReal")
+            out[name] = (self.outputs.get(name) or self.inputs[name])[1].copy()
+        return out
+
+    def do_step(self, t: float, dt: float) -> None:
+        self._check(self._do_step(self.slave.component, t, dt, 1), "fmi2DoStep")
+
+    @property
+    def can_get_and_set_state(self) -> bool:
+        return bool(getattr(self, "stateful", False))
+
+    def save_state(self) -> Any:
+        return self.slave.getFMUState()
+
+    def restore_state(self, state: Any) -> None:
+        self.slave.setFMUState(state)
+
+    def terminate(self) -> dict[str, np.ndarray]:
+        self.slave.terminate()
+        self.slave.freeInstance()
+        shutil.rmtree(self.unzipped, ignore_errors=True)
+        return {}

@@ -1,0 +1,162 @@
+"""FMU export of the ROM (FMI 2.0 Co-Simulation, C online path) and FMUs as solid backends."""
+
+from __future__ import annotations
+
+import ctypes
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from fmpy.validation import validate_fmu
+
+from cosim.errors import ComponentError
+from rom_component import persistence
+from rom_component.estimator import SolidRom
+from rom_component.fmu_export import export_fmu
+from solid_component.fmu import FmuSolid
+
+from tests.test_rom import smooth_data
+
+
+def train(tmp_path: Path, name: str, n_in: int, n_out: int, components: int, input_name: str, output_name: str,
+          **params) -> tuple[Path, np.ndarray]:
+    F, U = smooth_data(m=300, n_in=n_in, n_out=n_out, seed=len(name))
+    model = SolidRom(**params).fit(F, U)
+    path = persistence.save(tmp_path / f"{name}.npz", model.online_arrays(),
+                            {"regressor": params.get("regressor", "rbf"), "params": model.get_params(),
+                             "input_variable": input_name, "output_variable": output_name,
+                             "components_per_node": components})
+    return path, F
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    """An RBF tube-sized model (101 nodes) and a quadratic-manifold + sparse-polynomial 2-D model."""
+    tmp = tmp_path_factory.mktemp("fmu")
+    rbf, F_rbf = train(tmp, "rbf", 101, 101, 1, "pressure", "section", n_force_modes=3, n_disp_modes=4)
+    qm, F_qm = train(tmp, "qm_poly", 40, 30, 2, "force", "displacement", n_force_modes=3, n_disp_modes=4,
+                     decoder="quadratic", regressor="poly")
+    return {name: (model, export_fmu(model, tmp / f"{name}.fmu"), F)
+            for name, model, F in (("rbf", rbf, F_rbf), ("qm_poly", qm, F_qm))}
+
+
+@pytest.mark.parametrize("name", ["rbf", "qm_poly"])
+def test_exported_fmu_validates(models, name):
+    _, fmu, _ = models[name]
+    assert validate_fmu(str(fmu)) == []
+    md = read_model_description(str(fmu))
+    assert md.fmiVersion == "2.0"
+    assert md.coSimulation.needsExecutionTool is False and md.coSimulation.canGetAndSetFMUstate is True
+    names = [v.name for v in md.modelVariables]
+    if name == "rbf":
+        assert names[0] == "pressure[1]" and names[-1] == "section[101]"
+    else:
+        assert "force[20].y" in names and "displacement[15].x" in names
+    inputs = [v for v in md.modelVariables if v.causality == "input"]
+    assert all(v.start is not None for v in inputs)
+    assert len(md.outputs) == len(md.initialUnknowns) == len(names) - len(inputs)
+    with zipfile.ZipFile(fmu) as archive:
+        files = set(archive.namelist())
+    assert {"sources/solid_rom.c", "resources/rom.bin", "binaries/linux64/solid_rom.so"} <= files
+
+
+@pytest.mark.parametrize("name", ["rbf", "qm_poly"])
+def test_simulate_fmu_reproduces_the_python_rom(models, name):
+    model, fmu, F = models[name]
+    rom = persistence.load(model)
+    md = read_model_description(str(fmu))
+    inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    F = F[:30] * 1.01
+    table = np.zeros(len(F), dtype=[("time", np.float64)] + [(n, np.float64) for n in inputs])
+    table["time"] = 0.1 * np.arange(len(F))
+    for j, n in enumerate(inputs):
+        table[n] = F[:, j]
+    result = simulate_fmu(str(fmu), start_time=0.0, stop_time=table["time"][-1], step_size=0.1,
+                          output_interval=0.1, input=table, output=outputs)
+    Y = np.column_stack([result[n] for n in outputs])
+    expected = rom.predict(F)
+    # the output recorded at t_(k+1) comes from the step that used the inputs of t_k
+    np.testing.assert_allclose(Y[1:], expected[:-1], rtol=1e-10, atol=1e-10 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("name", ["rbf", "qm_poly"])
+def test_fmu_component_is_bit_identical_to_the_python_rom(models, name):
+    model, fmu, F = models[name]
+    rom = persistence.load(model)
+    component = FmuSolid()
+    component.instantiate({"fmu": str(fmu)})
+    component.enter_initialization_mode(0.0, 1.0)
+    component.exit_initialization_mode()
+    (input_name,) = [v.name for v in component.variables() if v.causality == "input"]
+    (output_name,) = [v.name for v in component.variables() if v.causality == "output"]
+    for f in F[:50] * 1.003:
+        out = component.step(0.0, 0.1, {input_name: f})[output_name]
+        assert out.tobytes() == rom(f).tobytes()
+    component.terminate()
+
+
+def test_fmu_state_round_trip(models):
+    _, fmu, F = models["rbf"]
+    component = FmuSolid()
+    component.instantiate({"fmu": str(fmu), "stateful": True})
+    component.enter_initialization_mode(0.0, 1.0)
+    component.exit_initialization_mode()
+    first = component.step(0.0, 0.1, {"pressure": F[0]})["section"]
+    handle = component.get_state()
+    assert not np.array_equal(component.step(0.1, 0.1, {"pressure": F[1]})["section"], first)
+    component.set_state(handle)
+    np.testing.assert_array_equal(component.get_values(["section"])["section"], first)
+    component.free_state(handle)
+    component.terminate()
+
+
+def test_c_code_checks_pointers_counts_and_references(models):
+    _, fmu, _ = models["rbf"]
+    component = FmuSolid()
+    component.instantiate({"fmu": str(fmu)})
+    set_real, get_real = component._set, component._get
+    handle = component.slave.component
+    values = (ctypes.c_double * 3)()
+    refs = (ctypes.c_uint * 3)(0, 1, 5000)
+    assert set_real(handle, None, 3, values) == 3
+    assert "NULL value reference" in component.messages[-1]
+    assert set_real(handle, refs, 3, values) == 3
+    assert "value reference 5000 is out of range (0..201)" in component.messages[-1]
+    output = (ctypes.c_uint * 1)(150)
+    assert set_real(handle, output, 1, values) == 3
+    assert "is an output and cannot be set" in component.messages[-1]
+    assert get_real(handle, refs, 10_000, values) == 3
+    assert "10000 values requested" in component.messages[-1]
+    assert get_real(None, refs, 1, values) == 3  # a NULL instance is refused, not dereferenced
+    component.terminate()
+
+
+def test_bad_fmus_get_clear_errors(models, tmp_path):
+    _, fmu, _ = models["rbf"]
+    garbage = tmp_path / "garbage.fmu"
+    garbage.write_bytes(b"definitely not a zip")
+    with pytest.raises(ComponentError, match="not a zip archive"):
+        FmuSolid().instantiate({"fmu": str(garbage)})
+    truncated = tmp_path / "truncated.fmu"
+    truncated.write_bytes(fmu.read_bytes()[: fmu.stat().st_size // 2])
+    with pytest.raises(ComponentError, match="not a zip archive|no valid modelDescription"):
+        FmuSolid().instantiate({"fmu": str(truncated)})
+    with pytest.raises(ComponentError, match="does not exist"):
+        FmuSolid().instantiate({"fmu": str(tmp_path / "missing.fmu")})
+    no_resource = tmp_path / "no_resource.fmu"
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(no_resource, "w") as target:
+        for item in source.infolist():
+            if item.filename != "resources/rom.bin":
+                target.writestr(item, source.read(item.filename))
+    with pytest.raises(ComponentError, match=r"failed to instantiate.*cannot open resource file '.*rom.bin'"):
+        FmuSolid().instantiate({"fmu": str(no_resource)})
+    short_resource = tmp_path / "short_resource.fmu"
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(short_resource, "w") as target:
+        for item in source.infolist():
+            data = source.read(item.filename)
+            target.writestr(item, data[:-8] if item.filename == "resources/rom.bin" else data)
+    with pytest.raises(ComponentError, match=r"bytes, the sizes in its header need"):
+        FmuSolid().instantiate({"fmu": str(short_resource)})
