@@ -160,3 +160,38 @@ def test_bad_fmus_get_clear_errors(models, tmp_path):
             target.writestr(item, data[:-8] if item.filename == "resources/rom.bin" else data)
     with pytest.raises(ComponentError, match=r"bytes, the sizes in its header need"):
         FmuSolid().instantiate({"fmu": str(short_resource)})
+
+
+def test_resource_uri_forms(models, tmp_path):
+    """file:///path with and without a trailing slash, percent-encoded, and file://localhost/."""
+    from fmpy import calloc, free
+    from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                           fmi2CallbackLoggerTYPE)
+    _, fmu, _ = models["rbf"]
+    unzipped = tmp_path / "a dir with spaces%"
+    with zipfile.ZipFile(fmu) as archive:
+        archive.extractall(unzipped)
+    guid = read_model_description(str(fmu)).guid.encode()
+    dll = ctypes.CDLL(str(unzipped / "binaries/linux64/solid_rom.so"))
+    dll.fmi2Instantiate.restype = ctypes.c_void_p
+    dll.fmi2Instantiate.argtypes = [ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_char_p,
+                                    ctypes.c_void_p, ctypes.c_int, ctypes.c_int]
+    dll.fmi2FreeInstance.argtypes = [ctypes.c_void_p]
+    messages = []
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(lambda env, name, status, category, message: messages.append(message))
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    uri = (unzipped / "resources").as_uri()
+    assert "%20" in uri and "%25" in uri
+    for location in (uri, uri + "/", uri.replace("file:///", "file://localhost/"), uri.replace("file:///", "file:/")):
+        instance = dll.fmi2Instantiate(b"rom", 1, guid, location.encode(), ctypes.addressof(callbacks), 0, 0)
+        assert instance, (location, messages)
+        dll.fmi2FreeInstance(instance)
+    for bad, message in ((b"http://example.invalid/resources", b"is not a file URI"),
+                         ((uri + "x").encode(), b"cannot open resource file")):
+        assert not dll.fmi2Instantiate(b"rom", 1, guid, bad, ctypes.addressof(callbacks), 0, 0)
+        assert message in messages[-1]
+    assert not dll.fmi2Instantiate(b"rom", 1, b"{wrong}", uri.encode(), ctypes.addressof(callbacks), 0, 0)
+    assert b"GUID '{wrong}' does not match" in messages[-1]
+    assert not dll.fmi2Instantiate(b"rom", 0, guid, uri.encode(), ctypes.addressof(callbacks), 0, 0)  # Model Exchange
