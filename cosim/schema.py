@@ -22,13 +22,6 @@ class Required:
 
 
 @dataclass(frozen=True)
-class Optional:
-    """A key that may be absent (value None) or of ``kind``."""
-
-    kind: type | tuple[type, ...]
-
-
-@dataclass(frozen=True)
 class AnyTable:
     """A free-form table: any keys (validated later by whoever consumes it)."""
 
@@ -78,9 +71,6 @@ def validate(given: Mapping[str, Any] | None, schema: Mapping[str, Any], prefix:
             if key not in given:
                 raise SceneError(f"missing key '{where}'" + (f" in {source}" if source else ""))
             result[key] = _check_type(given[key], spec.kind, where)
-        elif isinstance(spec, Optional):
-            value = given.get(key)
-            result[key] = None if value is None else _check_type(value, spec.kind, where)
         else:
             value = given.get(key, spec)
             kind = float if isinstance(spec, float) else type(spec)

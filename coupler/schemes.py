@@ -64,10 +64,14 @@ class CouplingScheme:
         self._extrapolation = Extrapolation(extrapolation_order)
         self._state: dict[str, int] = {}
 
+    def sent_by(self, proxy) -> list[str]:
+        """Names of the data items ``proxy`` produces."""
+        return [e.data for e in self.exchanges if e.source is proxy]
+
     def initialize(self) -> None:
         """Initial data values from the producers (after initialization mode)."""
         for proxy in (self.first, self.second):
-            names = [e.data for e in self.exchanges if e.source is proxy]
+            names = self.sent_by(proxy)
             if names:
                 self.values.update({k: np.array(v) for k, v in proxy.get_values(names).items()})
         if not self.accelerated:
@@ -184,12 +188,11 @@ class SerialImplicit(CouplingScheme):
     """Gauss-Seidel: first participant, then second, iterated on the second's data."""
 
     def default_accelerated(self) -> list[str]:
-        return [e.data for e in self.exchanges if e.source is self.second]
+        return self.sent_by(self.second)
 
     def advance(self, t: float, dt: float) -> WindowResult:
         self.window += 1
-        forward = [e.data for e in self.exchanges if e.source is self.first]
-        feedback = [e.data for e in self.exchanges if e.source is self.second]
+        forward, feedback = self.sent_by(self.first), self.sent_by(self.second)
         accelerated = self.accelerated
         values = self._begin_implicit_window()
         converged = False
@@ -205,10 +208,9 @@ class SerialImplicit(CouplingScheme):
             values.update({k: out_first[k] for k in forward})
             x = self._stack(values, accelerated)
             self.acceleration.observe(x, self._stack(out_second, accelerated))
-            if converged or iteration == self.max_iterations:
-                values.update({k: out_second[k] for k in feedback})
-                break
             values.update({k: out_second[k] for k in feedback})
+            if converged or iteration == self.max_iterations:
+                break
             values.update(self._split(self.acceleration.next_iterate(), accelerated))
         return self._end_implicit_window(values, t + dt, iteration, converged)
 
@@ -237,10 +239,9 @@ class ParallelImplicit(CouplingScheme):
             new = {k: outputs[k] for k in names}
             converged = all([m.measure(values[m.data], new[m.data]) for m in self.measures])
             self.acceleration.observe(self._stack(values, accelerated), self._stack(new, accelerated))
-            if converged or iteration == self.max_iterations:
-                values.update(new)
-                break
             values.update(new)
+            if converged or iteration == self.max_iterations:
+                break
             values.update(self._split(self.acceleration.next_iterate(), accelerated))
         return self._end_implicit_window(values, t + dt, iteration, converged)
 

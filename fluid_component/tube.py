@@ -105,7 +105,6 @@ class TubeFluid(Component):
         rows.append(np.array([0, 1, 1, 1, last, last, last, last + 1]))
         cols.append(np.array([0, 1, 3, 5, last, last - 2, last - 4, last + 1]))
         self._rows, self._cols = np.concatenate(rows), np.concatenate(cols)
-        self._n_interior = i.size
         self._boundary_values = np.array([1.0, 1.0, -2.0, 1.0, 1.0, -2.0, 1.0, 1.0])
         self._band = np.zeros((2 * BAND + 1, 2 * n))
         self._band_index = (BAND + self._rows - self._cols, self._cols)

@@ -49,35 +49,42 @@ class OnlineRom:
         self.quadratic_decoder = "B" in a
         self.n_inputs, self.n_outputs = self.E.shape[1], self.A.shape[0]
         r_f, r_u = self.E.shape[0], self.A.shape[1]
+        reproducible = arithmetic == "reproducible"
         if self.regressor == "rbf":
             centres = a["centres"]
-            self.minus_2c = -2.0 * centres
-            self.c2 = np.einsum("ij,ij->i", centres, centres)
-            self.centres_t = np.ascontiguousarray(centres.T)
+            if reproducible:
+                self.centres_t = np.ascontiguousarray(centres.T)
+            else:
+                self.minus_2c = -2.0 * centres
+                self.c2 = np.einsum("ij,ij->i", centres, centres)
             m = len(centres)
         else:
             self.qi, self.qj = a["quad_i"], a["quad_j"]
             m = len(self.qi)
         if self.H.shape != (r_u, m + r_f + 1):
             raise ValueError(f"ROM array 'H' has shape {self.H.shape}, expected ({r_u}, {m + r_f + 1})")
-        self._m, self._r_f = m, r_f
+        self._r_f = r_f
         self._z = np.zeros(m + r_f + 1)
         self._z[-1] = 1.0
         self._kernel = self._z[:m]
         self._x_slot = self._z[m:m + r_f]
-        self._log = np.empty(m)
-        self._d = np.empty(m)
-        self._E_products = np.empty_like(self.E)
-        self._H_products = np.empty_like(self.H)
-        self._A_t = np.ascontiguousarray(self.A.T)
-        self._A_products = np.empty_like(self._A_t)
+        self._d2 = np.empty(m)       # squared distances to the centres (fast: also their log)
         if self.quadratic_decoder:
             self.B = a["B"]
-            self._B_t = np.ascontiguousarray(self.B.T)
-            self._B_products = np.empty_like(self._B_t)
             self.ui, self.uj = np.triu_indices(r_u)
+        if reproducible:             # preallocated products and transposed decoder matrices
+            self._d = np.empty(m)
+            self._E_products = np.empty_like(self.E)
+            self._H_products = np.empty_like(self.H)
+            self._A_t = np.ascontiguousarray(self.A.T)
+            self._A_products = np.empty_like(self._A_t)
+            if self.quadratic_decoder:
+                self._B_t = np.ascontiguousarray(self.B.T)
+                self._B_products = np.empty_like(self._B_t)
+        else:
+            self._log = np.empty(m)
         self.reduced = np.zeros(r_u)
-        self._evaluate = self._reproducible if arithmetic == "reproducible" else self._fast
+        self._evaluate = self._reproducible if reproducible else self._fast
 
     def __call__(self, f: np.ndarray) -> np.ndarray:
         """Interface displacements for interface forces ``f``; sets ``self.reduced``."""
@@ -108,7 +115,7 @@ class OnlineRom:
         x = np.multiply(self.E, f, out=self._E_products).sum(axis=1)   # pairwise row sums
         x -= self.e
         if self.regressor == "rbf":
-            d, d2 = self._d, self._log
+            d, d2 = self._d, self._d2
             np.subtract(x[0], self.centres_t[0], out=d2)                # |x - c|^2, sequential over r_f
             np.multiply(d2, d2, out=d2)
             for k in range(1, self._r_f):

@@ -25,7 +25,7 @@ from cosim.schema import Required, validate
 
 FMU_SCHEMA = {"fmu": Required(str), "stateful": False}
 NAME = re.compile(r"^(?P<name>[A-Za-z_]\w*)\[(?P<node>\d+)\](?:\.(?P<axis>[xyz]))?$")
-OK, WARNING = 0, 1
+WARNING = 1  # fmi2Warning: the worst status that is not an error
 
 
 class FmuSolid(Component):
