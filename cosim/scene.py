@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
-from cosim.schema import AnyTable, Required, unknown_key_message, validate
+from cosim.schema import AnyTable, Positive, Required, Value, unknown_key_message, validate
 
 SCHEMES = ("serial-explicit", "serial-implicit", "parallel-implicit")
 ACCELERATIONS = ("none", "constant", "aitken", "iqn-ils")
@@ -29,8 +29,8 @@ COMPONENT = {
     "sections": [],         # model sections of the scene passed to instantiate
     "parameters": AnyTable(),
     "record": False,        # record every call into /snapshots/<name>
-    "timeout": 120.0,       # seconds per request
-    "startup_timeout": 60.0,
+    "timeout": Positive(120.0),         # seconds per request
+    "startup_timeout": Positive(60.0),
     "backend": "fom",       # "fom": the entry above; "rom" or "fmu": see the tables below
     "rom": {                # a trained ROM (the .npz written by `cosim train`)
         "entry": "rom_component.component:RomSolid",
@@ -47,28 +47,29 @@ COMPONENT = {
 }
 BACKEND_FILE = {"rom": "model", "fmu": "path"}
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": "identity"}
-MEASURE = {"data": Required(str), "type": "relative", "limit": Required(float)}
+MEASURE = {"data": Required(str), "type": "relative", "limit": Value(low=0.0, low_open=True)}
+MAX_WINDOWS = 10_000_000
 SCHEMA = {
     "name": "",
-    "time": {"start": 0.0, "end": Required(float), "dt": Required(float)},
+    "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
     "components": AnyTable(),
     "coupling": {
         "scheme": "serial-implicit",
         "participants": Required(list),
-        "max_iterations": 50,
+        "max_iterations": Positive(50),
         "on_max_iterations": "fail",
-        "extrapolation_order": 0,
+        "extrapolation_order": Value(0, low=0, high=2),
         "acceleration": {
             "type": "none",
             "data": [],
-            "initial_relaxation": 0.5,
-            "max_used_iterations": 50,
-            "reused_time_windows": 0,
+            "initial_relaxation": Value(0.5, low=0.0, high=1.0, low_open=True),
+            "max_used_iterations": Positive(50),
+            "reused_time_windows": Value(0, low=0),
             "filter": "qr2",
-            "filter_limit": 1e-3,
+            "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
         },
     },
-    "output": {"plot_field": "", "plot_index": 0, "plot_label": ""},
+    "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": ""},
 }
 LISTS = {"exchange": EXCHANGE}
 
@@ -105,22 +106,30 @@ def parse_override(text: str) -> tuple[list[str], Any]:
 
 
 def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
+    """Set ``path`` in ``data`` to ``value``; list entries are named by index."""
     node: Any = data
-    for depth, part in enumerate(path[:-1]):
+    for depth, part in enumerate(path):
+        last = depth == len(path) - 1
         if isinstance(node, list):
             try:
-                node = node[int(part)]
+                index = int(part)
+                node[index]
+                if index < 0:
+                    raise IndexError
             except (ValueError, IndexError):
-                raise SceneError(f"--set {'.'.join(path)}: '{part}' is not an index of "
-                                 f"'{'.'.join(path[:depth])}' (it has {len(node)} entries)") from None
+                raise SceneError(f"--set {'.'.join(path)}: '{part}' is not an index of '{'.'.join(path[:depth])}' "
+                                 f"(a list of {len(node)} entries: 0 to {len(node) - 1})") from None
+            if last:
+                node[index] = value
+            else:
+                node = node[index]
+        elif isinstance(node, dict):
+            if last:
+                node[part] = value
+            else:
+                node = node.setdefault(part, {})
         else:
-            node = node.setdefault(part, {})
-            if not isinstance(node, (dict, list)):
-                raise SceneError(f"--set {'.'.join(path)}: '{'.'.join(path[:depth + 1])}' is not a table")
-    if isinstance(node, list):
-        node[int(path[-1])] = value
-    else:
-        node[path[-1]] = value
+            raise SceneError(f"--set {'.'.join(path)}: '{'.'.join(path[:depth])}' is {node!r}, not a table")
 
 
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
@@ -150,6 +159,8 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
         raise SceneError(f"{source}: the scene defines no [components.<name>] table")
     components = {name: validate(spec, COMPONENT, f"components.{name}.", source)
                   for name, spec in components_raw.items()}
+    for name, spec in components.items():
+        _string_list(spec["sections"], f"components.{name}.sections", source)
     sections = {s for spec in components.values() for s in spec["sections"]}
     known = set(SCHEMA) | set(LISTS) | sections
     for key in raw:
@@ -167,8 +178,11 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
             if section not in raw:
                 raise SceneError(f"{source}: components.{name}.sections names '{section}', "
                                  f"but the scene has no [{section}] table")
-    convergence = raw.get("coupling", {}).get("convergence", []) if isinstance(raw.get("coupling"), dict) else []
-    coupling_raw = {k: v for k, v in raw.get("coupling", {}).items() if k != "convergence"}
+    coupling_given = raw.get("coupling", {})
+    if not isinstance(coupling_given, dict):
+        raise SceneError(f"{source}: 'coupling' must be a table, got {coupling_given!r}")
+    convergence = coupling_given.get("convergence", [])
+    coupling_raw = {k: v for k, v in coupling_given.items() if k != "convergence"}
     data = validate({k: v for k, v in raw.items() if k in SCHEMA and k != "coupling"},
                     {k: v for k, v in SCHEMA.items() if k != "coupling"}, "", source)
     data["coupling"] = validate(coupling_raw, SCHEMA["coupling"], "coupling.", source)
@@ -189,6 +203,12 @@ def _table_list(value: Any, where: str, source: str) -> list[dict]:
     return value
 
 
+def _string_list(value: list, where: str, source: str) -> None:
+    for i, item in enumerate(value):
+        if not isinstance(item, str):
+            raise SceneError(f"{source}: '{where}.{i}' must be a string, got {item!r}")
+
+
 def _one_of(value: Any, allowed: tuple, where: str, source: str) -> None:
     if value not in allowed:
         raise SceneError(f"{source}: '{where}' is {value!r}; allowed: {', '.join(map(str, allowed))}")
@@ -196,20 +216,20 @@ def _one_of(value: Any, allowed: tuple, where: str, source: str) -> None:
 
 def _check_consistency(data: dict[str, Any], source: str) -> None:
     time, coupling = data["time"], data["coupling"]
-    if time["dt"] <= 0:
-        raise SceneError(f"{source}: 'time.dt' must be positive, got {time['dt']}")
     if time["end"] <= time["start"]:
         raise SceneError(f"{source}: 'time.end' ({time['end']}) must exceed 'time.start' ({time['start']})")
+    windows = (time["end"] - time["start"]) / time["dt"]
+    if windows > MAX_WINDOWS:
+        raise SceneError(f"{source}: 'time.dt' = {time['dt']:g} makes {windows:.3g} windows on "
+                         f"[{time['start']:g}, {time['end']:g}]; at most {MAX_WINDOWS:,} are allowed")
     names = set(data["components"])
     _one_of(coupling["scheme"], SCHEMES, "coupling.scheme", source)
     _one_of(coupling["on_max_iterations"], ("fail", "accept"), "coupling.on_max_iterations", source)
-    _one_of(coupling["extrapolation_order"], (0, 1, 2), "coupling.extrapolation_order", source)
     acceleration = coupling["acceleration"]
     _one_of(acceleration["type"], ACCELERATIONS, "coupling.acceleration.type", source)
     _one_of(acceleration["filter"], FILTERS, "coupling.acceleration.filter", source)
-    if coupling["max_iterations"] < 1:
-        raise SceneError(f"{source}: 'coupling.max_iterations' must be at least 1")
     participants = coupling["participants"]
+    _string_list(participants, "coupling.participants", source)
     if len(participants) != 2 or len(set(participants)) != 2:
         raise SceneError(f"{source}: 'coupling.participants' must name two different components, got {participants}")
     for i, name in enumerate(participants):
@@ -233,10 +253,17 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
         if measure["data"] not in exchanged:
             raise SceneError(f"{source}: 'coupling.convergence.{i}.data' is '{measure['data']}', "
                              f"not exchanged data ({', '.join(sorted(exchanged))})")
+    second = participants[1]
+    fed_back = sorted(e["data"] for e in data["exchange"] if e["from"] == second)
     for i, name in enumerate(acceleration["data"]):
-        if name not in exchanged:
-            raise SceneError(f"{source}: 'coupling.acceleration.data.{i}' is '{name}', "
-                             f"not exchanged data ({', '.join(sorted(exchanged))})")
+        where = f"coupling.acceleration.data.{i}"
+        if not isinstance(name, str) or name not in exchanged:
+            raise SceneError(f"{source}: '{where}' is {name!r}, not exchanged data ({', '.join(sorted(exchanged))})")
+        if acceleration["data"].index(name) != i:
+            raise SceneError(f"{source}: '{where}' repeats '{name}'")
+        if coupling["scheme"] == "serial-implicit" and name not in fed_back:
+            raise SceneError(f"{source}: '{where}' is '{name}', but serial-implicit accelerates the data the second "
+                             f"participant '{second}' sends: {', '.join(fed_back) or 'none'}")
     if coupling["scheme"] != "serial-explicit" and not coupling["convergence"]:
         raise SceneError(f"{source}: an implicit scheme needs at least one [[coupling.convergence]] measure")
     plot = data["output"]["plot_field"]

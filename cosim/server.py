@@ -43,9 +43,16 @@ def load_entry(entry: str) -> type:
     return cls
 
 
+TRANSPORTS = ("tcp", "ipc")
+
+
 def check_bind_address(address: str) -> None:
-    """Refuse a TCP bind to anything but loopback (remote binding needs CURVE keys)."""
-    if not address.startswith("tcp://"):
+    """Refuse an unknown transport, and a TCP bind to anything but loopback (remote binding needs CURVE keys)."""
+    transport, sep, _ = address.partition("://")
+    if not sep or transport not in TRANSPORTS:
+        raise CosimError(f"bind address '{address}' is not of the form tcp://HOST:PORT or ipc://PATH "
+                         "(transports are lower case)")
+    if transport != "tcp":
         return
     host = address[len("tcp://"):].rsplit(":", 1)[0].strip("[]")
     if host == "localhost":
@@ -127,7 +134,12 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
     context = zmq.Context.instance()
     socket = context.socket(zmq.ROUTER)
     socket.setsockopt(zmq.LINGER, 1000)
-    socket.bind(bind)
+    socket.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
+    try:
+        socket.bind(bind)
+    except zmq.ZMQError as exc:
+        socket.close()
+        raise CosimError(f"cannot bind '{bind}': {exc}") from None
     endpoint = socket.getsockopt_string(zmq.LAST_ENDPOINT)
     sys.stdout.write(json.dumps({"endpoint": endpoint, "pid": os.getpid(), "name": component.name}) + "\n")
     sys.stdout.flush()

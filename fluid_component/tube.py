@@ -21,17 +21,17 @@ from scipy.linalg import solve_banded
 
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
-from cosim.schema import validate
+from cosim.schema import Positive, Value, validate
 from fluid_component.inlet import DUFFING_DEFAULTS, make_inlet
 
-TUBE_SCHEMA = {"length": 10.0, "cells": 100, "a0": 1.0}
+TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0)}
 FLUID_SCHEMA = {
     "tube": TUBE_SCHEMA,
     "inlet": {"f": 2.0, "h": 6.0, "table": "", **DUFFING_DEFAULTS},
-    "rho": 1.0,
-    "v_ref": 6.0,
-    "newton_tolerance": 1e-10,
-    "newton_max_iterations": 30,
+    "rho": Positive(1.0),
+    "v_ref": Value(6.0, low=0.0),
+    "newton_tolerance": Value(1e-10, low=0.0, high=1.0, low_open=True, high_open=True),
+    "newton_max_iterations": Positive(30),
 }
 BAND = 4  # sub- and super-diagonals of the interleaved Jacobian
 

@@ -14,12 +14,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from cosim.errors import CosimError
 from rom_component.online import OnlineRom
 
 FORMAT = "cosim-solid-rom/1"
 
 
-class ModelFileError(ValueError):
+class ModelFileError(CosimError, ValueError):
     """A model file is missing, corrupt, or not a ROM file."""
 
 

@@ -59,6 +59,8 @@ def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarra
     if not path.is_file():
         raise SceneError(f"results file '{path}' does not exist")
     base = f"snapshots/{spec['component']}"
+    if not h5py.is_hdf5(path):
+        raise SceneError(f"'{path}' is not an HDF5 results file")
     with h5py.File(path, "r") as f:
         if base not in f:
             available = list(f["snapshots"]) if "snapshots" in f else []

@@ -16,16 +16,18 @@ import numpy as np
 
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
-from cosim.schema import validate
+from cosim.schema import Positive, Value, validate
 
-TUBE_SCHEMA = {"length": 10.0, "cells": 100, "a0": 1.0}  # the [tube] section, shared with the fluid
+
+# the [tube] section, read by fluid and solid alike (each component package stands alone)
+TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0)}
 
 SOLID_SCHEMA = {
     "tube": TUBE_SCHEMA,
-    "E_small": 12500.0,
-    "E_large": 2500.0,
+    "E_small": Positive(12500.0),
+    "E_large": Positive(2500.0),
     "s0": 20.0,
-    "eps0": 2e-3,
+    "eps0": Positive(2e-3),
 }
 
 

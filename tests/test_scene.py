@@ -34,10 +34,10 @@ def test_set_overrides_values_and_records_them(tube_scene_path):
 @pytest.mark.parametrize("override, message", [
     ("coupling.acceleration.inital_relaxation=0.1",
      "unknown key 'coupling.acceleration.inital_relaxation'.*did you mean 'coupling.acceleration.initial_relaxation'"),
-    ("coupling.max_iterations=ten", "'coupling.max_iterations' must be int"),
+    ("coupling.max_iterations=ten", "'coupling.max_iterations' must be an integer"),
     ("coupling.scheme=jacobi", "'coupling.scheme' is 'jacobi'; allowed: serial-explicit"),
     ("coupling.participants=[\"fluid\", \"soild\"]", "'coupling.participants.1' is 'soild', not a component"),
-    ("time.dt=-0.1", "'time.dt' must be positive"),
+    ("time.dt=-0.1", r"'time.dt' is -0.1; allowed: a number > 0"),
     ("coupling.convergence.0.data=presure", "'coupling.convergence.0.data' is 'presure', not exchanged data"),
     ("exchange.0.mapping=magic", "'exchange.0.mapping' is 'magic'"),
     ("components.solid.entyr=x", "unknown key 'components.solid.entyr'.*did you mean 'components.solid.entry'"),

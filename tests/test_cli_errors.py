@@ -1,0 +1,84 @@
+"""Bad input on the command line: one line naming what is wrong, exit code 2, no traceback."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from cosim.cli import main
+
+from tests.conftest import ROOT, TUBE_SCENE
+
+
+def one_line_error(capsys, argv: list[str]) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert "\n" not in err and "Traceback" not in err, err
+    return err
+
+
+@pytest.mark.parametrize("override, message", [
+    ("components.solid=5", r"'components.solid' must be a table, got int 5"),
+    ("coupling.convergence.x=1", r"'x' is not an index of 'coupling.convergence' \(a list of 2 entries: 0 to 1\)"),
+    ("coupling.convergence.9=1", r"'9' is not an index of 'coupling.convergence'"),
+    ("time.dt=nan", r"'time.dt' must be a finite number, got nan"),
+    ("time.end=inf", r"'time.end' must be a finite number, got inf"),
+    ("time.dt=1e-300", r"'time.dt' = 1e-300 makes 1e\+300 windows .*at most 10,000,000"),
+    ("coupling.acceleration.initial_relaxation=-1", r"'coupling.acceleration.initial_relaxation' is -1.0; allowed: \(0, 1\]"),
+    ("coupling.acceleration.max_used_iterations=-3", r"'coupling.acceleration.max_used_iterations' is -3; allowed: an integer >= 1"),
+    ("coupling.acceleration.reused_time_windows=-1", r"reused_time_windows' is -1; allowed: an integer >= 0"),
+    ("components.solid.timeout=0", r"'components.solid.timeout' is 0.0; allowed: a number > 0"),
+    ("coupling.acceleration.filter_limit=-1", r"'coupling.acceleration.filter_limit' is -1.0; allowed: \(0, 1\)"),
+    ("coupling.convergence.0.limit=0", r"'coupling.convergence.0.limit' is 0.0; allowed: a number > 0"),
+    ('coupling.acceleration.data=["pressure"]', r"'coupling.acceleration.data.0' is 'pressure', but serial-implicit "
+                                                r"accelerates the data the second participant 'solid' sends: section"),
+    ('coupling.acceleration.data=["section", "section"]', r"'coupling.acceleration.data.1' repeats 'section'"),
+    ('coupling.acceleration.data=["stress"]', r"'coupling.acceleration.data.0' is 'stress', not exchanged data"),
+    ("coupling=5", r"'coupling' must be a table"),
+    ("components.solid.sections=[1]", r"'components.solid.sections.0' must be a string, got 1"),
+    ("tube.a0=-1", r"component 'fluid': 'instantiate' failed: SceneError: 'tube.a0' is -1.0; allowed: a number > 0"),
+    ("tube.cells=0", r"component 'fluid': 'instantiate' failed: SceneError: 'tube.cells' is 0; allowed: \[2, 10,000,000\]"),
+])
+def test_bad_scene_values_are_one_line_errors(capsys, tmp_path, override, message):
+    err = one_line_error(capsys, ["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet",
+                                  "--set", "time.end=1", "--set", override])
+    assert err.startswith("cosim run: error: ")
+    assert __import__("re").search(message, err), err
+
+
+def test_export_fmu_of_a_text_file(capsys, tmp_path):
+    text = tmp_path / "model.npz"
+    text.write_text("not a model")
+    err = one_line_error(capsys, ["export-fmu", str(text), "--out", str(tmp_path / "rom.fmu")])
+    assert "is not a valid .npz (not a zip archive)" in err
+
+
+def test_train_of_a_non_hdf5_file(capsys, tmp_path):
+    text = tmp_path / "results.h5"
+    text.write_text("not results")
+    err = one_line_error(capsys, ["train", str(text), "--out", str(tmp_path / "m.npz")])
+    assert "is not an HDF5 results file" in err
+
+
+def test_serve_refuses_an_unknown_transport(capsys):
+    err = one_line_error(capsys, ["serve", "solid_component.tube:TubeSolid", "--bind", "TCP://127.0.0.1:5555"])
+    assert "bind address 'TCP://127.0.0.1:5555' is not of the form tcp://HOST:PORT" in err
+
+
+def test_serve_on_a_port_in_use(capsys):
+    import zmq
+    socket = zmq.Context.instance().socket(zmq.ROUTER)
+    port = socket.bind_to_random_port("tcp://127.0.0.1")
+    try:
+        done = subprocess.run([sys.executable, "-m", "cosim", "serve", "solid_component.tube:TubeSolid",
+                               "--bind", f"tcp://127.0.0.1:{port}"], cwd=ROOT, capture_output=True, text=True,
+                              timeout=60)
+    finally:
+        socket.close(linger=0)
+    assert done.returncode == 2
+    assert done.stderr.strip().startswith(f"cosim serve: error: cannot bind 'tcp://127.0.0.1:{port}': "
+                                          "Address already in use")
+    assert "\n" not in done.stderr.strip()
