@@ -13,8 +13,9 @@ def _run(args: argparse.Namespace) -> int:
     from cosim.scene import load_scene
 
     scene = load_scene(args.scene, args.set or [])
-    summary = run_scene(scene, args.out, progress=not args.quiet)
-    print(f"{summary.windows} windows, {summary.iterations} coupling iterations "
+    summary = run_scene(scene, args.out, progress=not args.quiet, overwrite=args.overwrite)
+    unconverged = f" ({summary.unconverged} did not converge)" if summary.unconverged else ""
+    print(f"{summary.windows} windows{unconverged}, {summary.iterations} coupling iterations "
           f"(mean {summary.mean_iterations:.3f} per window), wall {summary.wall_seconds:.2f} s; "
           f"results in {summary.out_dir / 'results.h5'}")
     return 0
@@ -65,6 +66,8 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
     run.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace a finished run in --out (never one in progress)")
     run.set_defaults(func=_run)
     train = sub.add_parser("train", help="train a solid ROM from the snapshots of a run")
     train.add_argument("results", help="results.h5 of a run that recorded the solid")

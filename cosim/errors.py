@@ -1,10 +1,20 @@
-"""Typed errors of the runtime; each names where the problem is."""
+"""Typed errors of the runtime; each names where the problem is.
+
+An error raised while a time window is being computed carries the window, its time and
+the coupling iteration (``where``), set by the run driver.
+"""
 
 from __future__ import annotations
 
 
 class CosimError(Exception):
     """Base class of every error raised by the runtime."""
+
+    where: str = ""
+
+    def __str__(self) -> str:
+        message = super().__str__()
+        return f"{self.where}: {message}" if self.where else message
 
 
 class SceneError(CosimError):
@@ -19,9 +29,14 @@ class ComponentError(CosimError):
     """A component reported an error, or broke its contract."""
 
     def __init__(self, component: str, message: str, kind: str = "ComponentError"):
-        super().__init__(f"component '{component}': {message}")
+        super().__init__(message)
         self.component = component
+        self.detail = message
         self.kind = kind
+
+    def __str__(self) -> str:
+        where = f" in {self.where}" if self.where else ""
+        return f"component '{self.component}'{where}: {self.detail}"
 
 
 class ComponentDied(ComponentError):
@@ -45,5 +60,20 @@ class ComponentTimeout(ComponentError):
         self.seconds = seconds
 
 
+class NonFiniteOutput(ComponentError):
+    """A component returned NaN or Inf."""
+
+    def __init__(self, component: str, variable: str, values) -> None:
+        import numpy as np
+        bad = np.flatnonzero(~np.isfinite(values))
+        super().__init__(component, f"output '{variable}' is not finite: {values[bad[0]]} at index {bad[0]} "
+                                    f"({len(bad)} of {values.size} values)", kind="NonFiniteOutput")
+        self.variable = variable
+
+
 class ConvergenceError(CosimError):
     """The coupling iterations of a time window did not converge."""
+
+
+class DivergenceError(ConvergenceError):
+    """The coupling residual of a time window grew by orders of magnitude."""

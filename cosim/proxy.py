@@ -17,7 +17,7 @@ import zmq
 
 from cosim import protocol
 from cosim.component import Variable
-from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, ProtocolError
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, NonFiniteOutput, ProtocolError
 from cosim.launcher import ComponentProcess
 
 LIVENESS_SLICE_SECONDS = 0.05
@@ -34,6 +34,7 @@ class ComponentProxy:
         self.timeout = timeout
         self._socket = (context or zmq.Context.instance()).socket(zmq.DEALER)
         self._socket.setsockopt(zmq.LINGER, 0)
+        self._socket.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
         self._socket.connect(endpoint)
         self._ids = itertools.count(1)
         self._pending: tuple[int, str] | None = None
@@ -79,8 +80,9 @@ class ComponentProxy:
             raise ComponentError(self.name, f"reply id {header.get('id')} does not match request {request_id}")
         if not header.get("ok"):
             error = header.get("error") or {}
-            raise ComponentError(self.name, f"'{op}' failed: {error.get('type', 'Error')}: {error.get('message', '')}",
-                                 kind=error.get("type", "ComponentError"))
+            kind = error.get("type", "ComponentError")
+            shown = "" if kind == "ComponentError" else f"{kind}: "
+            raise ComponentError(self.name, f"'{op}' failed: {shown}{error.get('message', '')}", kind=kind)
         compute = float(header.get("compute_seconds", 0.0))
         if op == "step":
             self.compute_seconds.append(compute)
@@ -162,7 +164,7 @@ class ComponentProxy:
 
     # --- checks -------------------------------------------------------------
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Outputs as declared by ``describe``; a wrong name or length is an error naming both shapes."""
+        """Outputs as declared by ``describe``; a wrong name or length (naming both shapes), NaN or Inf is an error."""
         for name, value in arrays.items():
             variable = self.variables.get(name)
             if variable is None:
@@ -170,4 +172,6 @@ class ComponentProxy:
             if value.shape != (variable.size,):
                 raise ComponentError(self.name, f"output '{name}' has shape {value.shape}, "
                                                 f"but the component declared shape ({variable.size},)")
+            if value.dtype.kind == "f" and not np.isfinite(value).all():
+                raise NonFiniteOutput(self.name, name, value)
         return dict(arrays)

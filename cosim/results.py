@@ -18,6 +18,10 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
+from cosim.errors import CosimError
+
+WINDOW_COLUMNS = {"time": np.float64, "iterations": np.int32, "converged": np.bool_, "wall_seconds": np.float64}
+
 
 def versions() -> dict[str, str]:
     import msgpack
@@ -36,11 +40,18 @@ class ResultsStore:
     def __init__(self, path: str | Path, scene_text: str):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.file = h5py.File(self.path, "w")
+        try:
+            self.file = h5py.File(self.path, "w-")  # never truncate an existing file
+        except FileExistsError:
+            raise CosimError(f"'{self.path}' exists; a run never overwrites another") from None
         self.file.attrs["scene"] = scene_text
         self.file.attrs["versions"] = json.dumps(versions())
         self.file.attrs["host"] = socket.gethostname()
+        self.file.attrs["windows_completed"] = 0
         self._columns: dict[str, _GrowingDataset] = {}
+        for name, dtype in WINDOW_COLUMNS.items():  # present (empty) even if no window finishes
+            self._append(f"windows/{name}", np.zeros(0, dtype=dtype))
+        self.file.flush()
 
     # --- growable datasets ----------------------------------------------------
     def _append(self, name: str, rows: np.ndarray) -> None:

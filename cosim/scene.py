@@ -58,6 +58,7 @@ SCHEMA = {
         "participants": Required(list),
         "max_iterations": Positive(50),
         "on_max_iterations": "fail",
+        "divergence_factor": Value(1e3, low=1.0, low_open=True),  # residual growth in a window that is divergence
         "extrapolation_order": Value(0, low=0, high=2),
         "acceleration": {
             "type": "none",

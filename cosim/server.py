@@ -23,7 +23,7 @@ import zmq
 
 from cosim import protocol
 from cosim.component import Component
-from cosim.errors import CosimError, ProtocolError
+from cosim.errors import ComponentError, CosimError, ProtocolError
 
 PARENT_CHECK_SECONDS = 0.5
 
@@ -114,7 +114,8 @@ class ComponentServer:
             if not isinstance(exc, (CosimError, KeyError, ValueError, TypeError)):
                 traceback.print_exc(file=sys.stderr)
             kind = type(exc).__name__
-            message = f"missing argument {exc}" if isinstance(exc, KeyError) else str(exc)
+            message = f"missing argument {exc}" if isinstance(exc, KeyError) else \
+                exc.detail if isinstance(exc, ComponentError) else str(exc)
             return protocol.error_reply(request_id, kind, message, self.component.name), False
         values, out_arrays = {}, {}
         if isinstance(result, dict):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import socket
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +27,7 @@ from cosim.errors import ComponentError, CosimError, SceneError
 from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
 from cosim.results import ResultsStore
+from cosim.rundir import RunDirectory
 from cosim.scene import Scene
 
 
@@ -35,6 +37,7 @@ class RunSummary:
     windows: int
     iterations: int
     wall_seconds: float
+    unconverged: int = 0
 
     @property
     def mean_iterations(self) -> float:
@@ -128,25 +131,38 @@ def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedu
     scheme_class = SCHEMES[coupling["scheme"]]
     scheme = scheme_class(participants, exchanges, measures, None, coupling["acceleration"]["data"],
                           coupling["max_iterations"], coupling["on_max_iterations"],
-                          coupling["extrapolation_order"], recorders)
+                          coupling["extrapolation_order"], recorders, coupling["divergence_factor"])
     scheme.initialize()
     scheme.acceleration = make_acceleration(coupling["acceleration"], scheme.block_sizes(scheme.accelerated))
     return scheme
 
 
-def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True) -> RunSummary:
-    """Run ``scene`` and write ``out_dir/results.h5`` (and a plot)."""
+def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:
+    """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     start, end, dt = scene["time"]["start"], scene["time"]["end"], scene["time"]["dt"]
     n_windows = int(math.floor((end - start) / dt + 0.5))
     if abs(start + n_windows * dt - end) > 1e-9 * max(1.0, abs(end)):
         raise SceneError(f"{scene.source}: time.end - time.start = {end - start:g} is not a multiple of time.dt = {dt:g}")
+    with RunDirectory(out_dir, overwrite) as directory:
+        summary = _run(scene, directory, start, dt, n_windows, progress)
+    from cosim.plots import plot_run
+    plot_run(out_dir / "results.h5", out_dir / "run.png", scene["output"])
+    return summary
+
+
+def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windows: int,
+         progress: bool) -> RunSummary:
+    out_dir = directory.path
     store = ResultsStore(out_dir / "results.h5", scene.text)
     store.set_attributes("/", scene_resolved=json.dumps(scene.data))
     wall_start = time.perf_counter()
-    windows = iterations = 0
+    windows = iterations = unconverged = 0
+    state = "failed"
+    directory.status("starting", force=True, windows_total=n_windows, windows_completed=0)
     backends = plan_backends(scene)
+    scheme = None
+    phase = "start-up"   # where an error that is not inside a window happened
     try:
         with Launcher(out_dir / "logs") as launcher:
             try:
@@ -157,12 +173,13 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True) -> RunSu
                     store.set_attributes(f"components/{b.name}", participant=b.participant, kind=b.kind,
                                          start_time=b.start_time)
                     b.proxy.instantiate(b.parameters)
-                    b.proxy.enter_initialization_mode(start, end)
+                    b.proxy.enter_initialization_mode(start, start + n_windows * dt)
                     b.proxy.exit_initialization_mode()
                 recorders = {n: CallRecorder() for n, s in scene["components"].items() if s["record"]}
                 scheme = build_scheme(scene, participants_of(backends), recorders)
                 store.write_arrays("initial", scheme.values)
                 bar = _progress(n_windows, progress)
+                phase = ""
                 try:
                     for window in range(n_windows):
                         t = start + window * dt
@@ -174,26 +191,49 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True) -> RunSu
                             {n: r.take() for n, r in recorders.items()})
                         windows += 1
                         iterations += result.iterations
+                        if not result.converged and result.message:
+                            unconverged += 1
+                            _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar)
+                        directory.status("running", windows_total=n_windows, windows_completed=windows,
+                                         time=result.time)
                         if bar is not None:
                             bar.update(1)
                             bar.set_postfix_str(_status(result, iterations / windows), refresh=False)
                 finally:
                     if bar is not None:
                         bar.close()
+                phase = "terminate"
                 for b in backends:
                     final = b.proxy.terminate()
                     if final:
                         store.write_arrays(f"components/{b.name}/final", final)
+                state = "finished"
+            except CosimError as exc:
+                if not exc.where:
+                    exc.where = phase or scheme.position()
+                directory.status("failed", force=True, windows_total=n_windows, windows_completed=windows,
+                                 error=str(exc))
+                raise
+            except (KeyboardInterrupt, SystemExit):
+                directory.status("interrupted", force=True, windows_total=n_windows, windows_completed=windows)
+                raise
             finally:
                 _shutdown([b.proxy for b in backends if b.proxy is not None])
     finally:
         wall = time.perf_counter() - wall_start
-        store.set_attributes("/", wall_seconds=wall, windows_completed=windows)
+        store.set_attributes("/", wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged)
         store.close()
-    summary = RunSummary(out_dir, windows, iterations, wall)
-    from cosim.plots import plot_run
-    plot_run(out_dir / "results.h5", out_dir / "run.png", scene["output"])
-    return summary
+        if state == "finished":
+            directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,
+                             windows_unconverged=unconverged, wall_seconds=wall)
+    return RunSummary(out_dir, windows, iterations, wall, unconverged)
+
+
+def _warn(message: str, bar) -> None:
+    if bar is not None:
+        bar.write(message, file=sys.stderr)
+    else:
+        print(message, file=sys.stderr)
 
 
 def _take_timings(proxy: ComponentProxy) -> tuple[list[float], list[float]]:

@@ -9,7 +9,6 @@ when sent. In implicit schemes stateful participants are rolled back with
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
@@ -20,7 +19,7 @@ from coupler.convergence import ConvergenceMeasure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
-from cosim.errors import ConvergenceError, SceneError
+from cosim.errors import ConvergenceError, DivergenceError, SceneError
 from cosim.proxy import ComponentProxy
 
 
@@ -40,6 +39,7 @@ class WindowResult:
     iterations: int
     converged: bool
     measures: dict[str, float] = field(default_factory=dict)
+    message: str = ""   # why an accepted window did not converge
 
 
 class CouplingScheme:
@@ -50,7 +50,8 @@ class CouplingScheme:
     def __init__(self, participants: Sequence[ComponentProxy], exchanges: Sequence[Exchange],
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
                  accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
-                 extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None):
+                 extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None,
+                 divergence_factor: float = 1e3):
         self.first, self.second = participants
         self.exchanges = list(exchanges)
         self.measures = list(measures)
@@ -60,7 +61,11 @@ class CouplingScheme:
         self.on_max_iterations = on_max_iterations
         self.recorders = dict(recorders or {})
         self.values: dict[str, np.ndarray] = {}
+        self.divergence_factor = divergence_factor
         self.window = 0
+        self.iteration = 0
+        self.t = self.dt = 0.0
+        self._residuals: list[float] = []   # ||H(x) - x|| of the accelerated data, per iteration
         self._extrapolation = Extrapolation(extrapolation_order)
         self._state: dict[str, int] = {}
 
@@ -136,6 +141,28 @@ class CouplingScheme:
     def _restore(self, proxy: ComponentProxy, iteration: int) -> int | None:
         return self._state.get(proxy.name) if iteration > 1 else None
 
+    def position(self) -> str:
+        """Where the scheme is: window, its time interval and the iteration (for messages)."""
+        return f"window {self.window} (t = {self.t:g} to {self.t + self.dt:g}), iteration {self.iteration}"
+
+    def _begin(self, t: float, dt: float) -> None:
+        self.window += 1
+        self.t, self.dt = t, dt
+        self.iteration = 0
+        self._residuals = []
+
+    def _observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
+        """Hand one iterate to the acceleration and keep its residual norm."""
+        self._residuals.append(float(np.linalg.norm(x_tilde - x)))
+        self.acceleration.observe(x, x_tilde)
+
+    def _next_iterate(self, accelerated: Sequence[str]) -> dict[str, np.ndarray]:
+        proposal = self.acceleration.next_iterate()
+        if not np.isfinite(proposal).all():
+            raise DivergenceError(f"{self.position()}: the acceleration produced non-finite values "
+                                  f"(residual norms of this window: {', '.join(f'{r:.3e}' for r in self._residuals)})")
+        return self._split(proposal, accelerated)
+
     def _begin_implicit_window(self) -> dict[str, np.ndarray]:
         """Save states, reset acceleration and measures; the first iterate's data values."""
         self._save_states()
@@ -152,18 +179,22 @@ class CouplingScheme:
         return self._finish(t, iterations, converged)
 
     def _finish(self, t: float, iterations: int, converged: bool) -> WindowResult:
+        message = ""
         if converged:
             for recorder in self.recorders.values():
                 recorder.mark_converged(iterations)
         elif self.implicit:
-            message = f"window {self.window} (t = {t:g}) did not converge in {iterations} iterations: " + \
-                ", ".join(f"{m.data} {m.kind} {m.value:.3e} (limit {m.limit:g})" for m in self.measures)
+            measures = ", ".join(f"{m.data} {m.kind} {m.value:.3e} (limit {m.limit:g})" for m in self.measures)
+            first, last = (self._residuals[0], self._residuals[-1]) if self._residuals else (0.0, 0.0)
+            if last > self.divergence_factor * first:
+                raise DivergenceError(f"window {self.window} (t = {t:g}) diverged: the coupling residual grew from "
+                                      f"{first:.3e} to {last:.3e} in {iterations} iterations ({measures})")
+            message = f"window {self.window} (t = {t:g}) did not converge in {iterations} iterations: {measures}"
             if self.on_max_iterations == "fail":
                 raise ConvergenceError(message)
-            warnings.warn(message, stacklevel=2)
         if self.accelerated:
             self._extrapolation.store(self._stack(self.values, self.accelerated))
-        return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures})
+        return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message)
 
     def advance(self, t: float, dt: float) -> WindowResult:
         raise NotImplementedError
@@ -175,7 +206,8 @@ class SerialExplicit(CouplingScheme):
     implicit = False
 
     def advance(self, t: float, dt: float) -> WindowResult:
-        self.window += 1
+        self._begin(t, dt)
+        self.iteration = 1
         for proxy in (self.first, self.second):
             inputs = self.inputs_for(proxy, self.values)
             outputs = proxy.step(t, dt, inputs)
@@ -191,12 +223,13 @@ class SerialImplicit(CouplingScheme):
         return self.sent_by(self.second)
 
     def advance(self, t: float, dt: float) -> WindowResult:
-        self.window += 1
+        self._begin(t, dt)
         forward, feedback = self.sent_by(self.first), self.sent_by(self.second)
         accelerated = self.accelerated
         values = self._begin_implicit_window()
         converged = False
         for iteration in range(1, self.max_iterations + 1):
+            self.iteration = iteration
             inputs_first = self.inputs_for(self.first, values)
             out_first = self.first.step(t, dt, inputs_first, restore=self._restore(self.first, iteration))
             self._record(self.first, iteration, inputs_first, out_first)
@@ -207,11 +240,11 @@ class SerialImplicit(CouplingScheme):
                              for m in self.measures])
             values.update({k: out_first[k] for k in forward})
             x = self._stack(values, accelerated)
-            self.acceleration.observe(x, self._stack(out_second, accelerated))
+            self._observe(x, self._stack(out_second, accelerated))
             values.update({k: out_second[k] for k in feedback})
             if converged or iteration == self.max_iterations:
                 break
-            values.update(self._split(self.acceleration.next_iterate(), accelerated))
+            values.update(self._next_iterate(accelerated))
         return self._end_implicit_window(values, t + dt, iteration, converged)
 
 
@@ -222,13 +255,14 @@ class ParallelImplicit(CouplingScheme):
         return [e.data for e in self.exchanges]
 
     def advance(self, t: float, dt: float) -> WindowResult:
-        self.window += 1
+        self._begin(t, dt)
         names = [e.data for e in self.exchanges]
         accelerated = self.accelerated
         values = self._begin_implicit_window()
         converged = False
         proxies = (self.first, self.second)
         for iteration in range(1, self.max_iterations + 1):
+            self.iteration = iteration
             inputs = {p.name: self.inputs_for(p, values) for p in proxies}
             for p in proxies:
                 p.send_step(t, dt, inputs[p.name], restore=self._restore(p, iteration))
@@ -238,11 +272,11 @@ class ParallelImplicit(CouplingScheme):
                 self._record(p, iteration, inputs[p.name], {k: outputs[k] for k in p.output_names()})
             new = {k: outputs[k] for k in names}
             converged = all([m.measure(values[m.data], new[m.data]) for m in self.measures])
-            self.acceleration.observe(self._stack(values, accelerated), self._stack(new, accelerated))
+            self._observe(self._stack(values, accelerated), self._stack(new, accelerated))
             values.update(new)
             if converged or iteration == self.max_iterations:
                 break
-            values.update(self._split(self.acceleration.next_iterate(), accelerated))
+            values.update(self._next_iterate(accelerated))
         return self._end_implicit_window(values, t + dt, iteration, converged)
 
 

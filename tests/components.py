@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import time
+
+import numpy as np
 
 
 from solid_component.tube import TubeSolid
@@ -32,3 +35,23 @@ class CrashingSolid(TubeSolid):
             import os
             os._exit(7)
         super().do_step(t, dt)
+
+
+class NanSolid(TubeSolid):
+    """Returns NaN at node 5 from its window that starts at t = 0.2 on."""
+
+    def do_step(self, t, dt):
+        super().do_step(t, dt)
+        if t >= 0.2 - 1e-12:
+            self.section = self.section.copy()
+            self.section[5] = float("nan")
+
+
+class DivergingSolid(TubeSolid):
+    """Within a window, the k-th call returns a0 (1 + 1e-3 10^k): a residual growing tenfold per iteration."""
+
+    def do_step(self, t, dt):
+        if t != getattr(self, "_t", None):
+            self._t, self._calls = t, 0
+        self._calls += 1
+        self.section = np.full(self.n, math.pi * self.r0 ** 2 * (1.0 + 1e-3 * 10.0 ** self._calls))

@@ -1,13 +1,36 @@
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
+from typing import Callable, TypeVar
 
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 TUBE_SCENE = ROOT / "scenes" / "tube_fom.toml"
 REFERENCE = ROOT / "scenes" / "inlet"  # copies of shared/reference/tube-inlet-mu*.csv
+
+
+T = TypeVar("T")
+
+
+def wait_for(condition: Callable[[], T], what: str, timeout: float = 60.0, poll: float = 0.05) -> T:
+    """Poll ``condition`` until it returns something truthy; fail naming ``what`` after ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout:g} s waiting for {what}")
+        time.sleep(poll)
+
+
+def windows_done(out_dir: Path) -> int:
+    """Windows finished so far by the run writing ``out_dir`` (from its status file)."""
+    from cosim.rundir import read_status
+    return int(read_status(out_dir).get("windows_completed", 0))
 
 
 @pytest.fixture

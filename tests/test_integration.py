@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -16,7 +17,7 @@ from coupler.run import run_scene
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout
 from cosim.scene import load_scene
 
-from tests.conftest import ROOT, TUBE_SCENE, alive_with, children_of, cmdline
+from tests.conftest import ROOT, TUBE_SCENE, alive_with, children_of, cmdline, wait_for, windows_done
 
 
 def run(tmp_path, *overrides, name="run"):
@@ -73,13 +74,9 @@ def test_killed_solid_stops_the_run_and_keeps_finished_windows(tmp_path):
     process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet"],
                                cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 30
-        solid = []
-        while not solid and time.monotonic() < deadline:
-            time.sleep(0.2)
-            solid = [pid for pid in children_of(process.pid) if "--name solid" in cmdline(pid)]
-        assert solid, "the solid process did not start"
-        time.sleep(1.5)  # let some windows finish
+        solid = wait_for(lambda: [pid for pid in children_of(process.pid) if "--name solid" in cmdline(pid)],
+                         "the solid process to start")
+        wait_for(lambda: windows_done(out) >= 5, "five finished windows")
         os.kill(solid[0], signal.SIGKILL)
         killed_at = time.monotonic()
         _, stderr = process.communicate(timeout=10)
@@ -89,7 +86,8 @@ def test_killed_solid_stops_the_run_and_keeps_finished_windows(tmp_path):
             process.kill()
     assert process.returncode == 2
     assert stopped_after < 5.0
-    assert "component 'solid'" in stderr and "exited with code -9" in stderr
+    assert re.search(r"component 'solid' in window \d+ \(t = [\d.]+ to [\d.]+\), iteration \d+: "
+                     r"process exited with code -9", stderr), stderr
     assert alive_with(f"--parent-pid {process.pid}") == []
     with h5py.File(out / "results.h5") as f:
         windows = len(f["windows/time"])
@@ -100,7 +98,8 @@ def test_killed_solid_stops_the_run_and_keeps_finished_windows(tmp_path):
 
 
 def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path):
-    with pytest.raises(ComponentDied, match=r"component 'solid': process exited with code 7") as error:
+    with pytest.raises(ComponentDied, match=r"component 'solid' in window 4 \(t = 0.3 to 0.4\), iteration 1: "
+                                            r"process exited with code 7") as error:
         run(tmp_path, "time.end=1", "components.solid.entry=tests.components:CrashingSolid")
     assert error.value.exit_code == 7
     assert children_of(os.getpid()) == []
@@ -110,7 +109,8 @@ def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path):
 
 def test_hanging_component_times_out_and_is_killed(tmp_path):
     started = time.monotonic()
-    with pytest.raises(ComponentTimeout, match=r"component 'solid': no reply to 'step' within 1 s"):
+    with pytest.raises(ComponentTimeout, match=r"component 'solid' in window 3 \(t = 0.2 to 0.3\), iteration 1: "
+                                               r"no reply to 'step' within 1 s"):
         run(tmp_path, "time.end=1", "components.solid.entry=tests.components:HangingSolid",
             "components.solid.timeout=1.0")
     assert time.monotonic() - started < 10
@@ -118,7 +118,8 @@ def test_hanging_component_times_out_and_is_killed(tmp_path):
 
 
 def test_wrong_output_length_names_component_variable_and_shapes(tmp_path):
-    with pytest.raises(ComponentError, match=r"component 'solid': output 'section' has shape \(100,\), "
+    with pytest.raises(ComponentError, match=r"component 'solid' in start-up: "
+                                             r"output 'section' has shape \(100,\), "
                                              r"but the component declared shape \(101,\)"):
         run(tmp_path, "time.end=1", "components.solid.entry=tests.components:WrongLengthSolid")
     assert children_of(os.getpid()) == []
@@ -132,10 +133,8 @@ def test_unknown_component_parameter_is_reported_before_the_run(tmp_path):
 def test_ctrl_c_stops_every_component(tmp_path):
     process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(tmp_path / "c"),
                                 "--quiet"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 30
-    while len(children_of(process.pid)) < 2 and time.monotonic() < deadline:
-        time.sleep(0.2)
-    time.sleep(1.0)
+    wait_for(lambda: len(children_of(process.pid)) >= 2, "both components to start")
+    wait_for(lambda: windows_done(tmp_path / "c") >= 5, "five finished windows")
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=10)
     assert process.returncode == 130, stderr

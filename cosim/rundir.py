@@ -1,0 +1,94 @@
+"""The output directory of one run: held exclusively while the run lives, never overwritten by accident.
+
+A run holds ``DIR/.lock`` with ``flock`` for its whole life (the kernel releases it if the
+process dies), so a second run on the same directory is refused while the first one is in
+progress, with or without ``--overwrite``. A directory that holds a finished or crashed run
+(``results.h5``) is refused too, unless ``overwrite`` is given; then the old run's files are
+removed only once the new run holds the lock. ``status.json`` tells how far the run has come
+(written atomically: a reader never sees half a file).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+from cosim.errors import CosimError
+
+LOCK = ".lock"
+STATUS = "status.json"
+RUN_FILES = ("results.h5", "run.png", STATUS)
+RUN_FOLDERS = ("logs",)
+
+
+class RunDirectoryError(CosimError):
+    """The output directory holds another run."""
+
+
+class RunDirectory:
+    """Context manager holding ``path`` for one run."""
+
+    def __init__(self, path: str | Path, overwrite: bool = False, status_interval: float = 0.5):
+        self.path = Path(path)
+        self.overwrite = overwrite
+        self.status_interval = status_interval
+        self._lock: int | None = None
+        self._last_status = 0.0
+
+    def __enter__(self) -> "RunDirectory":
+        self.path.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise RunDirectoryError(f"'{self.path}' is in use by a run in progress (pid {holder}); "
+                                    "choose another --out") from None
+        if (self.path / "results.h5").exists():
+            if not self.overwrite:
+                os.close(fd)
+                raise RunDirectoryError(f"'{self.path}' already holds a run (results.h5); choose another --out "
+                                        "or pass --overwrite to replace it")
+            self._remove_old_run()
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        self._lock = fd
+        return self
+
+    def __exit__(self, *exc_info: Any) -> None:
+        if self._lock is not None:
+            os.ftruncate(self._lock, 0)
+            fcntl.flock(self._lock, fcntl.LOCK_UN)
+            os.close(self._lock)
+            self._lock = None
+
+    def _remove_old_run(self) -> None:
+        for name in RUN_FILES:
+            (self.path / name).unlink(missing_ok=True)
+        for name in RUN_FOLDERS:
+            shutil.rmtree(self.path / name, ignore_errors=True)
+
+    def status(self, state: str, force: bool = False, **fields: Any) -> None:
+        """Write ``status.json`` (at most every ``status_interval`` seconds unless ``force``)."""
+        now = time.monotonic()
+        if not force and now - self._last_status < self.status_interval:
+            return
+        self._last_status = now
+        document = {"state": state, "pid": os.getpid(), "updated": time.time(), **fields}
+        partial = self.path / f".{STATUS}.{os.getpid()}"
+        partial.write_text(json.dumps(document))
+        os.replace(partial, self.path / STATUS)
+
+
+def read_status(path: str | Path) -> dict[str, Any]:
+    """The last ``status.json`` of the run in ``path`` ({} if there is none yet)."""
+    try:
+        return json.loads((Path(path) / STATUS).read_text())
+    except (OSError, ValueError):
+        return {}

@@ -1,0 +1,109 @@
+"""Faults named where they happen; runs that never overwrite each other; unconverged windows counted."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from coupler.run import run_scene
+from cosim.cli import main
+from cosim.errors import DivergenceError, NonFiniteOutput
+from cosim.rundir import read_status
+from cosim.scene import load_scene
+
+from tests.conftest import ROOT, TUBE_SCENE, children_of, wait_for, windows_done
+
+
+def run(out, *overrides, **kwargs):
+    return run_scene(load_scene(TUBE_SCENE, list(overrides)), out, progress=False, **kwargs)
+
+
+def test_nan_from_the_solid_names_the_solid_variable_window_time_and_iteration(tmp_path):
+    with pytest.raises(NonFiniteOutput) as error:
+        run(tmp_path / "nan", "time.end=1", "components.solid.entry=tests.components:NanSolid")
+    assert str(error.value) == ("component 'solid' in window 3 (t = 0.2 to 0.3), iteration 1: output 'section' "
+                                "is not finite: nan at index 5 (1 of 101 values)")
+    with h5py.File(tmp_path / "nan/results.h5") as f:
+        assert len(f["windows/time"]) == 2
+    assert read_status(tmp_path / "nan")["state"] == "failed"
+
+
+def test_accepted_windows_are_counted(tmp_path, capsys):
+    code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "accept"), "--quiet", "--set", "time.end=1",
+                 "--set", "coupling.max_iterations=2", "--set", "coupling.on_max_iterations=\"accept\""])
+    out, err = capsys.readouterr()
+    assert code == 0
+    with h5py.File(tmp_path / "accept/results.h5") as f:
+        converged = f["windows/converged"][:]
+        unconverged = int((~converged).sum())
+        assert f.attrs["windows_unconverged"] == unconverged > 0
+    assert f"10 windows ({unconverged} did not converge)" in out
+    assert err.count("did not converge in 2 iterations") == unconverged
+
+
+def test_a_growing_residual_stops_an_accepting_run_as_diverged(tmp_path):
+    with pytest.raises(DivergenceError, match=r"window 1 \(t = 0.1\) diverged: the coupling residual grew from "
+                                              r"[\d.e+-]+ to [\d.e+-]+ in 6 iterations"):
+        run(tmp_path / "div", "time.end=1", "components.solid.entry=tests.components:DivergingSolid",
+            "coupling.max_iterations=6", "coupling.on_max_iterations=\"accept\"")
+
+
+def test_newton_stalling_at_round_off_is_not_a_failure(tmp_path):
+    """inlet.h = 24: window 1's Newton iterations stall at a relative residual of 1.2e-10 (tolerance 1e-10)."""
+    summary = run(tmp_path / "h24", "time.end=0.5", "inlet.h=24")
+    assert summary.windows == 5
+
+
+def test_a_finished_run_is_never_overwritten_without_overwrite(tmp_path, capsys):
+    out = tmp_path / "run"
+    run(out, "time.end=0.3")
+    before = (out / "results.h5").read_bytes()
+    code = main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--set", "time.end=0.5"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err
+    assert err == (f"cosim run: error: '{out}' already holds a run (results.h5); choose another --out "
+                   "or pass --overwrite to replace it")
+    assert (out / "results.h5").read_bytes() == before
+    assert main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--overwrite", "--set", "time.end=0.5"]) == 0
+    with h5py.File(out / "results.h5") as f:
+        assert len(f["windows/time"]) == 5
+
+
+@pytest.mark.parametrize("overwrite", [False, True])
+def test_a_run_in_progress_is_never_touched(tmp_path, overwrite):
+    out = tmp_path / "busy"
+    first = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet",
+                              "--set", "time.end=60"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)
+    try:
+        wait_for(lambda: windows_done(out) >= 3, "the first run's third window")
+        second = subprocess.run([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out),
+                                 "--quiet", "--set", "time.end=60"] + (["--overwrite"] if overwrite else []),
+                                cwd=ROOT, capture_output=True, text=True, timeout=60)
+        assert second.returncode == 2
+        assert second.stderr.strip() == (f"cosim run: error: '{out}' is in use by a run in progress "
+                                         f"(pid {first.pid}); choose another --out")
+        assert first.poll() is None
+    finally:
+        first.terminate()
+        first.communicate(timeout=30)
+    with h5py.File(out / "results.h5") as f:      # the first run's file is intact and readable
+        windows = len(f["windows/time"])
+        assert windows >= 3 and f["fields/pressure"].shape == (windows, 101)
+    assert children_of(os.getpid()) == []
+
+
+def test_a_run_with_no_finished_window_has_empty_window_datasets(tmp_path):
+    with pytest.raises(NonFiniteOutput):
+        run(tmp_path / "empty", "time.end=1", "components.solid.entry=tests.components:NanSolid",
+            "time.start=0.2", "time.end=1.2")
+    with h5py.File(tmp_path / "empty/results.h5") as f:
+        for name in ("time", "iterations", "converged", "wall_seconds"):
+            assert f[f"windows/{name}"].shape == (0,)
+        assert f.attrs["windows_completed"] == 0
+    np.testing.assert_equal(read_status(tmp_path / "empty")["windows_completed"], 0)
