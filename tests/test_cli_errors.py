@@ -39,8 +39,8 @@ def one_line_error(capsys, argv: list[str]) -> str:
     ('coupling.acceleration.data=["stress"]', r"'coupling.acceleration.data.0' is 'stress', not exchanged data"),
     ("coupling=5", r"'coupling' must be a table"),
     ("components.solid.sections=[1]", r"'components.solid.sections.0' must be a string, got 1"),
-    ("tube.a0=-1", r"component 'fluid': 'instantiate' failed: SceneError: 'tube.a0' is -1.0; allowed: a number > 0"),
-    ("tube.cells=0", r"component 'fluid': 'instantiate' failed: SceneError: 'tube.cells' is 0; allowed: \[2, 10,000,000\]"),
+    ("tube.a0=-1", r"component 'fluid' in start-up: 'instantiate' failed: SceneError: 'tube.a0' is -1.0; allowed: a number > 0"),
+    ("tube.cells=0", r"component 'fluid' in start-up: 'instantiate' failed: SceneError: 'tube.cells' is 0; allowed: \[2, 10,000,000\]"),
 ])
 def test_bad_scene_values_are_one_line_errors(capsys, tmp_path, override, message):
     err = one_line_error(capsys, ["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet",
