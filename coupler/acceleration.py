@@ -78,7 +78,19 @@ class Aitken(Acceleration):
 
 
 class IQNILS(Acceleration):
-    """Interface quasi-Newton, inverse Jacobian by least squares (IQN-ILS)."""
+    """Interface quasi-Newton, inverse Jacobian by least squares (IQN-ILS), as preCICE does it.
+
+    Columns (V: residual differences, W: differences of H(x)) are kept newest first, per
+    window. ``reused_time_windows = 0`` keeps the previous window's columns for the first
+    update of the next window only (better than a relaxation step), then drops them; ``k > 0``
+    keeps the columns of the last k windows. The total is capped at ``max_used_iterations``
+    (and at the number of unknowns) by deleting the oldest columns for good. Before each solve
+    a column whose part orthogonal to the newer ones is at round-off is dropped, then the
+    filter (QR1: |R_ii| < limit ||R||_F, QR1-absolute: |R_ii| < limit, QR2: |R_ii| < limit ||v_i||)
+    removes nearly dependent columns one at a time, never the only one.
+    """
+
+    ROUNDOFF = 1e3 * np.finfo(float).eps
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, block_sizes: list[int] | None = None) -> None:
@@ -87,12 +99,12 @@ class IQNILS(Acceleration):
             raise ValueError(f"filter {filter!r} not in {FILTERS}")
         self.initial = initial_relaxation
         self.max_columns = max_used_iterations
+        self.reused = reused_time_windows
         self.filter, self.limit = filter, filter_limit
         self.block_sizes = block_sizes
-        self._old_windows: deque[tuple[list, list]] = deque(maxlen=max(reused_time_windows, 0) or None)
-        self._reuse = reused_time_windows > 0
-        self._V: list[np.ndarray] = []  # residual differences of this window, newest first
-        self._W: list[np.ndarray] = []  # differences of H(x), newest first
+        # columns per window, newest window first; each window's columns newest first
+        self._windows: deque[tuple[list[np.ndarray], list[np.ndarray]]] = deque()
+        self._drop_previous = False   # reuse 0: the previous window's columns go after the first update
         self._r_previous: np.ndarray | None = None
         self._xt_previous: np.ndarray | None = None
         self._weights: np.ndarray | None = None
@@ -101,7 +113,8 @@ class IQNILS(Acceleration):
 
     def start_window(self) -> None:
         super().start_window()
-        self._V, self._W = [], []
+        self._windows.appendleft(([], []))
+        self._drop_previous = self.reused == 0 and len(self._windows) > 1
         self._r_previous = self._xt_previous = None
         self._weights = None
 
@@ -111,9 +124,20 @@ class IQNILS(Acceleration):
         if self._weights is None:
             self._weights = self._block_weights(x_tilde)
         if self._r_previous is not None:
-            self._V.insert(0, r - self._r_previous)
-            self._W.insert(0, x_tilde - self._xt_previous)
+            V, W = self._windows[0]
+            V.insert(0, r - self._r_previous)
+            W.insert(0, x_tilde - self._xt_previous)
+            self._cap(min(self.max_columns, x.size))
         self._r_previous, self._xt_previous = r, x_tilde.copy()
+
+    def _cap(self, limit: int) -> None:
+        """Delete the oldest columns beyond ``limit``."""
+        excess = sum(len(V) for V, _ in self._windows) - limit
+        for V, W in reversed(self._windows):
+            while excess > 0 and V:
+                V.pop()
+                W.pop()
+                excess -= 1
 
     def _block_weights(self, x: np.ndarray) -> np.ndarray | None:
         if not self.block_sizes or len(self.block_sizes) < 2:
@@ -128,62 +152,66 @@ class IQNILS(Acceleration):
         return weights
 
     def _columns(self) -> tuple[list[np.ndarray], list[np.ndarray], list[tuple[int, int]]]:
-        """Columns newest first (this window, then older windows) and where each came from."""
-        V, W, origin = list(self._V), list(self._W), [(-1, j) for j in range(len(self._V))]
-        for w, (old_V, old_W) in enumerate(reversed(self._old_windows)):
-            V += old_V
-            W += old_W
-            origin += [(w, j) for j in range(len(old_V))]
-        n = min(self.max_columns, self.x.size)  # more columns than unknowns are dependent
-        return V[:n], W[:n], origin[:n]
+        """All columns newest first, and where each is kept (window, index)."""
+        V, W, origin = [], [], []
+        for w, (window_V, window_W) in enumerate(self._windows):
+            V += window_V
+            W += window_W
+            origin += [(w, j) for j in range(len(window_V))]
+        return V, W, origin
 
     def _remove(self, where: tuple[int, int]) -> None:
         window, j = where
-        if window < 0:
-            del self._V[j], self._W[j]
-        else:
-            old_V, old_W = list(reversed(self._old_windows))[window]
-            del old_V[j], old_W[j]
+        V, W = self._windows[window]
+        del V[j], W[j]
         self.columns_filtered += 1
 
     def next_iterate(self) -> np.ndarray:
         r = self.x_tilde - self.x
-        while True:
+        proposal = None
+        while proposal is None:
             V, W, origin = self._columns()
             if not V:
                 self.columns_used = 0
-                return self.x + self.initial * r
+                proposal = self.x + self.initial * r
+                break
             Vm = np.stack(V, axis=1)
             if self._weights is not None:
                 Vm = Vm * self._weights[:, None]
             Q, R = np.linalg.qr(Vm)
             bad = self._filtered_column(R, Vm)
-            if bad is None:
-                break
-            self._remove(origin[bad])
-        rhs = -(Q.T @ (r if self._weights is None else r * self._weights))
-        c = solve_triangular(R, rhs, check_finite=False)
-        self.columns_used = len(V)
-        return self.x_tilde + np.stack(W, axis=1) @ c
+            if bad is not None:
+                self._remove(origin[bad])
+                continue
+            rhs = -(Q.T @ (r if self._weights is None else r * self._weights))
+            c = solve_triangular(R, rhs, check_finite=False)
+            self.columns_used = len(V)
+            proposal = self.x_tilde + np.stack(W, axis=1) @ c
+        if self._drop_previous:
+            while len(self._windows) > 1:
+                self._windows.pop()
+            self._drop_previous = False
+        return proposal
 
     def _filtered_column(self, R: np.ndarray, Vm: np.ndarray) -> int | None:
-        """Index of the first column the filter removes, or None."""
+        """Index of the first column to remove: at round-off, or (with others left) caught by the filter."""
         diagonal = np.abs(np.diag(R))
-        if self.filter == "qr2":
-            bad = diagonal < self.limit * np.linalg.norm(Vm, axis=0)
-        elif self.filter == "qr1":
-            bad = diagonal < self.limit * np.linalg.norm(R)
-        elif self.filter == "qr1-absolute":
-            bad = diagonal < self.limit
-        else:
-            bad = diagonal == 0.0
+        norms = np.linalg.norm(Vm, axis=0)
+        bad = diagonal <= self.ROUNDOFF * max(float(norms.max()), np.finfo(float).tiny)
+        if len(diagonal) > 1:
+            if self.filter == "qr2":
+                bad |= diagonal < self.limit * norms
+            elif self.filter == "qr1":
+                bad |= diagonal < self.limit * np.linalg.norm(R)
+            elif self.filter == "qr1-absolute":
+                bad |= diagonal < self.limit
         hits = np.flatnonzero(bad)
         return int(hits[0]) if hits.size else None
 
     def end_window(self) -> None:
-        if self._reuse and self._V:
-            self._old_windows.append((self._V, self._W))
-        self._V, self._W = [], []
+        keep = max(self.reused, 1)   # reuse 0 keeps the last window for the next window's first update
+        while len(self._windows) > keep:
+            self._windows.pop()
 
 
 def make_acceleration(settings: dict, block_sizes: list[int]) -> Acceleration:

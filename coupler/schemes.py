@@ -159,8 +159,10 @@ class CouplingScheme:
     def _next_iterate(self, accelerated: Sequence[str]) -> dict[str, np.ndarray]:
         proposal = self.acceleration.next_iterate()
         if not np.isfinite(proposal).all():
-            raise DivergenceError(f"{self.position()}: the acceleration produced non-finite values "
-                                  f"(residual norms of this window: {', '.join(f'{r:.3e}' for r in self._residuals)})")
+            error = DivergenceError(f"the acceleration produced non-finite values (residual norms of this window: "
+                                    f"{', '.join(f'{r:.3e}' for r in self._residuals)})")
+            error.where = self.position()
+            raise error
         return self._split(proposal, accelerated)
 
     def _begin_implicit_window(self) -> dict[str, np.ndarray]:
@@ -186,12 +188,18 @@ class CouplingScheme:
         elif self.implicit:
             measures = ", ".join(f"{m.data} {m.kind} {m.value:.3e} (limit {m.limit:g})" for m in self.measures)
             first, last = (self._residuals[0], self._residuals[-1]) if self._residuals else (0.0, 0.0)
+            where = f"window {self.window} (t = {self.t:g} to {t:g})"
             if last > self.divergence_factor * first:
-                raise DivergenceError(f"window {self.window} (t = {t:g}) diverged: the coupling residual grew from "
-                                      f"{first:.3e} to {last:.3e} in {iterations} iterations ({measures})")
-            message = f"window {self.window} (t = {t:g}) did not converge in {iterations} iterations: {measures}"
-            if self.on_max_iterations == "fail":
-                raise ConvergenceError(message)
+                error = DivergenceError(f"diverged: the coupling residual grew from {first:.3e} to {last:.3e} "
+                                        f"in {iterations} iterations ({measures})")
+            elif self.on_max_iterations == "fail":
+                error = ConvergenceError(f"did not converge in {iterations} iterations: {measures}")
+            else:
+                error = None
+                message = f"{where} did not converge in {iterations} iterations: {measures}"
+            if error is not None:
+                error.where = where
+                raise error
         if self.accelerated:
             self._extrapolation.store(self._stack(self.values, self.accelerated))
         return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message)

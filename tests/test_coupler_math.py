@@ -76,10 +76,77 @@ def test_reused_windows_make_the_next_window_start_with_a_quasi_newton_step():
     # a new window with a new right-hand side: the secant information of the last window still holds
     _, second = iterate(iqn, lambda x: A @ x + 2 * b, np.zeros(n))
     assert second <= 3 < first
-    no_reuse = IQNILS(0.1, max_used_iterations=50, reused_time_windows=0)
-    iterate(no_reuse, lambda x: A @ x + b, np.zeros(n))
-    _, again = iterate(no_reuse, lambda x: A @ x + 2 * b, np.zeros(n))
-    assert again > second
+    fresh = IQNILS(0.1, max_used_iterations=50, reused_time_windows=2, filter="qr2", filter_limit=1e-10)
+    _, without_history = iterate(fresh, lambda x: A @ x + 2 * b, np.zeros(n))
+    assert without_history > second
+
+
+def test_reuse_zero_serves_the_previous_window_to_the_first_update_only():
+    """preCICE's reused_time_windows = 0, checked against updates computed by hand."""
+    iqn = IQNILS(0.5, reused_time_windows=0, filter="qr2", filter_limit=1e-6)
+    iqn.start_window()
+    x0, xt0 = np.array([0.0, 0.0]), np.array([1.0, 2.0])
+    iqn.observe(x0, xt0)
+    np.testing.assert_array_equal(iqn.next_iterate(), x0 + 0.5 * (xt0 - x0))   # no column yet: relaxation
+    x1, xt1 = np.array([0.5, 1.0]), np.array([1.5, 1.0])
+    iqn.observe(x1, xt1)
+    v, w = (xt1 - x1) - (xt0 - x0), xt1 - xt0
+    iqn.next_iterate()
+    iqn.end_window()
+    # next window, first iteration: the previous window's column gives a quasi-Newton step
+    iqn.start_window()
+    y0, yt0 = np.array([1.0, 1.0]), np.array([2.0, 0.0])
+    iqn.observe(y0, yt0)
+    r = yt0 - y0
+    np.testing.assert_allclose(iqn.next_iterate(), yt0 + w * (-(v @ r) / (v @ v)), rtol=1e-14)
+    # second iteration: only this window's column is left
+    y1, yt1 = np.array([1.2, 0.5]), np.array([1.0, 0.7])
+    iqn.observe(y1, yt1)
+    v2, w2, r2 = (yt1 - y1) - (yt0 - y0), yt1 - yt0, yt1 - y1
+    np.testing.assert_allclose(iqn.next_iterate(), yt1 + w2 * (-(v2 @ r2) / (v2 @ v2)), rtol=1e-14)
+    assert iqn.columns_used == 1
+
+
+def two_columns(kind: str) -> IQNILS:
+    """Columns (newest first) v1 = (0, 1e-4, 0) and v2 = (1, 0, 0): orthogonal, of very different size."""
+    iqn = IQNILS(0.5, filter=kind, filter_limit=1e-3)
+    iqn.start_window()
+    x = np.zeros(3)
+    for r in ([0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1e-4, 1.0]):
+        iqn.observe(x, np.array(r))
+    return iqn
+
+
+def test_qr1_and_qr2_filters_differ_on_a_small_independent_column():
+    qr1, qr2 = two_columns("qr1"), two_columns("qr2")
+    step1, step2 = qr1.next_iterate(), qr2.next_iterate()
+    assert (qr1.columns_used, qr1.columns_filtered) == (1, 1)   # |R_11| = 1e-4 < 1e-3 ||R||_F
+    assert (qr2.columns_used, qr2.columns_filtered) == (2, 0)   # orthogonal: |R_11| = ||v_1||
+    assert not np.allclose(step1, step2)
+
+
+@pytest.mark.parametrize("kind", ["qr1", "qr1-absolute", "qr2", "none"])
+def test_zero_and_duplicate_columns_never_break_the_solve(kind):
+    iqn = IQNILS(0.5, filter=kind, filter_limit=1e-3)
+    iqn.start_window()
+    x = np.zeros(2)
+    for xt in ([1.0, 0.0], [1.0, 0.0], [2.0, 1.0], [3.0, 2.0]):   # a zero column, then two equal ones
+        iqn.observe(x, np.array(xt))
+        step = iqn.next_iterate()
+        assert np.isfinite(step).all()
+    assert iqn.columns_used == 1
+
+
+def test_columns_beyond_max_used_iterations_are_deleted_for_good():
+    iqn = IQNILS(0.5, max_used_iterations=2, filter="qr2", filter_limit=1e-3)
+    iqn.start_window()
+    x = np.zeros(4)
+    for xt in np.eye(4):
+        iqn.observe(x, xt)
+    assert sum(len(V) for V, _ in iqn._windows) == 2
+    iqn.observe(x, np.eye(4)[2])    # repeats the newest: a zero column that the filter drops
+    iqn.next_iterate()
+    assert iqn.columns_used == 1    # the deleted older columns do not come back
 
 
 @pytest.mark.parametrize("kind", ["qr1", "qr1-absolute", "qr2"])

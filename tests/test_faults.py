@@ -47,7 +47,7 @@ def test_accepted_windows_are_counted(tmp_path, capsys):
 
 
 def test_a_growing_residual_stops_an_accepting_run_as_diverged(tmp_path):
-    with pytest.raises(DivergenceError, match=r"window 1 \(t = 0.1\) diverged: the coupling residual grew from "
+    with pytest.raises(DivergenceError, match=r"window 1 \(t = 0 to 0.1\): diverged: the coupling residual grew from "
                                               r"[\d.e+-]+ to [\d.e+-]+ in 6 iterations"):
         run(tmp_path / "div", "time.end=1", "components.solid.entry=tests.components:DivergingSolid",
             "coupling.max_iterations=6", "coupling.on_max_iterations=\"accept\"")
@@ -107,3 +107,12 @@ def test_a_run_with_no_finished_window_has_empty_window_datasets(tmp_path):
             assert f[f"windows/{name}"].shape == (0,)
         assert f.attrs["windows_completed"] == 0
     np.testing.assert_equal(read_status(tmp_path / "empty")["windows_completed"], 0)
+
+
+def test_an_unreachable_tolerance_stops_with_a_convergence_error_not_a_crash(tmp_path):
+    """Limits of 1e-16 make IQN-ILS meet exactly repeated and zero columns; they are filtered, never solved."""
+    from cosim.errors import ConvergenceError
+    with pytest.raises(ConvergenceError, match=r"^window \d+ \(t = [\d.]+ to [\d.]+\): did not converge in 90 "
+                                               r"iterations: pressure relative"):
+        run(tmp_path / "tight", "coupling.convergence.0.limit=1e-16", "coupling.convergence.1.limit=1e-16",
+            "time.end=5")
