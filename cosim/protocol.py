@@ -9,6 +9,7 @@ before use and raises ``ProtocolError`` naming what was wrong.
 
 from __future__ import annotations
 
+import math
 from typing import Any, Mapping, Sequence
 
 import msgpack
@@ -67,8 +68,10 @@ def decode(frames: Sequence[Any], *, max_bytes: int = MAX_MESSAGE_BYTES) -> tupl
         raise ProtocolError(f"header declares {len(specs)} arrays but {len(views) - 1} data frames arrived")
     arrays: dict[str, np.ndarray] = {}
     for spec, view in zip(specs, views[1:]):
-        arrays_name, array = _array_from(spec, view)
-        arrays[arrays_name] = array
+        array_name, array = _array_from(spec, view)
+        if array_name in arrays:
+            raise ProtocolError(f"array '{array_name}' appears twice in one message")
+        arrays[array_name] = array
     return header, arrays
 
 
@@ -81,13 +84,20 @@ def _array_from(spec: Any, view: memoryview) -> tuple[str, np.ndarray]:
         raise ProtocolError(f"array '{name}': dtype {dtype!r} is not allowed (allowed: {sorted(DTYPES)})")
     if not isinstance(shape, list) or not all(isinstance(n, int) and n >= 0 for n in shape):
         raise ProtocolError(f"array '{name}': shape {shape!r} is not a list of non-negative integers")
-    itemsize = np.dtype(dtype).itemsize
-    expected = int(np.prod(shape, dtype=np.int64)) * itemsize
+    expected = math.prod(shape) * np.dtype(dtype).itemsize   # Python integers: no overflow
     if expected != view.nbytes:
         raise ProtocolError(
             f"array '{name}': shape {tuple(shape)} of {dtype} needs {expected} bytes but its frame has {view.nbytes}")
     array = np.frombuffer(view, dtype=dtype).reshape(shape) if expected else np.empty(shape, dtype)
     return name, array
+
+
+def number(args: Mapping[str, Any], key: str) -> float:
+    """The finite real number ``args[key]`` of a request."""
+    value = args.get(key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ProtocolError(f"argument '{key}' must be a finite number, got {value!r}")
+    return float(value)
 
 
 def error_reply(request_id: Any, kind: str, message: str, component: str) -> list:

@@ -66,6 +66,19 @@ def check_bind_address(address: str) -> None:
                          "(a non-loopback address needs CURVE keys, which this build does not set up)")
 
 
+def bind_socket(bind: str, max_bytes: int = protocol.MAX_MESSAGE_BYTES) -> zmq.Socket:
+    """A ROUTER bound to ``bind`` that drops any frame over ``max_bytes`` before allocating it."""
+    socket = zmq.Context.instance().socket(zmq.ROUTER)
+    socket.setsockopt(zmq.LINGER, 1000)
+    socket.setsockopt(zmq.MAXMSGSIZE, max_bytes)
+    try:
+        socket.bind(bind)
+    except zmq.ZMQError as exc:
+        socket.close()
+        raise CosimError(f"cannot bind '{bind}': {exc}") from None
+    return socket
+
+
 class ComponentServer:
     """Dispatches decoded requests to a component instance."""
 
@@ -75,11 +88,12 @@ class ComponentServer:
         self.handlers: dict[str, Callable[[dict, dict], Any]] = {
             "describe": lambda a, arr: c.describe(),
             "instantiate": lambda a, arr: c.instantiate(a.get("parameters", {})),
-            "enter_initialization_mode": lambda a, arr: c.enter_initialization_mode(a["start"], a["stop"]),
+            "enter_initialization_mode": lambda a, arr: c.enter_initialization_mode(protocol.number(a, "start"),
+                                                                                    protocol.number(a, "stop")),
             "exit_initialization_mode": lambda a, arr: c.exit_initialization_mode(),
             "set_values": lambda a, arr: c.set_values(arr),
             "get_values": lambda a, arr: c.get_values(a["names"]),
-            "do_step": lambda a, arr: c.do_step(a["t"], a["dt"]),
+            "do_step": lambda a, arr: c.do_step(protocol.number(a, "t"), protocol.number(a, "dt")),
             "step": self._step,
             "get_state": lambda a, arr: {"handle": c.get_state()},
             "set_state": lambda a, arr: c.set_state(a["handle"]),
@@ -93,7 +107,7 @@ class ComponentServer:
         restore = args.get("restore")
         if restore is not None:
             self.component.set_state(restore)
-        return self.component.step(args["t"], args["dt"], arrays)
+        return self.component.step(protocol.number(args, "t"), protocol.number(args, "dt"), arrays)
 
     def handle(self, frames: list) -> tuple[list, bool]:
         """Reply frames for one request, and whether to stop serving."""
@@ -132,15 +146,7 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
     if name:
         component.name = name
     server = ComponentServer(component)
-    context = zmq.Context.instance()
-    socket = context.socket(zmq.ROUTER)
-    socket.setsockopt(zmq.LINGER, 1000)
-    socket.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
-    try:
-        socket.bind(bind)
-    except zmq.ZMQError as exc:
-        socket.close()
-        raise CosimError(f"cannot bind '{bind}': {exc}") from None
+    socket = bind_socket(bind)
     endpoint = socket.getsockopt_string(zmq.LAST_ENDPOINT)
     sys.stdout.write(json.dumps({"endpoint": endpoint, "pid": os.getpid(), "name": component.name}) + "\n")
     sys.stdout.flush()

@@ -80,3 +80,52 @@ def test_server_answers_malformed_requests_with_errors():
     assert header["ok"] is False
     assert "input 'pressure' has shape (100,), expected (101,)" in header["error"]["message"]
     assert header["error"]["component"] == "solid"
+
+
+def test_shape_products_cannot_overflow():
+    header = msgpack.packb({"v": protocol.VERSION, "op": "ping", "arrays": [
+        {"name": "x", "dtype": "float64", "shape": [2**64 - 1]}]})
+    with pytest.raises(ProtocolError, match=r"needs 147573952589676412920 bytes but its frame has 8"):
+        protocol.decode([header, b"\0" * 8])
+
+
+def test_duplicate_array_names_are_refused():
+    frames = protocol.encode({"op": "ping"}, {"x": np.zeros(2)})
+    header = msgpack.unpackb(frames[0])
+    header["arrays"] *= 2
+    with pytest.raises(ProtocolError, match="array 'x' appears twice in one message"):
+        protocol.decode([msgpack.packb(header), frames[1], frames[1]])
+
+
+@pytest.mark.parametrize("t", ["0.0", None, True, float("nan"), [0.0]])
+def test_time_must_be_a_finite_number(t):
+    server = ComponentServer(TubeSolid())
+    server.handle(protocol.encode({"op": "instantiate", "id": 1, "args": {"parameters": {}}}))
+    reply, _ = server.handle(protocol.encode({"op": "step", "id": 2, "args": {"t": t, "dt": 0.1}},
+                                             {"pressure": np.zeros(101)}))
+    header, _ = protocol.decode(reply)
+    assert header["ok"] is False
+    assert header["error"]["message"] == f"argument 't' must be a finite number, got {t!r}"
+
+
+def test_an_oversize_frame_is_dropped_before_it_is_received():
+    import zmq
+
+    from cosim.server import bind_socket
+    router = bind_socket("tcp://127.0.0.1:*", max_bytes=1024)
+    assert bind_socket.__defaults__[0] == protocol.MAX_MESSAGE_BYTES
+    endpoint = router.getsockopt_string(zmq.LAST_ENDPOINT)
+    big, small = (zmq.Context.instance().socket(zmq.DEALER) for _ in range(2))
+    try:
+        for dealer in (big, small):
+            dealer.setsockopt(zmq.LINGER, 0)
+            dealer.connect(endpoint)
+        big.send_multipart(protocol.encode({"op": "ping", "id": 1}, {"x": np.zeros(1000)}))
+        small.send_multipart(protocol.encode({"op": "ping", "id": 2}))
+        assert router.poll(30_000), "the small message did not arrive"
+        _, *frames = router.recv_multipart()
+        assert protocol.decode(frames)[0]["id"] == 2
+        assert not router.poll(200)   # the 8 kB frame never arrives
+    finally:
+        for socket in (big, small, router):
+            socket.close(linger=0)
