@@ -9,8 +9,11 @@ RBF or a BIC-sparse quadratic polynomial.
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from rom_component.manifold import fit_quadratic_manifold, quadratic_terms
 from rom_component.online import OnlineRom
@@ -19,7 +22,12 @@ from rom_component.regression import Scaling, make_regression
 
 
 class SolidRom(RegressorMixin, BaseEstimator):
-    """POD - regression - POD (optionally quadratic-manifold) reduced model of a solid."""
+    """POD - regression - POD (optionally quadratic-manifold) reduced model of a solid.
+
+    ``fit(X, y)``: X the force snapshots (m, N), y the displacements (m, N_u) or (m,).
+    The numbers of modes are capped by what the data hold (``n_force_modes_``,
+    ``n_disp_modes_`` are the ones used): at most m - 1 and at most the width of X or y.
+    """
 
     def __init__(self, n_force_modes: int = 3, n_disp_modes: int = 9, decoder: str = "linear",
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
@@ -32,21 +40,41 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.manifold_regularization = manifold_regularization
         self.rbf_smoothing = rbf_smoothing
 
-    def fit(self, F: np.ndarray, U: np.ndarray) -> "SolidRom":
-        F, U = _check_rows(F, "F"), _check_rows(U, "U")
-        if len(F) != len(U):
-            raise ValueError(f"F has {len(F)} snapshots but U has {len(U)}")
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True     # displacement fields: many outputs per snapshot
+        tags.target_tags.single_output = True
+        tags.input_tags.sparse = False
+        # the sparse polynomial is a least-squares fit through r_f <= n_features reduced forces, not an
+        # interpolant: on check_estimator's 10-feature linear data projected to 3 modes it scores below 0.5
+        tags.regressor_tags.poor_score = self.regressor == "poly"
+        return tags
+
+    def _check_params(self) -> None:
+        for name in ("n_force_modes", "n_disp_modes"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         if self.decoder not in ("linear", "quadratic"):
             raise ValueError(f"decoder {self.decoder!r} not in ('linear', 'quadratic')")
-        limit = min(len(F) - 1, F.shape[1]), min(len(U) - 1, U.shape[1])
-        for name, value, top in (("n_force_modes", self.n_force_modes, limit[0]),
-                                 ("n_disp_modes", self.n_disp_modes, limit[1])):
-            if not 1 <= value <= top:
-                raise ValueError(f"{name} = {value} is outside 1..{top} for {len(F)} snapshots")
+        for name in ("manifold_regularization", "rbf_smoothing"):
+            value = getattr(self, name)
+            if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+
+    def fit(self, X: np.ndarray, y: np.ndarray) -> "SolidRom":
+        """Fit on force rows ``X`` and displacement rows ``y``."""
+        self._check_params()
+        F, U = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=np.float64,
+                             ensure_min_samples=2)
+        self.single_output_ = U.ndim == 1
+        U = U[:, None] if self.single_output_ else U
+        self.n_force_modes_ = min(self.n_force_modes, len(F) - 1, F.shape[1])
+        self.n_disp_modes_ = min(self.n_disp_modes, len(U) - 1, U.shape[1])
         self.f_mean_, modes, self.force_singular_values_ = centred_pod(F)
-        self.Phi_f_ = modes[:, :self.n_force_modes]
+        self.Phi_f_ = modes[:, :self.n_force_modes_]
         self.u_mean_, modes, self.disp_singular_values_ = centred_pod(U)
-        self.Phi_u_ = modes[:, :self.n_disp_modes]
+        self.Phi_u_ = modes[:, :self.n_disp_modes_]
         Zu = (U - self.u_mean_) @ self.Phi_u_
         self.Phi_bar_ = None
         if self.decoder == "quadratic":
@@ -56,7 +84,6 @@ class SolidRom(RegressorMixin, BaseEstimator):
         Zf = (F - self.f_mean_) @ self.Phi_f_
         self.scaling_ = Scaling(self.input_scaling).fit(Zf)
         self.regression_ = make_regression(self.regressor, self.rbf_smoothing).fit(self.scaling_(Zf), Zu)
-        self.n_features_in_ = F.shape[1]
         return self
 
     def encode(self, F: np.ndarray) -> np.ndarray:
@@ -71,8 +98,12 @@ class SolidRom(RegressorMixin, BaseEstimator):
             U += quadratic_terms(Zu) @ self.Phi_bar_.T
         return U
 
-    def predict(self, F: np.ndarray) -> np.ndarray:
-        return self.decode(self.reduced_predict(F))
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        """Displacement rows for force rows ``X``."""
+        check_is_fitted(self)
+        F = validate_data(self, X, reset=False, dtype=np.float64)
+        U = self.decode(self.reduced_predict(F))
+        return U[:, 0] if self.single_output_ else U
 
     def online_arrays(self, interface_index: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """Arrays of the online interface path; ``interface_index`` selects u_G = K u (default: all)."""
@@ -97,11 +128,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
     def to_online(self, interface_index: np.ndarray | None = None) -> OnlineRom:
         return OnlineRom(self.online_arrays(interface_index), {"regressor": self.regressor, **self.get_params()})
 
-
-def _check_rows(X: np.ndarray, name: str) -> np.ndarray:
-    X = np.asarray(X, dtype=np.float64)
-    if X.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D array of snapshot rows, got shape {X.shape}")
-    if not np.all(np.isfinite(X)):
-        raise ValueError(f"{name} contains NaN or infinite values")
-    return X
+    @property
+    def modes(self) -> tuple[int, int]:
+        """(r_f, r_u) used by the fitted model."""
+        check_is_fitted(self)
+        return self.n_force_modes_, self.n_disp_modes_

@@ -35,6 +35,7 @@ def fit_quadratic_manifold(Z: np.ndarray, residual: np.ndarray, regularization: 
     gram = Qc.T @ Qc
     scale = np.trace(gram) / max(len(gram), 1)
     gram[np.diag_indices_from(gram)] += regularization * scale
-    phi_bar = np.linalg.solve(gram, Qc.T @ (residual - residual.mean(axis=0))).T
+    # least squares: exact where the Gram matrix is regular, the minimum-norm fit where it is not
+    phi_bar = np.linalg.lstsq(gram, Qc.T @ (residual - residual.mean(axis=0)), rcond=None)[0].T
     offset = residual.mean(axis=0) - phi_bar @ q_mean
     return phi_bar, offset

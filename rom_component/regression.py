@@ -1,6 +1,7 @@
 """Regressors from reduced forces to reduced displacements, with input/output scaling.
 
-- ``RbfRegression``: thin-plate-spline RBF with a linear tail (``scipy.interpolate.RBFInterpolator``).
+- ``RbfRegression``: thin-plate-spline RBF with a linear tail (the system of
+  ``scipy.interpolate.RBFInterpolator``, solved here so that its weights are ours to export).
 - ``SparseQuadraticRegression``: degree-2 polynomial whose terms are chosen per output by
   a Lasso-LARS path with the BIC (``sklearn.linear_model.LassoLarsIC``).
 
@@ -11,6 +12,8 @@ u~ = H z with z = [kernel values or quadratic terms, x, 1], in the scaled input 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.distance import cdist
+from scipy.special import xlogy
 
 from rom_component.manifold import quadratic_index, quadratic_terms
 
@@ -53,8 +56,19 @@ class Scaling:
         return (X - self.shift) / self.scale
 
 
+def thin_plate_kernel(d2: np.ndarray) -> np.ndarray:
+    """phi(r) = r^2 log r written in the squared distance: 0.5 d2 log d2 (0 at d2 = 0)."""
+    return 0.5 * xlogy(d2, d2)
+
+
 class RbfRegression:
-    """Thin-plate-spline RBF interpolation with a linear polynomial tail."""
+    """Thin-plate-spline RBF interpolation with a linear polynomial tail.
+
+    Solves the symmetric saddle-point system [[K + s I, P], [P^T, 0]] [w; c] = [Y; 0] with
+    K_ij = phi(|x_i - x_j|), P = [1, x] (the system ``scipy.interpolate.RBFInterpolator``
+    solves for ``kernel="thin_plate_spline", degree=1``), keeping the weights so the online
+    path and the FMU evaluate the same interpolant.
+    """
 
     kind = "rbf"
 
@@ -62,31 +76,38 @@ class RbfRegression:
         self.smoothing = smoothing
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> "RbfRegression":
-        from scipy.interpolate import RBFInterpolator
+        from scipy.linalg import LinAlgError, solve
         _, keep = np.unique(X, axis=0, return_index=True)  # repeated centres make the system singular
         keep.sort()
         X, Y = X[keep], Y[keep]
-        self.interpolator = RBFInterpolator(X, Y, kernel="thin_plate_spline", degree=1, smoothing=self.smoothing)
+        m, d = X.shape
+        if m < d + 1:
+            raise ValueError(f"thin-plate-spline regression on {d} reduced forces needs at least {d + 1} distinct "
+                             f"snapshots, got {m}")
+        P = np.hstack([np.ones((m, 1)), X])
+        lhs = np.zeros((m + d + 1, m + d + 1))
+        lhs[:m, :m] = thin_plate_kernel(cdist(X, X, "sqeuclidean"))
+        lhs[:m, :m][np.diag_indices(m)] += self.smoothing
+        lhs[:m, m:] = P
+        lhs[m:, :m] = P.T
+        rhs = np.vstack([Y, np.zeros((d + 1, Y.shape[1]))])
+        try:
+            coefficients = solve(lhs, rhs, assume_a="sym")
+        except LinAlgError:
+            raise ValueError(f"the {m} reduced force vectors are affinely dependent (they lie on a hyperplane "
+                             f"of their {d}-dimensional space): the thin-plate-spline system is singular") from None
+        self.centres = X
+        self.weights, self.tail = coefficients[:m], coefficients[m:]
         return self
 
     def predict(self, X: np.ndarray) -> np.ndarray:
-        return self.interpolator(X)
+        kernel = thin_plate_kernel(cdist(X, self.centres, "sqeuclidean"))
+        return kernel @ self.weights + self.tail[0] + X @ self.tail[1:]
 
     def online_arrays(self) -> dict[str, np.ndarray]:
-        """Centres and H = [0.5 w_kernel; tail on x; constant]^T for u~ = H [phi(d^2), x, 1]."""
-        rbf = self.interpolator
-        if rbf.epsilon != 1.0 or rbf.powers.shape[0] != rbf.y.shape[1] + 1:
-            raise ValueError("unexpected RBFInterpolator configuration")
-        m = rbf.y.shape[0]
-        weights = rbf._coeffs[:m]          # kernel weights, (m, r_u)
-        tail = rbf._coeffs[m:]             # monomials 1, x_1 .. x_r of (x - shift) / scale
-        order = np.argmax(rbf.powers[1:], axis=1)  # which coordinate each linear monomial holds
-        linear = np.zeros((rbf.y.shape[1], weights.shape[1]))
-        linear[order] = tail[1:] / rbf._scale[order, None]
-        constant = tail[0] - (rbf._shift[order] / rbf._scale[order]) @ tail[1:]
-        # phi(d) = d^2 log d = 0.5 d^2 log d^2
-        H = np.vstack([0.5 * weights, linear, constant[None]]).T
-        return {"centres": np.array(rbf.y), "H": np.ascontiguousarray(H)}
+        """Centres and H = [0.5 w; tail on x; constant]^T for u~ = H [d2 log d2, x, 1]."""
+        H = np.vstack([0.5 * self.weights, self.tail[1:], self.tail[:1]]).T
+        return {"centres": self.centres.copy(), "H": np.ascontiguousarray(H)}
 
 
 class SparseQuadraticRegression:

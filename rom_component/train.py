@@ -105,6 +105,7 @@ def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=pri
     fit_started = time.perf_counter()
     model = SolidRom(**params).fit(F, U)
     fit_seconds = time.perf_counter() - fit_started
+    params["n_force_modes"], params["n_disp_modes"] = model.modes   # as used (capped by the data)
     U_fit = model.predict(F)
     training_error = float(np.linalg.norm(U_fit - U, axis=1).mean())
     metadata = {

@@ -142,7 +142,32 @@ def test_clone_and_grid_search_work_on_the_estimator():
     assert search.best_params_ == {"n_force_modes": 3, "n_disp_modes": 4}
 
 
-def test_bad_mode_numbers_are_reported():
+def test_mode_numbers_are_capped_by_the_data_and_bad_ones_reported():
     F, U = smooth_data(m=20)
-    with pytest.raises(ValueError, match="n_disp_modes = 50 is outside 1..19"):
-        SolidRom(3, 50).fit(F, U)
+    assert SolidRom(3, 50).fit(F, U).modes == (3, 19)    # at most m - 1 modes
+    for bad in (0, 2.5, True):
+        with pytest.raises(ValueError, match=f"n_disp_modes must be an integer >= 1, got {bad!r}"):
+            SolidRom(3, bad).fit(F, U)
+
+
+@pytest.mark.parametrize("params", [{}, {"regressor": "poly"}, {"decoder": "quadratic"}])
+def test_the_estimator_passes_scikit_learns_checks(params):
+    from sklearn.utils.estimator_checks import check_estimator
+    results = check_estimator(SolidRom(**params), on_fail=None)
+    failed = [f"{r['check_name']}: {r['exception']}" for r in results if r["status"] == "failed"]
+    assert len(results) > 40 and failed == []
+
+
+@pytest.mark.parametrize("smoothing", [0.0, 1e-3])
+def test_thin_plate_spline_matches_scipys_rbf_interpolator(smoothing):
+    from scipy.interpolate import RBFInterpolator
+
+    from rom_component.regression import RbfRegression
+    rng = np.random.default_rng(5)
+    X, Y = rng.standard_normal((60, 3)), rng.standard_normal((60, 4))
+    X_new = rng.standard_normal((25, 3))
+    ours = RbfRegression(smoothing).fit(X, Y)
+    scipys = RBFInterpolator(X, Y, kernel="thin_plate_spline", degree=1, smoothing=smoothing)
+    np.testing.assert_allclose(ours.predict(X_new), scipys(X_new), rtol=1e-9, atol=1e-9 * np.abs(Y).max())
+    if smoothing == 0.0:
+        np.testing.assert_allclose(ours.predict(X), Y, atol=1e-9)   # an interpolant
