@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import json
 import platform
+import signal
 import socket
+import threading
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import h5py
 import numpy as np
@@ -70,7 +73,18 @@ class ResultsStore:
                       fields: Mapping[str, np.ndarray],
                       timings: Mapping[str, tuple[list[float], list[float]]],
                       snapshots: Mapping[str, Mapping[str, Any]]) -> None:
-        """One window: its summary, converged fields, per-call timings and recorded calls."""
+        """One window: its summary, converged fields, per-call timings and recorded calls.
+
+        Ctrl-C and SIGTERM are held back until the window is written, so every dataset
+        holds the same windows whenever the run stops.
+        """
+        with _signals_deferred():
+            self._append_window(time, iterations, converged, wall_seconds, fields, timings, snapshots)
+
+    def _append_window(self, time: float, iterations: int, converged: bool, wall_seconds: float,
+                       fields: Mapping[str, np.ndarray],
+                       timings: Mapping[str, tuple[list[float], list[float]]],
+                       snapshots: Mapping[str, Mapping[str, Any]]) -> None:
         self._append("windows/time", np.array([time]))
         self._append("windows/iterations", np.array([iterations], dtype=np.int32))
         self._append("windows/converged", np.array([converged]))
@@ -107,6 +121,20 @@ class ResultsStore:
     def close(self) -> None:
         if self.file.id.valid:
             self.file.close()
+
+
+@contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back (in the main thread) until the block has run."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 class _GrowingDataset:

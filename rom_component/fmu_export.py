@@ -9,6 +9,7 @@ Scalar variables are named ``<input>[node]`` / ``<output>[node]`` (1-based nodes
 
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 import struct
@@ -17,7 +18,7 @@ import tempfile
 import uuid
 import zipfile
 from pathlib import Path
-from xml.sax.saxutils import escape
+import xml.etree.ElementTree as ET
 
 import numpy as np
 
@@ -29,6 +30,9 @@ MODEL_IDENTIFIER = "solid_rom"
 SOURCE = Path(__file__).with_name("fmu") / "solid_rom.c"
 HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 AXES = "xyz"
+NAME_BYTES = 32
+LOG_CATEGORIES = {"logEvents": "instantiation and termination (with loggingOn)",
+                  "logStatusError": "every call that returns fmi2Error, with the reason"}
 
 
 def scalar_names(name: str, size: int, components: int) -> list[str]:
@@ -42,15 +46,21 @@ def scalar_names(name: str, size: int, components: int) -> list[str]:
     return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
 
 
-def resource_bytes(rom: OnlineRom, guid: str) -> bytes:
-    """The binary resource the C code reads (little-endian)."""
+def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
+    """The binary resource the C code reads (little-endian; format in ``solid_rom.c``)."""
     a = rom.arrays
     rbf = rom.regressor == "rbf"
     r_f, n_in = rom.E.shape
     n_out, r_u = rom.A.shape
     m = len(a["centres"]) if rbf else len(a["quad_i"])
-    header = b"CSROM01\0" + guid.encode().ljust(40, b"\0")[:40]
-    header += struct.pack("<8i", n_in, n_out, r_f, r_u, m, 0 if rbf else 1, 1 if rom.quadratic_decoder else 0, 0)
+    names = [rom.metadata.get("input_variable", "force"), rom.metadata.get("output_variable", "displacement")]
+    for name in names:
+        if len(name.encode()) > NAME_BYTES:
+            raise CosimError(f"variable name '{name}' is longer than {NAME_BYTES} bytes")
+    header = b"CSROM02\0" + guid.encode().ljust(40, b"\0")[:40] + b"".join(n.encode().ljust(NAME_BYTES, b"\0")
+                                                                        for n in names)
+    header += struct.pack("<8i", n_in, n_out, r_f, r_u, m, 0 if rbf else 1, 1 if rom.quadratic_decoder else 0,
+                          components)
     parts = [rom.E, rom.e]
     parts += [a["centres"]] if rbf else []
     body = b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in parts)
@@ -62,38 +72,49 @@ def resource_bytes(rom: OnlineRom, guid: str) -> bytes:
     return header + body
 
 
-def model_description(rom: OnlineRom, guid: str, components: int) -> str:
+def model_guid(rom: OnlineRom, components: int) -> str:
+    """A GUID derived from the model's content: the same model exports the same FMU."""
+    digest = hashlib.sha256(resource_bytes(rom, "", components)).digest()
+    return "{" + str(uuid.UUID(bytes=digest[:16], version=4)) + "}"
+
+
+def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
+    """``modelDescription.xml`` built as an element tree."""
     meta = rom.metadata
     inputs = scalar_names(meta.get("input_variable", "force"), rom.n_inputs, components)
     outputs = scalar_names(meta.get("output_variable", "displacement"), rom.n_outputs, components)
     params = meta.get("params", {})
-    description = (f"solid ROM: r_f={params.get('n_force_modes')}, r_u={params.get('n_disp_modes')}, "
-                   f"{meta.get('regressor')} regression, {params.get('decoder', 'linear')} decoder")
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<fmiModelDescription fmiVersion="2.0" modelName="{MODEL_IDENTIFIER}" guid="{guid}" '
-             f'description="{escape(description)}" generationTool="cosim export-fmu" '
-             'variableNamingConvention="structured" numberOfEventIndicators="0">',
-             f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" needsExecutionTool="false" '
-             'canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" '
-             'canGetAndSetFMUstate="true" canSerializeFMUstate="false" providesDirectionalDerivative="false">',
-             '    <SourceFiles><File name="solid_rom.c"/></SourceFiles>',
-             '  </CoSimulation>',
-             '  <ModelVariables>']
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": MODEL_IDENTIFIER, "guid": guid,
+        "description": (f"solid ROM: r_f={params.get('n_force_modes')}, r_u={params.get('n_disp_modes')}, "
+                        f"{meta.get('regressor')} regression, {params.get('decoder', 'linear')} decoder"),
+        "generationTool": "cosim export-fmu", "variableNamingConvention": "structured",
+        "numberOfEventIndicators": "0"})
+    cosimulation = ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": MODEL_IDENTIFIER, "needsExecutionTool": "false",
+        "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
+        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "false", "providesDirectionalDerivative": "false"})
+    ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": SOURCE.name})
+    categories = ET.SubElement(root, "LogCategories")
+    for name, text in LOG_CATEGORIES.items():
+        ET.SubElement(categories, "Category", {"name": name, "description": text})
+    variables = ET.SubElement(root, "ModelVariables")
     for vr, name in enumerate(inputs):
-        lines.append(f'    <ScalarVariable name="{escape(name)}" valueReference="{vr}" causality="input" '
-                     f'variability="continuous"><Real start="0.0"/></ScalarVariable>')
+        scalar = ET.SubElement(variables, "ScalarVariable", {"name": name, "valueReference": str(vr),
+                                                             "causality": "input", "variability": "continuous"})
+        ET.SubElement(scalar, "Real", {"start": "0.0"})
     for k, name in enumerate(outputs):
-        lines.append(f'    <ScalarVariable name="{escape(name)}" valueReference="{len(inputs) + k}" causality="output" '
-                     f'variability="continuous" initial="calculated"><Real/></ScalarVariable>')
-    lines.append('  </ModelVariables>')
-    lines.append('  <ModelStructure>')
-    indices = range(len(inputs) + 1, len(inputs) + len(outputs) + 1)
+        scalar = ET.SubElement(variables, "ScalarVariable", {
+            "name": name, "valueReference": str(len(inputs) + k), "causality": "output",
+            "variability": "continuous", "initial": "calculated"})
+        ET.SubElement(scalar, "Real")
+    structure = ET.SubElement(root, "ModelStructure")
     for block in ("Outputs", "InitialUnknowns"):
-        lines.append(f'    <{block}>')
-        lines += [f'      <Unknown index="{i}"/>' for i in indices]
-        lines.append(f'    </{block}>')
-    lines += ['  </ModelStructure>', '</fmiModelDescription>', '']
-    return "\n".join(lines)
+        unknowns = ET.SubElement(structure, block)
+        for index in range(len(inputs) + 1, len(inputs) + len(outputs) + 1):
+            ET.SubElement(unknowns, "Unknown", {"index": str(index)})
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
 
 
 def fmi_headers() -> Path:
@@ -105,22 +126,25 @@ def fmi_headers() -> Path:
 
 
 def compile_binary(sources: Path, target: Path) -> None:
+    """Build the linux64 binary: plain flags suffice, the source fixes its floating-point contract."""
     compiler = os.environ.get("CC", "cc")
     if shutil.which(compiler) is None:
         raise CosimError(f"export-fmu needs a C compiler; '{compiler}' was not found (set CC)")
-    command = [compiler, "-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
-               str(sources / SOURCE.name), "-o", str(target), "-lm"]
+    command = [compiler, "-std=c99", "-O2", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
+               str(sources / SOURCE.name), "-o", str(target)]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise CosimError(f"compiling the FMU binary failed:\n{done.stderr}")
 
 
 def export_fmu(model: str | Path, out: str | Path, components_per_node: int | None = None) -> Path:
-    """Write the FMU for the ROM stored in ``model``; returns its path."""
+    """Write the FMU for the ROM stored in ``model``; returns its path. The same model gives the same bytes."""
     arrays, metadata = load_arrays(model)
     rom = OnlineRom(arrays, metadata)
     components = components_per_node or int(metadata.get("components_per_node", 1))
-    guid = "{" + str(uuid.uuid4()) + "}"
+    scalar_names("input", rom.n_inputs, components)
+    scalar_names("output", rom.n_outputs, components)
+    guid = model_guid(rom, components)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
@@ -130,11 +154,14 @@ def export_fmu(model: str | Path, out: str | Path, components_per_node: int | No
         shutil.copy(SOURCE, root / "sources" / SOURCE.name)
         for header in HEADERS:
             shutil.copy(fmi_headers() / header, root / "sources" / header)
-        (root / "resources" / "rom.bin").write_bytes(resource_bytes(rom, guid))
-        (root / "modelDescription.xml").write_text(model_description(rom, guid, components))
+        (root / "resources" / "rom.bin").write_bytes(resource_bytes(rom, guid, components))
+        (root / "modelDescription.xml").write_bytes(model_description(rom, guid, components))
         compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so")
         with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(root.rglob("*")):
                 if path.is_file():
-                    archive.write(path, path.relative_to(root).as_posix())
+                    info = zipfile.ZipInfo(path.relative_to(root).as_posix(), date_time=(1980, 1, 1, 0, 0, 0))
+                    info.compress_type = zipfile.ZIP_DEFLATED
+                    info.external_attr = 0o644 << 16
+                    archive.writestr(info, path.read_bytes())
     return out

@@ -16,7 +16,8 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 import numpy as np
-from scipy.special import xlogy
+
+from rom_component.portable_log import thin_plate_terms
 
 TINY = 1e-300
 REQUIRED = {"E", "e", "H", "A", "base", "u_mean", "Phi_u"}
@@ -28,9 +29,9 @@ class OnlineRom:
     ``arithmetic="reproducible"`` (default) fixes the order of every floating-point
     operation so that the C code of the exported FMU gives bit-identical results:
     long dot products are numpy's pairwise row sums (mirrored in ``solid_rom.c``), short
-    ones sequential sums, and the kernel uses libm's ``log`` (through
-    ``scipy.special.xlogy``). Results then also do not depend on the BLAS build or its
-    threads. ``arithmetic="fast"`` uses BLAS matrix-vector products instead.
+    ones sequential sums, and the kernel uses the FMU's own logarithm
+    (``rom_component.portable_log``). Results then also depend neither on the BLAS build
+    and its threads nor on the platform's libm. ``arithmetic="fast"`` uses BLAS matrix-vector products instead.
     """
 
     def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any],
@@ -122,7 +123,7 @@ class OnlineRom:
                 np.subtract(x[k], self.centres_t[k], out=d)
                 np.multiply(d, d, out=d)
                 np.add(d2, d, out=d2)
-            xlogy(d2, d2, out=self._kernel)                              # d2 log d2 with libm's log
+            self._kernel[:] = thin_plate_terms(d2)                       # d2 log d2, the FMU's own log
         else:
             np.multiply(x[self.qi], x[self.qj], out=self._kernel)
         self._x_slot[:] = x

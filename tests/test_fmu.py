@@ -121,17 +121,18 @@ def test_c_code_checks_pointers_counts_and_references(models):
     handle = component.slave.component
     values = (ctypes.c_double * 3)()
     refs = (ctypes.c_uint * 3)(0, 1, 5000)
-    assert set_real(handle, None, 3, values) == 3
-    assert "NULL value reference" in component.messages[-1]
-    assert set_real(handle, refs, 3, values) == 3
-    assert "value reference 5000 is out of range (0..201)" in component.messages[-1]
     output = (ctypes.c_uint * 1)(150)
-    assert set_real(handle, output, 1, values) == 3
-    assert "is an output and cannot be set" in component.messages[-1]
-    assert get_real(handle, refs, 10_000, values) == 3
-    assert "10000 values requested" in component.messages[-1]
+    for call, message in ((lambda: set_real(handle, None, 3, values), "NULL value reference"),
+                          (lambda: set_real(handle, refs, 3, values), "value reference 5000 is out of range (0..201)"),
+                          (lambda: set_real(handle, output, 1, values),
+                           "section[50] (value reference 150) is an output and cannot be set"),
+                          (lambda: get_real(handle, refs, 10_000, values), "10000 values requested")):
+        component.slave.reset()                 # an error leaves the FMU in its error state
+        component.slave.enterInitializationMode()
+        assert call() == 3
+        assert message in component.messages[-1]
     assert get_real(None, refs, 1, values) == 3  # a NULL instance is refused, not dereferenced
-    component.terminate()
+    component.slave.freeInstance()
 
 
 def test_bad_fmus_get_clear_errors(models, tmp_path):

@@ -9,19 +9,33 @@
  *   u_G = base + A u~ [+ B q(u~)]     interface displacements (linear or quadratic manifold decoder)
  *
  * Every array and size is read at fmi2Instantiate from resources/rom.bin (little-endian):
- *   char magic[8] = "CSROM01"; char guid[40];
- *   int32 n_in, n_out, r_f, r_u, m, regressor (0 rbf, 1 poly), decoder (0 linear, 1 quadratic), reserved;
+ *   char magic[8] = "CSROM02"; char guid[40]; char input_name[32], output_name[32];
+ *   int32 n_in, n_out, r_f, r_u, m, regressor (0 rbf, 1 poly), decoder (0 linear, 1 quadratic),
+ *         components per node;
  *   float64 E[r_f][n_in], e[r_f];
  *   rbf: float64 centres[m][r_f]   |   poly: int32 qi[m], qj[m];
  *   float64 H[r_u][m + r_f + 1], A[n_out][r_u], base[n_out];
  *   quadratic decoder: float64 B[n_out][r_u (r_u + 1) / 2].
  * Value references: inputs 0 .. n_in-1, outputs n_in .. n_in+n_out-1.
  * Every sum runs in the order of OnlineRom(arithmetic="reproducible") (numpy's pairwise row
- * sums, sequential short sums, libm's log), so results are bit-identical to the Python ROM;
- * build without -ffast-math and with -ffp-contract=off.
- * The ROM is stateless; an FMU state is a copy of inputs, outputs and time.
+ * sums, sequential short sums, the logarithm rom_log below), so results are bit-identical to
+ * the Python ROM whatever the compiler flags: the pragmas forbid contracting a * b + c into a
+ * fused multiply-add, and the binary needs no libm.
+ * The ROM is stateless; an FMU state is a copy of inputs, outputs and time. The FMI 2.0
+ * Co-Simulation state machine is enforced; a call out of turn returns fmi2Error with a message.
  */
-#include <math.h>
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#elif defined(_MSC_VER)
+#pragma fp_contract(off)
+#else
+#pragma STDC FP_CONTRACT OFF
+#endif
+#if defined(__FAST_MATH__)
+#error "solid_rom.c must not be built with -ffast-math: its results are defined bit for bit"
+#endif
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -30,32 +44,44 @@
 
 #include "fmi2Functions.h"
 
-#define MAGIC "CSROM01"
+#define MAGIC "CSROM02"
 #define GUID_LENGTH 40
+#define NAME_LENGTH 32
 #define MAX_PATH_LENGTH 4096
 
 typedef struct {
-    int32_t n_in, n_out, r_f, r_u, m, regressor, decoder, reserved;
+    int32_t n_in, n_out, r_f, r_u, m, regressor, decoder, components;
     double *E, *e, *centres, *H, *A, *base, *B, *c2;
     int32_t *qi, *qj;
     int32_t n_quad;           /* r_u (r_u + 1) / 2 */
     char guid[GUID_LENGTH + 1];
+    char input_name[NAME_LENGTH + 1], output_name[NAME_LENGTH + 1];
 } Model;
 
-typedef struct {
+typedef struct State {
     double *inputs, *outputs;
     double time;
+    struct State *next;       /* every state an instance hands out, freed with it at the latest */
 } State;
+
+/* FMI 2.0 Co-Simulation states, as bits so that a function can name the states it is allowed in */
+enum { INSTANTIATED = 1, INITIALIZATION = 2, STEP_COMPLETE = 4, TERMINATED = 8, ERROR = 16 };
+#define ANY (INSTANTIATED | INITIALIZATION | STEP_COMPLETE | TERMINATED | ERROR)
 
 typedef struct {
     fmi2CallbackFunctions callbacks;
     char *name;
-    int logging;
+    int logging, log_events, log_errors;   /* loggingOn and the enabled categories */
+    int state;
+    int dirty;                /* inputs set since the outputs were computed */
     Model model;
     double *inputs, *outputs, *x, *z, *reduced, *scratch, *quad;
     double time;
+    State *states;
     char *buffer;             /* the resource file, all arrays point into it */
 } Instance;
+
+static const char *const CATEGORIES[] = {"logEvents", "logStatusError"};
 
 /* ---- helpers -------------------------------------------------------------------- */
 
@@ -77,8 +103,38 @@ static void log_message(const fmi2CallbackFunctions *cb, fmi2String name, fmi2St
     cb->logger(cb->componentEnvironment, name ? name : "solid_rom", status, category, escaped);
 }
 
-#define FAIL(inst, ...) do { log_message(&(inst)->callbacks, (inst)->name, fmi2Error, "logStatusError", __VA_ARGS__); \
-                             return fmi2Error; } while (0)
+/* an error: always reported unless the importer switched logStatusError off; the FMU enters its error state */
+#define FAIL(inst, ...) do { if ((inst)->log_errors) log_message(&(inst)->callbacks, (inst)->name, fmi2Error, \
+                                 "logStatusError", __VA_ARGS__); (inst)->state = ERROR; return fmi2Error; } while (0)
+/* an event: reported only with loggingOn and logEvents enabled */
+#define EVENT(inst, ...) do { if ((inst)->logging && (inst)->log_events) log_message(&(inst)->callbacks, \
+                                  (inst)->name, fmi2OK, "logEvents", __VA_ARGS__); } while (0)
+/* refuse a call in a state the FMI 2.0 state machine does not allow it in */
+#define REQUIRE(inst, allowed, function) do { if (!((inst)->state & (allowed))) \
+    FAIL(inst, "%s is not allowed in %s", function, state_name((inst)->state)); } while (0)
+
+static const char *state_name(int state) {
+    switch (state) {
+    case INSTANTIATED: return "the instantiated state (before fmi2EnterInitializationMode)";
+    case INITIALIZATION: return "Initialization Mode";
+    case STEP_COMPLETE: return "Step Mode";
+    case TERMINATED: return "the terminated state";
+    default: return "the error state (only fmi2Reset and fmi2FreeInstance lead out)";
+    }
+}
+
+static int finite(double v) { return v - v == 0.0; }   /* false for NaN and +-Inf, without libm */
+
+/* "pressure[12]" or "force[3].y": the scalar variable behind a value reference */
+static const char *variable_name(const Instance *inst, fmi2ValueReference vr, char *text, size_t size) {
+    const Model *m = &inst->model;
+    int input = vr < (fmi2ValueReference)m->n_in;
+    long index = input ? (long)vr : (long)vr - m->n_in;
+    int c = m->components > 1 ? m->components : 1;
+    if (c == 1) snprintf(text, size, "%s[%ld]", input ? m->input_name : m->output_name, index + 1);
+    else snprintf(text, size, "%s[%ld].%c", input ? m->input_name : m->output_name, index / c + 1, "xyz"[index % c]);
+    return text;
+}
 
 static void *allocate(const fmi2CallbackFunctions *cb, size_t count, size_t size) {
     if (count == 0) count = 1;
@@ -126,7 +182,7 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
     fseek(f, 0, SEEK_END);
     length = ftell(f);
     fseek(f, 0, SEEK_SET);
-    if (length < (long)(8 + GUID_LENGTH + 8 * sizeof(int32_t))) {
+    if (length < (long)(8 + GUID_LENGTH + 2 * NAME_LENGTH + 8 * sizeof(int32_t))) {
         fclose(f);
         log_message(&inst->callbacks, inst->name, fmi2Error, "logStatusError", "resource file '%s' is truncated", file);
         return 0;
@@ -151,9 +207,16 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
                     "GUID '%s' does not match the resource's '%s'", guid ? guid : "(null)", m->guid);
         return 0;
     }
+    memcpy(m->input_name, inst->buffer + offset, NAME_LENGTH);
+    m->input_name[NAME_LENGTH] = 0;
+    offset += NAME_LENGTH;
+    memcpy(m->output_name, inst->buffer + offset, NAME_LENGTH);
+    m->output_name[NAME_LENGTH] = 0;
+    offset += NAME_LENGTH;
     memcpy(&m->n_in, inst->buffer + offset, 8 * sizeof(int32_t));
     offset += 8 * sizeof(int32_t);
-    if (m->n_in <= 0 || m->n_out <= 0 || m->r_f <= 0 || m->r_u <= 0 || m->m <= 0 ||
+    if (m->n_in <= 0 || m->n_out <= 0 || m->r_f <= 0 || m->r_u <= 0 || m->m <= 0 || m->components < 1 ||
+        m->components > 3 || m->n_in % m->components || m->n_out % m->components ||
         (m->regressor != 0 && m->regressor != 1) || (m->decoder != 0 && m->decoder != 1)) {
         log_message(&inst->callbacks, inst->name, fmi2Error, "logStatusError", "resource '%s' has invalid sizes", file);
         return 0;
@@ -191,6 +254,39 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
             }
     }
     return 1;
+}
+
+/* natural logarithm of a positive finite x (normal or subnormal): musl's log (FreeBSD msun e_log.c),
+ * < 1 ulp, with + - * / only; rom_component/portable_log.py repeats it operation for operation */
+static double rom_log(double x) {
+    static const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10,
+        Lg1 = 6.666666666666735130e-01, Lg2 = 3.999999999940941908e-01, Lg3 = 2.857142874366239149e-01,
+        Lg4 = 2.222219843214978396e-01, Lg5 = 1.818357216161805012e-01, Lg6 = 1.531383769920937332e-01,
+        Lg7 = 1.479819860511658591e-01;
+    union { double f; uint64_t i; } u;
+    uint32_t hx;
+    int k = 0;
+    double f, hfsq, s, z, w, t1, t2, dk;
+    u.f = x;
+    hx = (uint32_t)(u.i >> 32);
+    if (hx < 0x00100000) {                    /* subnormal: scale into the normal range */
+        k -= 54;
+        u.f = x * 18014398509481984.0;        /* 2^54 */
+        hx = (uint32_t)(u.i >> 32);
+    }
+    hx += 0x3ff00000 - 0x3fe6a09e;            /* reduce x into [sqrt(2)/2, sqrt(2)) */
+    k += (int)(hx >> 20) - 0x3ff;
+    hx = (hx & 0x000fffff) + 0x3fe6a09e;
+    u.i = (uint64_t)hx << 32 | (u.i & 0xffffffff);
+    f = u.f - 1.0;
+    hfsq = 0.5 * f * f;
+    s = f / (2.0 + f);
+    z = s * s;
+    w = z * z;
+    t1 = w * (Lg2 + w * (Lg4 + w * Lg6));
+    t2 = z * (Lg1 + w * (Lg3 + w * (Lg5 + w * Lg7)));
+    dk = k;
+    return s * (hfsq + (t2 + t1)) + dk * ln2_lo - hfsq + f + dk * ln2_hi;
 }
 
 /* numpy's pairwise summation (the order of ndarray.sum along a contiguous axis):
@@ -237,7 +333,7 @@ static void evaluate(Instance *inst) {
             const double *c = m->centres + (size_t)i * m->r_f;
             double d = inst->x[0] - c[0], d2 = d * d;
             for (k = 1; k < m->r_f; k++) { d = inst->x[k] - c[k]; d2 = d2 + d * d; }
-            inst->z[i] = d2 == 0.0 ? 0.0 : d2 * log(d2);   /* 0.5 of the kernel is folded into H */
+            inst->z[i] = d2 == 0.0 ? 0.0 : d2 * rom_log(d2);   /* 0.5 of the kernel is folded into H */
         }
     } else {
         for (i = 0; i < m->m; i++) inst->z[i] = inst->x[m->qi[i]] * inst->x[m->qj[i]];
@@ -265,6 +361,7 @@ static void evaluate(Instance *inst) {
         }
         inst->outputs[o] = s;
     }
+    inst->dirty = 0;
 }
 
 static fmi2Status check_references(Instance *inst, const char *function, const fmi2ValueReference vr[], size_t nvr,
@@ -278,13 +375,16 @@ static fmi2Status check_references(Instance *inst, const char *function, const f
     for (i = 0; i < nvr; i++) {
         if (vr[i] >= total) FAIL(inst, "%s: value reference %u is out of range (0..%lu)", function, vr[i],
                                  (unsigned long)(total - 1));
-        if (!writable_outputs && vr[i] >= (fmi2ValueReference)inst->model.n_in)
-            FAIL(inst, "%s: value reference %u is an output and cannot be set", function, vr[i]);
+        if (!writable_outputs && vr[i] >= (fmi2ValueReference)inst->model.n_in) {
+            char name[96];
+            FAIL(inst, "%s: %s (value reference %u) is an output and cannot be set", function,
+                 variable_name(inst, vr[i], name, sizeof(name)), vr[i]);
+        }
     }
     return fmi2OK;
 }
 
-#define INSTANCE(c, function) Instance *inst = (Instance *)(c); if (inst == NULL) return fmi2Error; (void)(function)
+#define INSTANCE(c) Instance *inst = (Instance *)(c); if (inst == NULL) return fmi2Error
 
 /* ---- FMI 2.0 functions ---------------------------------------------------------- */
 
@@ -292,9 +392,26 @@ const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
 
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories, const fmi2String categories[]) {
-    INSTANCE(c, "fmi2SetDebugLogging");
-    (void)nCategories; (void)categories;
+    size_t i, k;
+    INSTANCE(c);
+    if (nCategories > 0 && categories == NULL) FAIL(inst, "fmi2SetDebugLogging: NULL category list");
+    for (i = 0; i < nCategories; i++) {
+        int known = 0;
+        for (k = 0; k < sizeof(CATEGORIES) / sizeof(CATEGORIES[0]); k++)
+            if (categories[i] && strcmp(categories[i], CATEGORIES[k]) == 0) known = 1;
+        if (!known) FAIL(inst, "fmi2SetDebugLogging: unknown log category '%s' (known: logEvents, logStatusError)",
+                         categories[i] ? categories[i] : "(null)");
+    }
     inst->logging = loggingOn;
+    if (nCategories == 0) {            /* no list: every category follows loggingOn */
+        inst->log_events = 1;
+        inst->log_errors = 1;
+    } else {                           /* a list: those categories are switched to loggingOn */
+        for (i = 0; i < nCategories; i++) {
+            if (strcmp(categories[i], "logEvents") == 0) inst->log_events = loggingOn;
+            else inst->log_errors = loggingOn;
+        }
+    }
     return fmi2OK;
 }
 
@@ -305,15 +422,19 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     char path[MAX_PATH_LENGTH];
     const Model *m;
     (void)visible;
-    if (functions == NULL) return NULL;
+    if (functions == NULL || functions->logger == NULL) return NULL;
     if (fmuType != fmi2CoSimulation) {
         log_message(functions, instanceName, fmi2Error, "logStatusError", "only Co-Simulation is supported");
         return NULL;
     }
     inst = (Instance *)allocate(functions, 1, sizeof(Instance));
     if (inst == NULL) return NULL;
+    memset(inst, 0, sizeof(Instance));
     inst->callbacks = *functions;
     inst->logging = loggingOn;
+    inst->log_events = 1;
+    inst->log_errors = 1;
+    inst->state = INSTANTIATED;
     inst->name = (char *)allocate(functions, strlen(instanceName ? instanceName : "solid_rom") + 1, 1);
     if (inst->name) strcpy(inst->name, instanceName ? instanceName : "solid_rom");
     if (!resource_file(fmuResourceLocation, path, sizeof(path))) {
@@ -340,8 +461,22 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         fmi2FreeInstance(inst);
         return NULL;
     }
+    memset(inst->inputs, 0, sizeof(double) * (size_t)m->n_in);
     evaluate(inst);
+    EVENT(inst, "instantiated: %d inputs (%s), %d outputs (%s), %d force and %d displacement modes, %s regression, "
+          "%s decoder", m->n_in, m->input_name, m->n_out, m->output_name, m->r_f, m->r_u,
+          m->regressor ? "sparse polynomial" : "RBF", m->decoder ? "quadratic" : "linear");
     return inst;
+}
+
+static void free_state_list(Instance *inst) {
+    while (inst->states != NULL) {
+        State *next = inst->states->next;
+        release(&inst->callbacks, inst->states->inputs);
+        release(&inst->callbacks, inst->states->outputs);
+        release(&inst->callbacks, inst->states);
+        inst->states = next;
+    }
 }
 
 void fmi2FreeInstance(fmi2Component c) {
@@ -349,6 +484,7 @@ void fmi2FreeInstance(fmi2Component c) {
     fmi2CallbackFunctions cb;
     if (inst == NULL) return;
     cb = inst->callbacks;
+    free_state_list(inst);
     release(&cb, inst->inputs);
     release(&cb, inst->outputs);
     release(&cb, inst->x);
@@ -363,34 +499,54 @@ void fmi2FreeInstance(fmi2Component c) {
 
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-    INSTANCE(c, "fmi2SetupExperiment");
-    (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    INSTANCE(c);
+    (void)toleranceDefined; (void)tolerance;
+    REQUIRE(inst, INSTANTIATED, "fmi2SetupExperiment");
+    if (!finite(startTime)) FAIL(inst, "fmi2SetupExperiment: start time %g is not finite", startTime);
+    if (stopTimeDefined && !(stopTime >= startTime))
+        FAIL(inst, "fmi2SetupExperiment: stop time %g is before the start time %g", stopTime, startTime);
     inst->time = startTime;
     return fmi2OK;
 }
 
-fmi2Status fmi2EnterInitializationMode(fmi2Component c) { INSTANCE(c, 0); return fmi2OK; }
-
-fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
-    INSTANCE(c, 0);
-    evaluate(inst);
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    INSTANCE(c);
+    REQUIRE(inst, INSTANTIATED, "fmi2EnterInitializationMode");
+    inst->state = INITIALIZATION;
     return fmi2OK;
 }
 
-fmi2Status fmi2Terminate(fmi2Component c) { INSTANCE(c, 0); return fmi2OK; }
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    INSTANCE(c);
+    REQUIRE(inst, INITIALIZATION, "fmi2ExitInitializationMode");
+    evaluate(inst);
+    inst->state = STEP_COMPLETE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) {
+    INSTANCE(c);
+    REQUIRE(inst, STEP_COMPLETE, "fmi2Terminate");
+    inst->state = TERMINATED;
+    EVENT(inst, "terminated at t = %g", inst->time);
+    return fmi2OK;
+}
 
 fmi2Status fmi2Reset(fmi2Component c) {
-    INSTANCE(c, 0);
+    INSTANCE(c);
     memset(inst->inputs, 0, sizeof(double) * (size_t)inst->model.n_in);
     inst->time = 0.0;
     evaluate(inst);
+    inst->state = INSTANTIATED;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
     size_t i;
-    INSTANCE(c, 0);
+    INSTANCE(c);
+    REQUIRE(inst, INITIALIZATION | STEP_COMPLETE | TERMINATED | ERROR, "fmi2GetReal");
     if (check_references(inst, "fmi2GetReal", vr, nvr, value, 1) != fmi2OK) return fmi2Error;
+    if (inst->state == INITIALIZATION && inst->dirty) evaluate(inst);   /* outputs follow the inputs set there */
     for (i = 0; i < nvr; i++)
         value[i] = vr[i] < (fmi2ValueReference)inst->model.n_in ? inst->inputs[vr[i]]
                                                                 : inst->outputs[vr[i] - inst->model.n_in];
@@ -399,14 +555,21 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
     size_t i;
-    INSTANCE(c, 0);
+    INSTANCE(c);
+    REQUIRE(inst, INSTANTIATED | INITIALIZATION | STEP_COMPLETE, "fmi2SetReal");
     if (check_references(inst, "fmi2SetReal", vr, nvr, value, 0) != fmi2OK) return fmi2Error;
+    for (i = 0; i < nvr; i++)
+        if (!finite(value[i])) {
+            char name[96];
+            FAIL(inst, "fmi2SetReal: %s = %g is not finite", variable_name(inst, vr[i], name, sizeof(name)), value[i]);
+        }
     for (i = 0; i < nvr; i++) inst->inputs[vr[i]] = value[i];
+    if (nvr > 0) inst->dirty = 1;
     return fmi2OK;
 }
 
 static fmi2Status no_variables(fmi2Component c, const char *function, size_t nvr) {
-    INSTANCE(c, 0);
+    INSTANCE(c);
     if (nvr > 0) FAIL(inst, "%s: the FMU has no variables of this type", function);
     return fmi2OK;
 }
@@ -432,7 +595,8 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     State *state;
-    INSTANCE(c, 0);
+    INSTANCE(c);
+    REQUIRE(inst, ANY, "fmi2GetFMUstate");
     if (FMUstate == NULL) FAIL(inst, "fmi2GetFMUstate: NULL state pointer");
     state = (State *)*FMUstate;
     if (state == NULL) {
@@ -440,7 +604,14 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
         if (state == NULL) FAIL(inst, "fmi2GetFMUstate: out of memory");
         state->inputs = (double *)allocate(&inst->callbacks, (size_t)inst->model.n_in, sizeof(double));
         state->outputs = (double *)allocate(&inst->callbacks, (size_t)inst->model.n_out, sizeof(double));
-        if (!state->inputs || !state->outputs) FAIL(inst, "fmi2GetFMUstate: out of memory");
+        if (!state->inputs || !state->outputs) {
+            release(&inst->callbacks, state->inputs);
+            release(&inst->callbacks, state->outputs);
+            release(&inst->callbacks, state);
+            FAIL(inst, "fmi2GetFMUstate: out of memory");
+        }
+        state->next = inst->states;
+        inst->states = state;
     }
     memcpy(state->inputs, inst->inputs, sizeof(double) * (size_t)inst->model.n_in);
     memcpy(state->outputs, inst->outputs, sizeof(double) * (size_t)inst->model.n_out);
@@ -449,21 +620,33 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     return fmi2OK;
 }
 
+static int owns_state(const Instance *inst, const State *state) {
+    const State *s;
+    for (s = inst->states; s != NULL; s = s->next)
+        if (s == state) return 1;
+    return 0;
+}
+
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     const State *state = (const State *)FMUstate;
-    INSTANCE(c, 0);
-    if (state == NULL) FAIL(inst, "fmi2SetFMUstate: NULL state");
+    INSTANCE(c);
+    REQUIRE(inst, ANY, "fmi2SetFMUstate");
+    if (state == NULL || !owns_state(inst, state)) FAIL(inst, "fmi2SetFMUstate: not a state of this instance");
     memcpy(inst->inputs, state->inputs, sizeof(double) * (size_t)inst->model.n_in);
     memcpy(inst->outputs, state->outputs, sizeof(double) * (size_t)inst->model.n_out);
     inst->time = state->time;
+    inst->dirty = 0;
     return fmi2OK;
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    State *state;
-    INSTANCE(c, 0);
+    State *state, **link;
+    INSTANCE(c);
     if (FMUstate == NULL || *FMUstate == NULL) return fmi2OK;
     state = (State *)*FMUstate;
+    for (link = &inst->states; *link != NULL && *link != state; link = &(*link)->next) {}
+    if (*link == NULL) FAIL(inst, "fmi2FreeFMUstate: not a state of this instance");
+    *link = state->next;
     release(&inst->callbacks, state->inputs);
     release(&inst->callbacks, state->outputs);
     release(&inst->callbacks, state);
@@ -472,7 +655,7 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
 }
 
 static fmi2Status unsupported(fmi2Component c, const char *function) {
-    INSTANCE(c, 0);
+    INSTANCE(c);
     FAIL(inst, "%s is not supported by this FMU", function);
 }
 
@@ -502,9 +685,13 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    INSTANCE(c, 0);
+    INSTANCE(c);
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (communicationStepSize < 0.0) FAIL(inst, "fmi2DoStep: negative step size %g", communicationStepSize);
+    REQUIRE(inst, STEP_COMPLETE, "fmi2DoStep");
+    if (!finite(currentCommunicationPoint))
+        FAIL(inst, "fmi2DoStep: communication point %g is not finite", currentCommunicationPoint);
+    if (!(communicationStepSize > 0.0) || !finite(communicationStepSize))
+        FAIL(inst, "fmi2DoStep: step size %g is not a positive finite number", communicationStepSize);
     evaluate(inst);
     inst->time = currentCommunicationPoint + communicationStepSize;
     return fmi2OK;
@@ -516,7 +703,7 @@ fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *va
     (void)s; (void)value; return unsupported(c, "fmi2GetStatus");
 }
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    INSTANCE(c, 0);
+    INSTANCE(c);
     if (s == fmi2LastSuccessfulTime && value != NULL) { *value = inst->time; return fmi2OK; }
     FAIL(inst, "fmi2GetRealStatus: only fmi2LastSuccessfulTime is available");
 }
