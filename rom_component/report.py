@@ -109,8 +109,49 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
 
+BACKEND_KEYS = ("backend", "rom", "fmu")   # what may differ between a run and its reference
+PRESENTATION_KEYS = ("name", "output")
+
+
+def scene_difference(a: Any, b: Any, where: str = "") -> str | None:
+    """The first dotted key at which two resolved scenes differ, ignoring backends and presentation."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(set(a) | set(b)):
+            backend_key = where.startswith("components.") and where.count(".") == 2 and key in BACKEND_KEYS
+            if (where == "" and key in PRESENTATION_KEYS) or backend_key:
+                continue
+            if key not in a or key not in b:
+                return f"{where}{key}"
+            found = scene_difference(a[key], b[key], f"{where}{key}.")
+            if found:
+                return found
+        return None
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b)):
+            found = scene_difference(x, y, f"{where}{i}.")
+            if found:
+                return found
+        return None
+    return None if a == b else where.rstrip(".")
+
+
+def _lookup(scene: dict[str, Any], key: str) -> Any:
+    node: Any = scene
+    for part in key.split("."):
+        try:
+            node = node[int(part)] if isinstance(node, list) else node[part]
+        except (KeyError, IndexError, ValueError, TypeError):
+            return "(absent)"
+    return node
+
+
 def compare(run: Run, reference: Run) -> dict[str, Any]:
-    """The report's figures for ``run`` against ``reference``."""
+    """The report's figures for ``run`` against ``reference`` (which must have run the same scene)."""
+    different = scene_difference(run.scene, reference.scene)
+    if different:
+        raise SceneError(f"reference '{reference.path.parent}' ran another scene than '{run.path.parent}': "
+                         f"{different} is {_lookup(reference.scene, different)!r} there and "
+                         f"{_lookup(run.scene, different)!r} here; only the solid backend may differ")
     if len(run.time) != len(reference.time) or not np.allclose(run.time, reference.time):
         raise SceneError(f"'{run.path}' and its reference '{reference.path}' have different time windows")
     predicted = run.predicted()

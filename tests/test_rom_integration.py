@@ -106,6 +106,18 @@ def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
         assert (tmp_path / "report" / png).stat().st_size > 10_000, png
 
 
+def test_report_refuses_a_reference_that_ran_another_scene(fom, model, tmp_path):
+    other = tmp_path / "fom_mu2"
+    run_scene(load_scene(TUBE_SCENE, [f"time.end={END}", "inlet.f=0.9", "inlet.h=4"]), other, progress=False)
+    rom_run(tmp_path / "rom", model, TRAIN_END)
+    done = cosim("report", f"{tmp_path / 'rom'}={other}", "--out", str(tmp_path / "report"))
+    assert done.returncode == 2
+    assert done.stderr.strip() == (f"cosim report: error: reference '{other}' ran another scene than "
+                                   f"'{tmp_path / 'rom'}': inlet.f is 0.9 there and 2.0 here; only the solid "
+                                   "backend may differ")
+    assert not (tmp_path / "report" / "report.json").exists()
+
+
 def test_global_input_scaling_beats_per_mode_scaling_on_tube_snapshots(fom):
     config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={END}"])
     F, U, _ = read_snapshots(fom / "results.h5", config["snapshots"])
