@@ -1,6 +1,6 @@
 """Benchmark of one solid call of the tube: FOM, ROM (Python and FMU), and baselines.
 
-Prints per-call times (median of repeated timings, microseconds) measured in this run:
+Prints per-call times (median and interquartile range of repeated timings, microseconds) measured in this run:
 - the solid FOM as implemented (exact root on each branch, vectorised over nodes);
 - a paper-style solid FOM (one scalar root solve per node, scipy brentq): the kind of
   solver behind the paper's sigma ~ 96, as a baseline;
@@ -12,7 +12,7 @@ Prints per-call times (median of repeated timings, microseconds) measured in thi
 plus the training and cross-validation times, and the coupler round trips of ROM-FOM runs
 with the rom and the fmu backends.
 
-Usage: python benchmarks/rom_call.py [--results FOM_RESULTS.h5]
+Usage: python benchmarks/rom_call.py [--results FOM_RESULTS.h5] [--small]   (--small: a 0-6 s training run)
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ import argparse
 import math
 import sys
 import time
-import timeit
 from pathlib import Path
 
 import h5py
@@ -30,7 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.tube_run import machine  # noqa: E402
+from benchmarks.common import Timing, fresh_directory, machine, per_call  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
 from rom_component import persistence  # noqa: E402
@@ -46,13 +45,6 @@ from solid_component.tube import TubeSolid  # noqa: E402
 PAPER_ROM_CALL_US = 2800.0
 
 
-def per_call_us(function, repeat: int = 7, number: int | None = None) -> float:
-    timer = timeit.Timer(function)
-    if number is None:
-        number, _ = timer.autorange()
-    return min(timer.repeat(repeat=repeat, number=number)) / number * 1e6
-
-
 def paper_style_solid(solid: TubeSolid):
     """One bracketed scalar root solve of p r = sigma((r - r0) / r0) per node."""
     from scipy.optimize import brentq
@@ -65,18 +57,20 @@ def paper_style_solid(solid: TubeSolid):
     return section
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--results", help="a tube FOM-FOM results.h5 (default: run 0-18 s now)")
-    parser.add_argument("--out", default=str(ROOT / "runs" / "bench_rom"))
-    args = parser.parse_args()
-    out = Path(args.out)
+    parser.add_argument("--small", action="store_true", help="a 0-6 s training run, a small grid (for the tests)")
+    args = parser.parse_args(argv)
+    out = fresh_directory("rom_call")
+    train_end, end, repeat = (6.0, 8.0, 5) if args.small else (18.0, 30.0, 15)
     print(f"machine: {machine()}")
     results = Path(args.results) if args.results else None
     if results is None:
-        run_scene(load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=18"]), out / "fom_train", progress=False)
+        run_scene(load_scene(ROOT / "scenes/tube_fom.toml", [f"time.end={train_end:g}"]), out / "fom_train",
+                  progress=False)
         results = out / "fom_train" / "results.h5"
-    config = load_config(ROOT / "scenes/tube_rom.toml")
+    config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={train_end:g}"])
     F, U, _ = read_snapshots(results, config["snapshots"])
     params = config["model"]
 
@@ -84,9 +78,9 @@ def main() -> None:
     estimator = SolidRom(**params).fit(F, U)
     fit_seconds = time.perf_counter() - started
     selection = config["selection"]
+    force_modes, disp_modes = ([1, 3], [1, 5, 9]) if args.small else (selection["force_modes"], selection["disp_modes"])
     started = time.perf_counter()
-    holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
-                  selection["test_fraction"], selection["seed"])
+    holdout_table(SolidRom(**params), F, U, force_modes, disp_modes, selection["test_fraction"], selection["seed"])
     cv_seconds = time.perf_counter() - started
     model_path = persistence.save(out / "model.npz", estimator.online_arrays(),
                                   {"regressor": params["regressor"], "params": params,
@@ -113,45 +107,50 @@ def main() -> None:
     np.testing.assert_allclose(paper_solid(f), math.pi * solid.radius(f) ** 2, rtol=1e-12)
 
     rows = [
-        ("solid FOM, paper-style scalar root solve per node (baseline)", per_call_us(lambda: paper_solid(f), 3, 20)),
-        ("solid FOM, exact per-branch root, vectorised (ours)", per_call_us(lambda: math.pi * solid.radius(f) ** 2)),
-        ("ROM offline path: estimator.predict(one row) (baseline)", per_call_us(lambda: estimator.predict(f[None]))),
-        ("ROM online path, fast arithmetic (BLAS)", per_call_us(lambda: fast(f))),
-        ("ROM online path, reproducible arithmetic (= the FMU, bit for bit)", per_call_us(lambda: online(f))),
+        ("solid FOM, paper-style scalar root solve per node (baseline)", per_call(lambda: paper_solid(f), repeat, 5)),
+        ("solid FOM, exact per-branch root, vectorised (ours)", per_call(lambda: math.pi * solid.radius(f) ** 2, repeat)),
+        ("ROM offline path: estimator.predict(one row) (baseline)", per_call(lambda: estimator.predict(f[None]), repeat)),
+        ("ROM online path, fast arithmetic (BLAS)", per_call(lambda: fast(f), repeat)),
+        ("ROM online path, reproducible arithmetic (= the FMU, bit for bit)", per_call(lambda: online(f), repeat)),
         ("ROM component step (reproducible, input checks included)",
-         per_call_us(lambda: component.step(0.0, 0.1, {"pressure": f}))),
-        ("FMU ROM through the fmu component (raw fmi2 calls)", per_call_us(lambda: fmu.step(0.0, 0.1, {"pressure": f}))),
-        ("FMU ROM through fmpy setReal/doStep/getReal (baseline)", per_call_us(fmpy_convenience)),
+         per_call(lambda: component.step(0.0, 0.1, {"pressure": f}), repeat)),
+        ("FMU ROM through the fmu component (raw fmi2 calls)",
+         per_call(lambda: fmu.step(0.0, 0.1, {"pressure": f}), repeat)),
+        ("FMU ROM through fmpy setReal/doStep/getReal (baseline)", per_call(fmpy_convenience, repeat)),
     ]
     np.testing.assert_array_equal(fmu.step(0.0, 0.1, {"pressure": f})["section"], online(f))
-    m = len(online.minus_2c) if online.regressor == "rbf" else len(online.qi)
+    m = len(online.arrays["centres"]) if online.regressor == "rbf" else len(online.qi)
     r_f, r_u, n = online.E.shape[0], online.A.shape[1], online.n_inputs
-    flops = 2 * r_f * n + 2 * m * r_f + 4 * m + 2 * r_u * (m + r_f + 1) + 2 * n * r_u
+    flops = 2 * r_f * n + 3 * m * r_f + 30 * m + 2 * r_u * (m + r_f + 1) + 2 * n * r_u
     print(f"\nTube solid ROM: {len(F)} snapshots, r_f = {r_f}, r_u = {r_u}, {params['regressor']} "
-          f"({m} centres), {params['decoder']} decoder; online path {flops} flops in 12 numpy calls")
+          f"({m} centres), {params['decoder']} decoder; online path about {flops} flops")
     print(f"  training (fit): {fit_seconds * 1e3:.1f} ms; hold-out cross-validation over "
-          f"{len(selection['force_modes']) * len(selection['disp_modes'])} (r_f, r_u) pairs: {cv_seconds:.2f} s")
-    print(f"  {'per call, in-process':<64}{'us':>10}{'vs online ROM':>15}")
-    online_us = rows[3][1]  # the fast Python path
-    for label, us in rows:
-        print(f"  {label:<64}{us:>10.1f}{us / online_us:>14.1f}x")
-    print(f"  {'paper: ROM call of the double flap (for scale)':<64}{PAPER_ROM_CALL_US:>10.1f}")
-    print("  target for the tube ROM online call: <= 20 us; the paper's own ROM code measures about 50 us here")
-
+          f"{len(force_modes) * len(disp_modes)} (r_f, r_u) pairs: {cv_seconds:.2f} s")
+    print(f"  {'per call, in-process, us: median [IQR]':<66}{'':>24}{'vs fast ROM':>13}")
+    fast_us = rows[3][1].median
+    for label, timing in rows:
+        print(f"  {label:<66}{str(timing):>24}{timing.median / fast_us:>12.1f}x")
+    print(f"  {'paper: ROM call of the double flap (for scale, its machine)':<66}{PAPER_ROM_CALL_US:>9.1f}")
     fmu.terminate()
-    print("\nThrough the coupler (ROM-FOM mu1, 0-30 s, the reduced backend from 18 s), microseconds per call, median")
-    print(f"  {'backend':<12}{'compute':>10}{'round trip':>12}{'overhead':>10}   run")
+
+    print(f"\nThrough the coupler (ROM-FOM mu1, 0-{end:g} s, the reduced backend from {train_end:g} s), "
+          "us per call: median [IQR]")
+    print(f"  {'backend':<12}{'compute':>24}{'round trip':>24}   run")
+    coupled = {}
     for backend, key, value in (("rom", "model", model_path), ("fmu", "path", fmu_path)):
         run_dir = out / f"{backend}_mu1"
-        scene = load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=30", f"components.solid.backend={backend}",
+        scene = load_scene(ROOT / "scenes/tube_fom.toml", [f"time.end={end:g}", f"components.solid.backend={backend}",
                                                            f"components.solid.{backend}.{key}={value}",
-                                                           f"components.solid.{backend}.switch_time=18"])
+                                                           f"components.solid.{backend}.switch_time={train_end:g}"])
         run_scene(scene, run_dir, progress=False)
         with h5py.File(run_dir / "results.h5") as h:
             for name in ("solid", f"solid_{backend}", "fluid"):
-                c, r = h[f"components/{name}/compute_seconds"][:], h[f"components/{name}/roundtrip_seconds"][:]
-                print(f"  {name:<12}{np.median(c) * 1e6:>10.1f}{np.median(r) * 1e6:>12.1f}"
-                      f"{np.median(r - c) * 1e6:>10.1f}   {backend} backend")
+                c = Timing.of(h[f"components/{name}/compute_seconds"][:])
+                r = Timing.of(h[f"components/{name}/roundtrip_seconds"][:])
+                coupled[(backend, name)] = (c, r)
+                print(f"  {name:<12}{str(c):>24}{str(r):>24}   {backend} backend")
+    return {"machine": machine(), "calls": dict(rows), "fit_seconds": fit_seconds, "cv_seconds": cv_seconds,
+            "flops": flops, "coupled": coupled}
 
 
 if __name__ == "__main__":

@@ -1,17 +1,17 @@
 """Benchmark of the tube FOM-FOM run: wall time, per-call compute, coupler overhead, accelerations.
 
-Prints one table per measurement, with the machine and baselines measured in the same run:
+Prints one table per measurement (medians with the interquartile range in brackets), with the
+machine and the baselines measured in the same run:
 - the transport floor: a raw ZeroMQ DEALER/ROUTER ping-pong between two processes;
-- the paper's preCICE IQN-ILS figure (3.38 coupling iterations per window for mu1).
+- coupling iterations against the paper's preCICE IQN-ILS run, like for like: the paper's own
+  inlet tables replayed (4054 iterations in 1200 windows for mu1, 3.21 per window for mu2).
 
-Usage: python benchmarks/tube_run.py [--out runs/bench] [--quick]
+Usage: python benchmarks/tube_run.py [--small]   (--small: 6 s of simulated time, for the tests)
 """
 
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import subprocess
 import sys
 import time
@@ -23,11 +23,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.common import Timing, fresh_directory, machine  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
 
 SCENE = ROOT / "scenes" / "tube_fom.toml"
-PAPER_PRECICE_ITERATIONS = 3.38
+PAPER_PRECICE = {"mu1": 4054 / 1200, "mu2": 3.21}   # coupling iterations per window, the paper's preCICE runs
+TABLES = {"mu1": (ROOT / "scenes/inlet/tube-inlet-mu1.csv", []),
+          "mu2": (ROOT / "scenes/inlet/tube-inlet-mu2.csv", ["inlet.f=0.9", "inlet.h=4"])}
 
 PING_SERVER = """
 import sys, zmq
@@ -39,20 +42,8 @@ while True:
 """
 
 
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {platform.system()} {platform.release()}"
-
-
-def zmq_ping_floor(n: int = 3000, payload: int = 808) -> float:
-    """Median microseconds of a raw ZeroMQ round trip (808 bytes = 101 float64) between two processes."""
+def zmq_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
+    """A raw ZeroMQ round trip (808 bytes = 101 float64) between two processes."""
     import zmq
     server = subprocess.Popen([sys.executable, "-c", PING_SERVER], stdout=subprocess.PIPE, text=True)
     try:
@@ -69,7 +60,7 @@ def zmq_ping_floor(n: int = 3000, payload: int = 808) -> float:
         socket.send_multipart([b"h", b"quit"])
         socket.recv_multipart()
         socket.close()
-        return float(np.median(times) * 1e6)
+        return Timing.of(times)
     finally:
         try:
             server.wait(timeout=5)
@@ -78,8 +69,8 @@ def zmq_ping_floor(n: int = 3000, payload: int = 808) -> float:
 
 
 def run(out: Path, overrides: list[str]) -> dict:
-    scene = load_scene(SCENE, overrides)
-    summary = run_scene(scene, out, progress=False)
+    """Run the scene with ``overrides``; its iterations and per-call times."""
+    summary = run_scene(load_scene(SCENE, overrides), out, progress=False)
     with h5py.File(out / "results.h5") as f:
         stats = {"wall": summary.wall_seconds, "windows": summary.windows, "iterations": summary.iterations,
                  "max_iterations": int(f["windows/iterations"][:].max()),
@@ -88,52 +79,60 @@ def run(out: Path, overrides: list[str]) -> dict:
         for name in ("fluid", "solid"):
             compute = f[f"components/{name}/compute_seconds"][:]
             roundtrip = f[f"components/{name}/roundtrip_seconds"][:]
-            stats[name] = {"compute_median": np.median(compute), "compute_mean": compute.mean(),
-                           "roundtrip_median": np.median(roundtrip), "roundtrip_mean": roundtrip.mean(),
-                           "overhead_median": np.median(roundtrip - compute), "calls": len(compute),
-                           "roundtrip_total": roundtrip.sum()}
+            stats[name] = {"compute": Timing.of(compute), "roundtrip": Timing.of(roundtrip),
+                           "overhead": Timing.of(roundtrip - compute), "roundtrip_total": roundtrip.sum()}
     return stats
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(ROOT / "runs" / "bench"))
-    parser.add_argument("--quick", action="store_true", help="only the scene's own settings")
-    args = parser.parse_args()
-    out = Path(args.out)
+    parser.add_argument("--small", action="store_true", help="6 s of simulated time, fewer variants (for the tests)")
+    args = parser.parse_args(argv)
+    out = fresh_directory("tube_run")
+    end = 6.0 if args.small else 120.0
+    span = [f"time.end={end:g}"]
     print(f"machine: {machine()}")
-    floor = zmq_ping_floor()
-    main_run = run(out / "iqn-ils", [])
-    us = 1e6
-    print(f"\nTube FOM-FOM, mu1, 0-120 s ({main_run['windows']} windows), scene settings (IQN-ILS)")
-    print(f"  wall time of the run (start-up to results closed): {main_run['wall']:8.2f} s   (target <= 15 s)")
+    floor = zmq_ping_floor(300 if args.small else 3000)
+    main_run = run(out / "iqn-ils", span)
+    print(f"\nTube FOM-FOM, mu1, 0-{end:g} s ({main_run['windows']} windows), scene settings (IQN-ILS)")
+    print(f"  wall time of the run (start-up to results closed): {main_run['wall']:8.2f} s")
     print(f"  all windows converged: {main_run['converged']}")
-    print(f"  {'per call, microseconds':<28}{'fluid':>10}{'solid':>10}")
-    for key, label in (("compute_median", "compute (median)"), ("compute_mean", "compute (mean)"),
-                       ("roundtrip_median", "round trip (median)"), ("overhead_median", "round trip - compute")):
-        print(f"  {label:<28}{main_run['fluid'][key] * us:>10.1f}{main_run['solid'][key] * us:>10.1f}")
-    print(f"  {'raw ZeroMQ ping-pong (floor)':<28}{floor:>10.1f}{floor:>10.1f}   <- baseline, same machine, same run")
+    print(f"  {'per call, us: median [IQR]':<30}{'fluid':>24}{'solid':>24}")
+    for key, label in (("compute", "compute"), ("roundtrip", "round trip"), ("overhead", "round trip - compute")):
+        print(f"  {label:<30}{str(main_run['fluid'][key]):>24}{str(main_run['solid'][key]):>24}")
+    print(f"  {'raw ZeroMQ ping-pong (floor)':<30}{str(floor):>24}   <- baseline, same machine, same run")
     iterations = main_run["iterations"]
-    transport = (main_run["fluid"]["overhead_median"] + main_run["solid"]["overhead_median"]) * us
+    transport = main_run["fluid"]["overhead"].median + main_run["solid"]["overhead"].median
     coupler_own = (main_run["window_seconds"] - main_run["fluid"]["roundtrip_total"]
-                   - main_run["solid"]["roundtrip_total"]) / iterations * us
+                   - main_run["solid"]["roundtrip_total"]) / iterations * 1e6
     print(f"  coupler overhead per iteration: {transport:.0f} us on the wire (round trip - compute, both calls) "
           f"+ {coupler_own:.0f} us in the coupler (acceleration, measures, recording, results file)")
-    if args.quick:
-        return
+    results = {"machine": machine(), "end": end, "main": main_run, "floor": floor, "coupler_us": coupler_own,
+               "variants": {}, "tables": {}}
     variants = [("IQN-ILS (scene: 8 reused windows, QR2 1e-3)", [], main_run),
                 ("IQN-ILS + linear extrapolation", ["coupling.extrapolation_order=1"], None),
-                ("IQN-ILS, no reused windows", ["coupling.acceleration.reused_time_windows=0"], None),
-                ("Aitken, initial relaxation 0.01", ["coupling.acceleration.type=aitken"], None),
-                ("Aitken, initial relaxation 0.5", ["coupling.acceleration.type=aitken",
-                                                    "coupling.acceleration.initial_relaxation=0.5"], None)]
-    print("\nCoupling iterations per window, mu1, 1200 windows")
-    print(f"  {'acceleration':<46}{'mean':>7}{'max':>6}{'wall s':>8}{'vs preCICE 3.38':>17}")
+                ("IQN-ILS, reused_time_windows = 0", ["coupling.acceleration.reused_time_windows=0"], None),
+                ("Aitken, initial relaxation 0.01", ["coupling.acceleration.type=aitken"], None)]
+    if args.small:
+        variants = variants[:1] + variants[2:3]
+    print(f"\nCoupling iterations per window, mu1 (our Duffing inlet), {main_run['windows']} windows")
+    print(f"  {'acceleration':<46}{'mean':>7}{'max':>6}{'wall s':>8}")
     for i, (label, overrides, result) in enumerate(variants):
-        result = result or run(out / f"variant{i}", overrides)
+        result = result or run(out / f"variant{i}", span + overrides)
+        results["variants"][label] = result
+        print(f"  {label:<46}{result['iterations'] / result['windows']:>7.3f}{result['max_iterations']:>6d}"
+              f"{result['wall']:>8.2f}")
+    print("\nLike for like with the paper's preCICE run: the paper's inlet tables replayed, IQN-ILS, scene settings")
+    print(f"  {'case':<10}{'ours':>10}{'preCICE':>10}{'difference':>12}")
+    for case, (table, overrides) in TABLES.items():
+        if args.small and case == "mu2":
+            continue
+        result = run(out / f"table_{case}", span + overrides + [f"inlet.table={table}"])
+        results["tables"][case] = result
         mean = result["iterations"] / result["windows"]
-        change = (mean / PAPER_PRECICE_ITERATIONS - 1) * 100
-        print(f"  {label:<46}{mean:>7.3f}{result['max_iterations']:>6d}{result['wall']:>8.2f}{change:>+16.1f}%")
+        print(f"  {case:<10}{mean:>10.3f}{PAPER_PRECICE[case]:>10.3f}{(mean / PAPER_PRECICE[case] - 1) * 100:>+11.1f}%"
+              + ("   (over 0-6 s only: not comparable)" if args.small else f"   ({result['iterations']} iterations)"))
+    return results
 
 
 if __name__ == "__main__":

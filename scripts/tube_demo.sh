@@ -13,7 +13,7 @@ SCENE=scenes/tube_fom.toml
 MU2=(--set inlet.f=0.9 --set inlet.h=4)
 start=$(date +%s.%N)
 
-run() { echo "== cosim run $*"; "$COSIM" run "$SCENE" --quiet "$@"; }
+run() { echo "== cosim run $*"; "$COSIM" run "$SCENE" --quiet --overwrite "$@"; }
 rom() { local model=$1 switch=$2; shift 2
         run --set components.solid.backend=rom --set "components.solid.rom.model=$model" \
             --set "components.solid.rom.switch_time=$switch" "$@"; }

@@ -1,0 +1,63 @@
+"""Shared parts of the benchmarks: the machine, timing statistics, a fresh output directory."""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+import timeit
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def machine() -> str:
+    """CPU model, cores, Python and OS of this machine."""
+    cpu = "unknown CPU"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {platform.system()} {platform.release()}"
+
+
+@dataclass
+class Timing:
+    """Median and interquartile range of repeated measurements, in microseconds."""
+
+    median: float
+    q1: float
+    q3: float
+    samples: int
+
+    @classmethod
+    def of(cls, seconds: np.ndarray) -> "Timing":
+        us = np.asarray(seconds, dtype=float) * 1e6
+        q1, median, q3 = np.percentile(us, [25, 50, 75])
+        return cls(float(median), float(q1), float(q3), len(us))
+
+    def __str__(self) -> str:
+        return f"{self.median:9.1f} [{self.q1:.1f}, {self.q3:.1f}]"
+
+
+def per_call(function: Callable[[], object], repeat: int = 15, number: int | None = None) -> Timing:
+    """Per-call time of ``function``: ``repeat`` timings of ``number`` calls each (autoranged to ~0.05 s)."""
+    timer = timeit.Timer(function)
+    if number is None:
+        number = max(1, int(timer.autorange()[0] / 4))
+    return Timing.of(np.array(timer.repeat(repeat=repeat, number=number)) / number)
+
+
+def fresh_directory(kind: str) -> Path:
+    """A new directory under runs/bench/ for this benchmark run (runs never overwrite each other)."""
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    path = ROOT / "runs" / "bench" / f"{kind}-{stamp}-{os.getpid()}"
+    path.mkdir(parents=True)
+    return path

@@ -1,0 +1,31 @@
+"""The benchmarks run in their small mode, so that they cannot rot."""
+
+from __future__ import annotations
+
+import math
+
+from benchmarks import rom_call, tube_run
+
+
+def test_tube_run_benchmark_small(capsys):
+    results = tube_run.main(["--small"])
+    text = capsys.readouterr().out
+    assert "machine: " in text and "raw ZeroMQ ping-pong" in text and "median [IQR]" in text
+    main = results["main"]
+    assert main["windows"] == 60 and main["converged"]
+    for name in ("fluid", "solid"):
+        t = main[name]["roundtrip"]
+        assert 0 < t.q1 <= t.median <= t.q3 and main[name]["compute"].median < t.median
+    assert 0 < results["floor"].median < main["solid"]["roundtrip"].median
+    assert 1.0 < results["tables"]["mu1"]["iterations"] / 60 < 10.0
+
+
+def test_rom_call_benchmark_small(capsys):
+    results = rom_call.main(["--small"])   # asserts inside that the FMU equals the online ROM bit for bit
+    text = capsys.readouterr().out
+    assert "vs fast ROM" in text and "Through the coupler" in text
+    calls = results["calls"]
+    assert all(t.samples == 5 and 0 < t.q1 <= t.median <= t.q3 and math.isfinite(t.q3) for t in calls.values())
+    paper_style = calls["solid FOM, paper-style scalar root solve per node (baseline)"].median
+    assert paper_style > 10 * calls["ROM online path, fast arithmetic (BLAS)"].median
+    assert {key[1] for key in results["coupled"]} == {"solid", "solid_rom", "solid_fmu", "fluid"}
