@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench figures clean
 
 $(BIN)/cosim: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,9 @@ demo: $(BIN)/cosim
 
 test: $(BIN)/cosim
 	$(BIN)/python -m pytest -q
+
+figures: $(BIN)/cosim
+	$(BIN)/python scripts/figures.py
 
 bench: $(BIN)/cosim
 	$(BIN)/python benchmarks/tube_run.py
