@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-import time
+import threading
 
 import numpy as np
 
@@ -23,7 +23,7 @@ class HangingSolid(TubeSolid):
 
     def do_step(self, t, dt):
         if t >= 0.2:
-            time.sleep(3600)
+            threading.Event().wait()   # never set: hangs until killed
         super().do_step(t, dt)
 
 

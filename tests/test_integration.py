@@ -131,8 +131,11 @@ def test_unknown_component_parameter_is_reported_before_the_run(tmp_path):
 
 
 def test_ctrl_c_stops_every_component(tmp_path):
+    # a shell starts background jobs with SIGINT ignored, and children inherit that: give the run the
+    # default disposition, as a terminal's Ctrl-C finds it
     process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(tmp_path / "c"),
-                                "--quiet"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                "--quiet"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     wait_for(lambda: len(children_of(process.pid)) >= 2, "both components to start")
     wait_for(lambda: windows_done(tmp_path / "c") >= 5, "five finished windows")
     process.send_signal(signal.SIGINT)
