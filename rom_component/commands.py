@@ -1,0 +1,60 @@
+"""The ROM's subcommands: ``cosim train``, ``cosim report``, ``cosim export-fmu``
+(registered in pyproject.toml under ``cosim.commands``)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from cosim.command import Command
+from cosim.errors import SceneError
+
+
+def _train_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("results", help="results.h5 of a run that recorded the solid")
+    parser.add_argument("--out", required=True, help="model file to write (.npz)")
+    parser.add_argument("--config", help="ROM configuration (TOML), e.g. scenes/tube_rom.toml")
+    parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a configuration value")
+
+
+def _train(args: argparse.Namespace) -> int:
+    from rom_component.train import load_config, train
+    train(args.results, args.out, load_config(args.config, args.set or []))
+    return 0
+
+
+def _report_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("runs", nargs="+", metavar="RUN[=REFERENCE]", help="run directory, optionally with its reference")
+    parser.add_argument("--reference", help="FOM-FOM run directory for runs given without one")
+    parser.add_argument("--out", default="runs/report", help="report directory (default: runs/report)")
+
+
+def _report(args: argparse.Namespace) -> int:
+    from rom_component.report import Run, write_report
+    pairs = []
+    for item in args.runs:
+        run_dir, _, ref_dir = item.partition("=")
+        ref_dir = ref_dir or args.reference
+        if not ref_dir:
+            raise SceneError(f"run '{run_dir}' has no reference: write RUN=REFERENCE or pass --reference")
+        pairs.append((Run.read(run_dir), Run.read(ref_dir)))
+    write_report(pairs, Path(args.out))
+    print(f"report written to {args.out}")
+    return 0
+
+
+def _export_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", help="model file (.npz) written by cosim train")
+    parser.add_argument("--out", required=True, help="FMU to write")
+    parser.add_argument("--components-per-node", type=int, help="values per interface node (default: 1)")
+
+
+def _export_fmu(args: argparse.Namespace) -> int:
+    from rom_component.fmu_export import export_fmu
+    print(f"wrote {export_fmu(args.model, args.out, args.components_per_node)}")
+    return 0
+
+
+train = Command("train a solid ROM from the snapshots of a run", _train_arguments, _train)
+report = Command("compare ROM-FOM runs with FOM-FOM references", _report_arguments, _report)
+export_fmu = Command("export a trained ROM as an FMI 2.0 Co-Simulation FMU", _export_arguments, _export_fmu)

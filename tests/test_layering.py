@@ -1,0 +1,50 @@
+"""Layering (DESIGN.md, Packages): no import arrow runs upward or sideways between our packages."""
+
+from __future__ import annotations
+
+import ast
+
+import pytest
+
+from cosim.cli import commands, parser
+
+from tests.conftest import ROOT
+
+OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component")
+ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "solid_component": {"cosim"},
+           "rom_component": {"cosim"}}
+
+
+def imported_packages(path) -> set[tuple[str, int]]:
+    """Our top-level packages imported anywhere in a module (in functions too), with line numbers."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+        else:
+            continue
+        found |= {(name.split(".")[0], node.lineno) for name in names if name.split(".")[0] in OURS}
+    return found
+
+
+@pytest.mark.parametrize("package", OURS)
+def test_no_import_runs_upward_or_sideways(package):
+    wrong = [f"{path.relative_to(ROOT)}:{line} imports {name}"
+             for path in sorted((ROOT / package).rglob("*.py"))
+             for name, line in imported_packages(path) if name != package and name not in ALLOWED[package]]
+    assert wrong == []
+
+
+def test_the_layering_check_catches_an_upward_import(tmp_path):
+    module = tmp_path / "bad.py"
+    module.write_text("def f():\n    from coupler.run import run_scene\n")
+    assert imported_packages(module) == {("coupler", 2)}
+
+
+def test_every_subcommand_is_registered_and_listed():
+    assert set(commands()) == {"serve", "run", "train", "report", "export-fmu"}
+    text = parser().format_help()
+    for name in commands():
+        assert name in text
