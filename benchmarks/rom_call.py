@@ -23,7 +23,6 @@ import sys
 import time
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -31,6 +30,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import Timing, fresh_directory, machine, per_call  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
+from cosim.results import RunResults  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
 from rom_component import persistence  # noqa: E402
 from rom_component.component import RomSolid  # noqa: E402
@@ -143,10 +143,10 @@ def main(argv: list[str] | None = None) -> dict:
                                                            f"components.solid.{backend}.{key}={value}",
                                                            f"components.solid.{backend}.switch_time={train_end:g}"])
         run_scene(scene, run_dir, progress=False)
-        with h5py.File(run_dir / "results.h5") as h:
+        with RunResults(run_dir) as results:
             for name in ("solid", f"solid_{backend}", "fluid"):
-                c = Timing.of(h[f"components/{name}/compute_seconds"][:])
-                r = Timing.of(h[f"components/{name}/roundtrip_seconds"][:])
+                record = results.component(name)
+                c, r = Timing.of(record.compute_seconds), Timing.of(record.roundtrip_seconds)
                 coupled[(backend, name)] = (c, r)
                 print(f"  {name:<12}{str(c):>24}{str(r):>24}   {backend} backend")
     return {"machine": machine(), "calls": dict(rows), "fit_seconds": fit_seconds, "cv_seconds": cv_seconds,

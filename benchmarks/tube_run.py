@@ -17,7 +17,6 @@ import sys
 import time
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,6 +24,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import Timing, fresh_directory, machine  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
+from cosim.results import RunResults  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
 
 SCENE = ROOT / "scenes" / "tube_fom.toml"
@@ -71,14 +71,14 @@ def zmq_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
 def run(out: Path, overrides: list[str]) -> dict:
     """Run the scene with ``overrides``; its iterations and per-call times."""
     summary = run_scene(load_scene(SCENE, overrides), out, progress=False)
-    with h5py.File(out / "results.h5") as f:
+    with RunResults(out) as results:
+        windows = results.windows
         stats = {"wall": summary.wall_seconds, "windows": summary.windows, "iterations": summary.iterations,
-                 "max_iterations": int(f["windows/iterations"][:].max()),
-                 "converged": bool(f["windows/converged"][:].all()),
-                 "window_seconds": float(f["windows/wall_seconds"][:].sum())}
+                 "max_iterations": int(windows.iterations.max()), "converged": bool(windows.converged.all()),
+                 "window_seconds": float(windows.wall_seconds.sum())}
         for name in ("fluid", "solid"):
-            compute = f[f"components/{name}/compute_seconds"][:]
-            roundtrip = f[f"components/{name}/roundtrip_seconds"][:]
+            record = results.component(name)
+            compute, roundtrip = record.compute_seconds, record.roundtrip_seconds
             stats[name] = {"compute": Timing.of(compute), "roundtrip": Timing.of(roundtrip),
                            "overhead": Timing.of(roundtrip - compute), "roundtrip_total": roundtrip.sum()}
     return stats

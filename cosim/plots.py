@@ -5,8 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-import h5py
 import numpy as np
+
+from cosim.results import RunResults
 
 
 def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) -> Path:
@@ -15,13 +16,13 @@ def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) ->
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    with h5py.File(results, "r") as f:
-        time = f["windows/time"][:] if "windows/time" in f else np.zeros(0)
-        iterations = f["windows/iterations"][:] if "windows/iterations" in f else np.zeros(0)
-        fields = list(f["fields"]) if "fields" in f else []
-        field = output.get("plot_field") or (fields[0] if fields else "")
-        index = int(output.get("plot_index", 0))
-        values = f[f"fields/{field}"][:, index] if field in fields else np.zeros(0)
+    with RunResults(results) as run:
+        windows = run.windows
+        fields = run.fields()
+    time, iterations = windows.time, windows.iterations
+    field = output.get("plot_field") or next(iter(fields), "")
+    index = int(output.get("plot_index", 0))
+    values = fields[field][:, index] if field in fields else np.zeros(0)
     label = output.get("plot_label") or f"{field}[{index}]"
     figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
     top.plot(time[:len(values)], values, lw=1.0)

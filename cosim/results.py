@@ -1,10 +1,11 @@
-"""The results file of a run (HDF5): appended and flushed every time window.
+"""The results file of a run (HDF5): written by ``ResultsStore``, read by ``RunResults``.
 
-Layout (see DESIGN.md): root attributes ``scene`` and ``versions``;
-``/windows/{time,iterations,converged,wall_seconds}``; ``/fields/<data>``;
-``/components/<name>`` with ``compute_seconds`` and ``roundtrip_seconds`` per call;
-``/snapshots/<name>/{inputs,outputs}/<var>`` with ``window``, ``iteration`` and
-``converged`` per call. A crash loses at most the window in flight.
+Layout (see DESIGN.md; ``Layout`` below is its only spelling): root attributes ``scene``,
+``scene_resolved`` and ``versions``; ``/windows/{time,iterations,converged,wall_seconds}``;
+``/fields/<data>``; ``/initial/<data>``; ``/components/<name>`` with ``compute_seconds`` and
+``roundtrip_seconds`` per call and ``final/`` arrays; ``/snapshots/<name>/{inputs,outputs}/<var>``
+with ``window``, ``iteration`` and ``converged`` per call. The writer appends and flushes every
+window: a crash loses at most the window in flight.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import signal
 import socket
 import threading
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
@@ -24,6 +26,41 @@ import numpy as np
 from cosim.errors import CosimError
 
 WINDOW_COLUMNS = {"time": np.float64, "iterations": np.int32, "converged": np.bool_, "wall_seconds": np.float64}
+FILE_NAME = "results.h5"
+
+
+class Layout:
+    """Where everything lives in the file: the one place that spells its paths."""
+
+    windows = "windows"
+    fields = "fields"
+    initial = "initial"
+    components = "components"
+    snapshots = "snapshots"
+
+    @staticmethod
+    def window(column: str) -> str:
+        return f"windows/{column}"
+
+    @staticmethod
+    def field(name: str) -> str:
+        return f"fields/{name}"
+
+    @staticmethod
+    def component(name: str) -> str:
+        return f"components/{name}"
+
+    @staticmethod
+    def timing(name: str, kind: str) -> str:
+        return f"components/{name}/{kind}_seconds"
+
+    @staticmethod
+    def final(name: str) -> str:
+        return f"components/{name}/final"
+
+    @staticmethod
+    def calls(name: str) -> str:
+        return f"snapshots/{name}"
 
 
 def versions() -> dict[str, str]:
@@ -53,7 +90,7 @@ class ResultsStore:
         self.file.attrs["windows_completed"] = 0
         self._columns: dict[str, _GrowingDataset] = {}
         for name, dtype in WINDOW_COLUMNS.items():  # present (empty) even if no window finishes
-            self._append(f"windows/{name}", np.zeros(0, dtype=dtype))
+            self._append(Layout.window(name), np.zeros(0, dtype=dtype))
         self.file.flush()
 
     # --- growable datasets ----------------------------------------------------
@@ -65,9 +102,11 @@ class ResultsStore:
             column.append(rows)
 
     # --- run content -------------------------------------------------------------
-    def add_component(self, name: str, pid: int | None, host: str, backend: str, endpoint: str = "") -> None:
-        group = self.file.require_group(f"components/{name}")
-        group.attrs.update({"pid": -1 if pid is None else pid, "host": host, "backend": backend, "endpoint": endpoint})
+    def add_component(self, name: str, pid: int | None, host: str, backend: str, endpoint: str = "",
+                      **attributes: Any) -> None:
+        group = self.file.require_group(Layout.component(name))
+        group.attrs.update({"pid": -1 if pid is None else pid, "host": host, "backend": backend, "endpoint": endpoint,
+                            **attributes})
 
     def append_window(self, time: float, iterations: int, converged: bool, wall_seconds: float,
                       fields: Mapping[str, np.ndarray],
@@ -85,20 +124,20 @@ class ResultsStore:
                        fields: Mapping[str, np.ndarray],
                        timings: Mapping[str, tuple[list[float], list[float]]],
                        snapshots: Mapping[str, Mapping[str, Any]]) -> None:
-        self._append("windows/time", np.array([time]))
-        self._append("windows/iterations", np.array([iterations], dtype=np.int32))
-        self._append("windows/converged", np.array([converged]))
-        self._append("windows/wall_seconds", np.array([wall_seconds]))
+        self._append(Layout.window("time"), np.array([time]))
+        self._append(Layout.window("iterations"), np.array([iterations], dtype=np.int32))
+        self._append(Layout.window("converged"), np.array([converged]))
+        self._append(Layout.window("wall_seconds"), np.array([wall_seconds]))
         for name, value in fields.items():
-            self._append(f"fields/{name}", np.asarray(value)[None])
+            self._append(Layout.field(name), np.asarray(value)[None])
         for name, (compute, roundtrip) in timings.items():
             if compute:
-                self._append(f"components/{name}/compute_seconds", np.array(compute))
-                self._append(f"components/{name}/roundtrip_seconds", np.array(roundtrip))
+                self._append(Layout.timing(name, "compute"), np.array(compute))
+                self._append(Layout.timing(name, "roundtrip"), np.array(roundtrip))
         for name, calls in snapshots.items():
             if not calls["window"]:
                 continue
-            base = f"snapshots/{name}"
+            base = Layout.calls(name)
             for kind in ("inputs", "outputs"):
                 for var, rows in calls[kind].items():
                     self._append(f"{base}/{kind}/{var}", np.stack(rows))
@@ -107,7 +146,15 @@ class ResultsStore:
             self._append(f"{base}/converged", np.array(calls["converged"]))
         self.file.flush()
 
-    def write_arrays(self, group: str, arrays: Mapping[str, np.ndarray]) -> None:
+    def write_initial(self, values: Mapping[str, np.ndarray]) -> None:
+        """Data values before the first window."""
+        self._write_arrays(Layout.initial, values)
+
+    def write_final(self, component: str, arrays: Mapping[str, np.ndarray]) -> None:
+        """What a component hands back at terminate."""
+        self._write_arrays(Layout.final(component), arrays)
+
+    def _write_arrays(self, group: str, arrays: Mapping[str, np.ndarray]) -> None:
         for name, value in arrays.items():
             path = f"{group}/{name}"
             if path in self.file:
@@ -115,12 +162,129 @@ class ResultsStore:
             self.file.create_dataset(path, data=value)
         self.file.flush()
 
-    def set_attributes(self, group: str, **attributes: Any) -> None:
-        self.file.require_group(group).attrs.update(attributes)
+    def set_attributes(self, **attributes: Any) -> None:
+        """Root attributes of the run."""
+        self.file.attrs.update(attributes)
 
     def close(self) -> None:
         if self.file.id.valid:
             self.file.close()
+
+
+@dataclass
+class Windows:
+    """Per-window summary rows."""
+
+    time: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    wall_seconds: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+
+@dataclass
+class ComponentRecord:
+    """One component (process) of a run: its attributes and per-call timings."""
+
+    name: str
+    attributes: dict[str, Any]
+    compute_seconds: np.ndarray
+    roundtrip_seconds: np.ndarray
+    final: dict[str, np.ndarray]
+
+
+@dataclass
+class Calls:
+    """Recorded calls of one component: one row per call (every sub-iteration)."""
+
+    inputs: dict[str, np.ndarray]
+    outputs: dict[str, np.ndarray]
+    window: np.ndarray
+    iteration: np.ndarray
+    converged: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.window)
+
+
+class RunResults:
+    """A run's results file, opened read-only: ``RunResults(DIR or DIR/results.h5)``."""
+
+    def __init__(self, path: str | Path):
+        path = Path(path)
+        self.path = path / FILE_NAME if path.is_dir() else path
+        if not self.path.is_file():
+            raise CosimError(f"no results file at '{self.path}'")
+        if not h5py.is_hdf5(self.path):
+            raise CosimError(f"'{self.path}' is not an HDF5 results file")
+        self.file = h5py.File(self.path, "r")
+
+    def __enter__(self) -> "RunResults":
+        return self
+
+    def __exit__(self, *exc_info: Any) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self.file.id.valid:
+            self.file.close()
+
+    # --- the run ------------------------------------------------------------
+    @property
+    def attributes(self) -> dict[str, Any]:
+        return {k: (v.item() if hasattr(v, "item") else v) for k, v in self.file.attrs.items()}
+
+    @property
+    def scene(self) -> dict[str, Any]:
+        """The resolved scene (after --set), or the scene text parsed."""
+        if "scene_resolved" in self.file.attrs:
+            return json.loads(self.file.attrs["scene_resolved"])
+        import tomllib
+        return tomllib.loads(self.file.attrs["scene"])
+
+    @property
+    def windows(self) -> Windows:
+        return Windows(*(self.file[Layout.window(c)][:] for c in WINDOW_COLUMNS))
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Converged value of each exchanged data item, one row per window."""
+        return {k: v[:] for k, v in self.file.get(Layout.fields, {}).items()}
+
+    def initial(self) -> dict[str, np.ndarray]:
+        return {k: v[:] for k, v in self.file.get(Layout.initial, {}).items()}
+
+    # --- components -----------------------------------------------------------
+    def component_names(self) -> list[str]:
+        return list(self.file.get(Layout.components, {}))
+
+    def component(self, name: str) -> ComponentRecord:
+        if Layout.component(name) not in self.file:
+            raise CosimError(f"'{self.path}' has no component '{name}' (has: {', '.join(self.component_names())})")
+        group = self.file[Layout.component(name)]
+        timings = [self.file[p][:] if p in self.file else np.zeros(0)
+                   for p in (Layout.timing(name, "compute"), Layout.timing(name, "roundtrip"))]
+        final = {k: v[:] for k, v in self.file.get(Layout.final(name), {}).items()}
+        attributes = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
+        return ComponentRecord(name, attributes, *timings, final)
+
+    # --- snapshots --------------------------------------------------------------
+    def recorded(self) -> list[str]:
+        """Components whose calls were recorded."""
+        return list(self.file.get(Layout.snapshots, {}))
+
+    def calls(self, name: str, converged_only: bool = False) -> Calls:
+        """Recorded calls of ``name`` (only each window's converged one if ``converged_only``)."""
+        if Layout.calls(name) not in self.file:
+            raise CosimError(f"'{self.path}' has no recorded calls of '{name}' (recorded: "
+                             f"{', '.join(self.recorded()) or 'none'}; set record = true in the scene)")
+        group = self.file[Layout.calls(name)]
+        keep = group["converged"][:] if converged_only else slice(None)
+        arrays = {kind: {var: data[:][keep] for var, data in group.get(kind, {}).items()}
+                  for kind in ("inputs", "outputs")}
+        return Calls(arrays["inputs"], arrays["outputs"], group["window"][:][keep], group["iteration"][:][keep],
+                     group["converged"][:][keep])
 
 
 @contextmanager

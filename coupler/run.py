@@ -155,7 +155,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
          progress: bool) -> RunSummary:
     out_dir = directory.path
     store = ResultsStore(out_dir / "results.h5", scene.text)
-    store.set_attributes("/", scene_resolved=json.dumps(scene.data))
+    store.set_attributes(scene_resolved=json.dumps(scene.data))
     wall_start = time.perf_counter()
     windows = iterations = unconverged = 0
     state = "failed"
@@ -169,15 +169,14 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 start_backends(scene, backends, launcher)
                 for b in backends:
                     host = b.address or socket.gethostname()
-                    store.add_component(b.name, b.proxy.pid, host, b.entry or b.address, b.proxy.endpoint)
-                    store.set_attributes(f"components/{b.name}", participant=b.participant, kind=b.kind,
-                                         start_time=b.start_time)
+                    store.add_component(b.name, b.proxy.pid, host, b.entry or b.address, b.proxy.endpoint,
+                                        participant=b.participant, kind=b.kind, start_time=b.start_time)
                     b.proxy.instantiate(b.parameters)
                     b.proxy.enter_initialization_mode(start, start + n_windows * dt)
                     b.proxy.exit_initialization_mode()
                 recorders = {n: CallRecorder() for n, s in scene["components"].items() if s["record"]}
                 scheme = build_scheme(scene, participants_of(backends), recorders)
-                store.write_arrays("initial", scheme.values)
+                store.write_initial(scheme.values)
                 bar = _progress(n_windows, progress)
                 phase = ""
                 try:
@@ -206,7 +205,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 for b in backends:
                     final = b.proxy.terminate()
                     if final:
-                        store.write_arrays(f"components/{b.name}/final", final)
+                        store.write_final(b.name, final)
                 state = "finished"
             except CosimError as exc:
                 if not exc.where:
@@ -221,7 +220,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 _shutdown([b.proxy for b in backends if b.proxy is not None])
     finally:
         wall = time.perf_counter() - wall_start
-        store.set_attributes("/", wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged)
+        store.set_attributes(wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged)
         store.close()
         if state == "finished":
             directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,

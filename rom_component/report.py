@@ -12,15 +12,14 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
 from cosim.errors import SceneError
+from cosim.results import RunResults
 from rom_component.persistence import ModelFileError, load_arrays
 
 
@@ -45,31 +44,24 @@ class Run:
     @classmethod
     def read(cls, directory: str | Path) -> "Run":
         directory = Path(directory)
-        path = directory / "results.h5" if directory.is_dir() else directory
-        if not path.is_file():
-            raise SceneError(f"no results file at '{path}'")
-        with h5py.File(path, "r") as f:
-            scene = json.loads(f.attrs["scene_resolved"]) if "scene_resolved" in f.attrs \
-                else tomllib.loads(f.attrs["scene"])
-            initial = {k: v[:] for k, v in f["initial"].items()} if "initial" in f else {}
+        with RunResults(directory) as results:
             components = {}
-            for name, group in f["components"].items():
-                info = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
-                for key in ("compute_seconds", "roundtrip_seconds"):
-                    info[key] = group[key][:] if key in group else np.zeros(0)
-                components[name] = info
-            run = cls(path, directory.name if directory.is_dir() else path.parent.name, scene,
-                      f["windows/time"][:], f["windows/iterations"][:], float(f.attrs.get("wall_seconds", np.nan)),
-                      {k: v[:] for k, v in f["fields"].items()}, components, initial=initial)
-            for name, info in components.items():
-                if info.get("kind") in ("rom", "fmu"):
-                    run.rom_backend, run.switch_time = name, float(info["start_time"])
-                    final = f"components/{name}/final"
-                    if final in f and "full_field" in f[final]:
-                        run.full_field = (f[f"{final}/time"][:], f[f"{final}/full_field"][:])
+            for name in results.component_names():
+                record = results.component(name)
+                components[name] = {**record.attributes, "compute_seconds": record.compute_seconds,
+                                    "roundtrip_seconds": record.roundtrip_seconds, "final": record.final}
+            windows = results.windows
+            run = cls(results.path, directory.name if directory.is_dir() else results.path.parent.name, results.scene,
+                      windows.time, windows.iterations, float(results.attributes.get("wall_seconds", np.nan)),
+                      results.fields(), components, initial=results.initial())
+        for name, info in components.items():
+            if info.get("kind") in ("rom", "fmu"):
+                run.rom_backend, run.switch_time = name, float(info["start_time"])
+                if "full_field" in info["final"]:
+                    run.full_field = (info["final"]["time"], info["final"]["full_field"])
         if run.rom_backend:
             participant = components[run.rom_backend]["participant"]
-            model_path = scene.get("components", {}).get(participant, {}).get("rom", {}).get("model", "")
+            model_path = run.scene.get("components", {}).get(participant, {}).get("rom", {}).get("model", "")
             try:
                 run.model = load_arrays(model_path)[1] if model_path else {}
             except ModelFileError:

@@ -13,10 +13,10 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
 from cosim.errors import SceneError
+from cosim.results import RunResults
 from cosim.scene import apply_override, parse_override
 from cosim.schema import validate
 from rom_component import persistence
@@ -55,31 +55,19 @@ def load_config(path: str | Path | None, overrides: list[str] = ()) -> dict[str,
 
 def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Force rows, displacement rows and window end times of the selected calls."""
-    path = Path(results)
-    if not path.is_file():
-        raise SceneError(f"results file '{path}' does not exist")
-    base = f"snapshots/{spec['component']}"
-    if not h5py.is_hdf5(path):
-        raise SceneError(f"'{path}' is not an HDF5 results file")
-    with h5py.File(path, "r") as f:
-        if base not in f:
-            available = list(f["snapshots"]) if "snapshots" in f else []
-            raise SceneError(f"'{path}' has no recorded calls of '{spec['component']}' "
-                             f"(recorded: {', '.join(available) or 'none'}; set record = true in the scene)")
-        group = f[base]
-        for kind, var in (("inputs", spec["input"]), ("outputs", spec["output"])):
-            if var not in group.get(kind, {}):
-                raise SceneError(f"'{path}': {base}/{kind} has no '{var}' (has: {', '.join(group[kind])})")
-        window_time = f["windows/time"][:]
-        windows = group["window"][:]
-        times = window_time[np.minimum(windows, len(window_time)) - 1]
-        keep = (times >= spec["t_min"] - 1e-9) & (times <= spec["t_max"] + 1e-9) & (windows <= len(window_time))
-        if spec["converged_only"]:
-            keep &= group["converged"][:]
-        F = group[f"inputs/{spec['input']}"][:][keep]
-        U = group[f"outputs/{spec['output']}"][:][keep]
+    with RunResults(results) as run:
+        calls = run.calls(spec["component"], converged_only=spec["converged_only"])
+        window_time = run.windows.time
+    for kind, var, arrays in (("inputs", spec["input"], calls.inputs), ("outputs", spec["output"], calls.outputs)):
+        if var not in arrays:
+            raise SceneError(f"'{results}': the recorded {kind} of '{spec['component']}' have no '{var}' "
+                             f"(has: {', '.join(arrays)})")
+    finished = calls.window <= len(window_time)            # calls of the window in flight at a crash are left out
+    times = window_time[np.minimum(calls.window, len(window_time)) - 1]
+    keep = finished & (times >= spec["t_min"] - 1e-9) & (times <= spec["t_max"] + 1e-9)
+    F, U = calls.inputs[spec["input"]][keep], calls.outputs[spec["output"]][keep]
     if len(F) < 3:
-        raise SceneError(f"'{path}': only {len(F)} snapshots of '{spec['component']}' fall in "
+        raise SceneError(f"'{results}': only {len(F)} snapshots of '{spec['component']}' fall in "
                          f"t in [{spec['t_min']:g}, {spec['t_max']:g}]")
     return F, U, times[keep]
 

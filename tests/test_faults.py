@@ -6,13 +6,13 @@ import os
 import subprocess
 import sys
 
-import h5py
 import numpy as np
 import pytest
 
 from coupler.run import run_scene
 from cosim.cli import main
 from cosim.errors import DivergenceError, NonFiniteOutput
+from cosim.results import RunResults
 from cosim.rundir import read_status
 from cosim.scene import load_scene
 
@@ -28,8 +28,8 @@ def test_nan_from_the_solid_names_the_solid_variable_window_time_and_iteration(t
         run(tmp_path / "nan", "time.end=1", "components.solid.entry=tests.components:NanSolid")
     assert str(error.value) == ("component 'solid' in window 3 (t = 0.2 to 0.3), iteration 1: output 'section' "
                                 "is not finite: nan at index 5 (1 of 101 values)")
-    with h5py.File(tmp_path / "nan/results.h5") as f:
-        assert len(f["windows/time"]) == 2
+    with RunResults(tmp_path / "nan") as results:
+        assert len(results.windows) == 2
     assert read_status(tmp_path / "nan")["state"] == "failed"
 
 
@@ -38,10 +38,9 @@ def test_accepted_windows_are_counted(tmp_path, capsys):
                  "--set", "coupling.max_iterations=2", "--set", "coupling.on_max_iterations=\"accept\""])
     out, err = capsys.readouterr()
     assert code == 0
-    with h5py.File(tmp_path / "accept/results.h5") as f:
-        converged = f["windows/converged"][:]
-        unconverged = int((~converged).sum())
-        assert f.attrs["windows_unconverged"] == unconverged > 0
+    with RunResults(tmp_path / "accept") as results:
+        unconverged = int((~results.windows.converged).sum())
+        assert results.attributes["windows_unconverged"] == unconverged > 0
     assert f"10 windows ({unconverged} did not converge)" in out
     assert err.count("did not converge in 2 iterations") == unconverged
 
@@ -70,8 +69,8 @@ def test_a_finished_run_is_never_overwritten_without_overwrite(tmp_path, capsys)
                    "or pass --overwrite to replace it")
     assert (out / "results.h5").read_bytes() == before
     assert main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--overwrite", "--set", "time.end=0.5"]) == 0
-    with h5py.File(out / "results.h5") as f:
-        assert len(f["windows/time"]) == 5
+    with RunResults(out) as results:
+        assert len(results.windows) == 5
 
 
 @pytest.mark.parametrize("overwrite", [False, True])
@@ -92,9 +91,9 @@ def test_a_run_in_progress_is_never_touched(tmp_path, overwrite):
     finally:
         first.terminate()
         first.communicate(timeout=30)
-    with h5py.File(out / "results.h5") as f:      # the first run's file is intact and readable
-        windows = len(f["windows/time"])
-        assert windows >= 3 and f["fields/pressure"].shape == (windows, 101)
+    with RunResults(out) as results:      # the first run's file is intact and readable
+        windows = len(results.windows)
+        assert windows >= 3 and results.fields()["pressure"].shape == (windows, 101)
     assert children_of(os.getpid()) == []
 
 
@@ -102,10 +101,11 @@ def test_a_run_with_no_finished_window_has_empty_window_datasets(tmp_path):
     with pytest.raises(NonFiniteOutput):
         run(tmp_path / "empty", "time.end=1", "components.solid.entry=tests.components:NanSolid",
             "time.start=0.2", "time.end=1.2")
-    with h5py.File(tmp_path / "empty/results.h5") as f:
-        for name in ("time", "iterations", "converged", "wall_seconds"):
-            assert f[f"windows/{name}"].shape == (0,)
-        assert f.attrs["windows_completed"] == 0
+    with RunResults(tmp_path / "empty") as results:
+        windows = results.windows
+        for column in (windows.time, windows.iterations, windows.converged, windows.wall_seconds):
+            assert column.shape == (0,)
+        assert results.attributes["windows_completed"] == 0
     np.testing.assert_equal(read_status(tmp_path / "empty")["windows_completed"], 0)
 
 

@@ -9,11 +9,11 @@ import subprocess
 import sys
 import time
 
-import h5py
 import numpy as np
 import pytest
 
 from coupler.run import run_scene
+from cosim.results import RunResults
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout
 from cosim.scene import load_scene
 
@@ -29,27 +29,28 @@ def test_short_tube_run_over_localhost(tmp_path):
     summary, path = run(tmp_path, "time.end=3")
     assert summary.windows == 30
     assert children_of(os.getpid()) == []  # every component process is gone
-    with h5py.File(path) as f:
-        pids = {name: int(f[f"components/{name}"].attrs["pid"]) for name in ("fluid", "solid")}
+    with RunResults(path) as results:
+        pids = {name: int(results.component(name).attributes["pid"]) for name in ("fluid", "solid")}
         assert len({*pids.values(), os.getpid()}) == 3
         for name in pids:
-            assert f[f"components/{name}"].attrs["endpoint"].startswith("tcp://127.0.0.1:")
-        iterations = f["windows/iterations"][:]
-        assert f["windows/converged"][:].all() and len(iterations) == 30
-        np.testing.assert_allclose(f["windows/time"][:], 0.1 * np.arange(1, 31), rtol=1e-12)
+            assert results.component(name).attributes["endpoint"].startswith("tcp://127.0.0.1:")
+        windows, fields = results.windows, results.fields()
+        iterations = windows.iterations
+        assert windows.converged.all() and len(iterations) == 30
+        np.testing.assert_allclose(windows.time, 0.1 * np.arange(1, 31), rtol=1e-12)
         # every solid call is a snapshot, and exactly one iteration per window is flagged converged
-        snapshots = f["snapshots/solid"]
-        assert snapshots["inputs/pressure"].shape == (iterations.sum(), 101)
-        assert snapshots["outputs/section"].shape == (iterations.sum(), 101)
-        np.testing.assert_array_equal(np.bincount(snapshots["window"][:])[1:], iterations)
-        converged = snapshots["converged"][:]
-        assert converged.sum() == 30
-        np.testing.assert_array_equal(snapshots["iteration"][:][converged], iterations)
+        calls = results.calls("solid")
+        assert calls.inputs["pressure"].shape == (iterations.sum(), 101)
+        assert calls.outputs["section"].shape == (iterations.sum(), 101)
+        np.testing.assert_array_equal(np.bincount(calls.window)[1:], iterations)
+        assert calls.converged.sum() == 30
+        np.testing.assert_array_equal(calls.iteration[calls.converged], iterations)
         # the converged snapshot is the stored field of its window
-        np.testing.assert_array_equal(snapshots["outputs/section"][:][converged], f["fields/section"][:])
-        np.testing.assert_array_equal(snapshots["inputs/pressure"][:][converged], f["fields/pressure"][:])
-        assert f["components/fluid/compute_seconds"].shape == (iterations.sum(),)
-        p_in = f["fields/pressure"][:, 0]
+        converged = results.calls("solid", converged_only=True)
+        np.testing.assert_array_equal(converged.outputs["section"], fields["section"])
+        np.testing.assert_array_equal(converged.inputs["pressure"], fields["pressure"])
+        assert results.component("fluid").compute_seconds.shape == (iterations.sum(),)
+        p_in = fields["pressure"][:, 0]
         assert np.all(np.isfinite(p_in)) and np.ptp(p_in) > 1.0
     assert (tmp_path / "run" / "run.png").stat().st_size > 10_000
 
@@ -60,13 +61,13 @@ def test_schemes_agree_on_the_converged_solution(tmp_path):
     run(tmp_path, *tight, "coupling.scheme=parallel-implicit", "coupling.acceleration.data=[\"pressure\", \"section\"]",
         "coupling.acceleration.initial_relaxation=0.1", name="parallel")
     run(tmp_path, *tight, "coupling.acceleration.type=aitken", name="aitken")
-    with h5py.File(tmp_path / "serial/results.h5") as s, h5py.File(tmp_path / "parallel/results.h5") as p, \
-            h5py.File(tmp_path / "aitken/results.h5") as a:
+    with RunResults(tmp_path / "serial") as s, RunResults(tmp_path / "parallel") as p, \
+            RunResults(tmp_path / "aitken") as a:
         for other in (p, a):
-            assert other["windows/converged"][:].all()
-            np.testing.assert_allclose(other["fields/pressure"][:], s["fields/pressure"][:], rtol=1e-6, atol=1e-6)
+            assert other.windows.converged.all()
+            np.testing.assert_allclose(other.fields()["pressure"], s.fields()["pressure"], rtol=1e-6, atol=1e-6)
         # Jacobi iterations need more iterations than Gauss-Seidel on this strongly coupled case
-        assert p["windows/iterations"][:].sum() > s["windows/iterations"][:].sum()
+        assert p.windows.iterations.sum() > s.windows.iterations.sum()
 
 
 def test_killed_solid_stops_the_run_and_keeps_finished_windows(tmp_path):
@@ -89,12 +90,12 @@ def test_killed_solid_stops_the_run_and_keeps_finished_windows(tmp_path):
     assert re.search(r"component 'solid' in window \d+ \(t = [\d.]+ to [\d.]+\), iteration \d+: "
                      r"process exited with code -9", stderr), stderr
     assert alive_with(f"--parent-pid {process.pid}") == []
-    with h5py.File(out / "results.h5") as f:
-        windows = len(f["windows/time"])
+    with RunResults(out) as results:
+        windows = len(results.windows)
         assert 0 < windows < 1200
-        assert f["fields/pressure"].shape == (windows, 101)
-        assert f["snapshots/solid/window"][-1] == windows
-        assert f.attrs["windows_completed"] == windows
+        assert results.fields()["pressure"].shape == (windows, 101)
+        assert results.calls("solid").window[-1] == windows
+        assert results.attributes["windows_completed"] == windows
 
 
 def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path):
@@ -103,8 +104,8 @@ def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path):
         run(tmp_path, "time.end=1", "components.solid.entry=tests.components:CrashingSolid")
     assert error.value.exit_code == 7
     assert children_of(os.getpid()) == []
-    with h5py.File(tmp_path / "run/results.h5") as f:
-        assert len(f["windows/time"]) == 3  # windows ending at 0.1, 0.2, 0.3 finished before the crash
+    with RunResults(tmp_path / "run") as results:
+        assert len(results.windows) == 3  # windows ending at 0.1, 0.2, 0.3 finished before the crash
 
 
 def test_hanging_component_times_out_and_is_killed(tmp_path):
@@ -142,5 +143,5 @@ def test_ctrl_c_stops_every_component(tmp_path):
     _, stderr = process.communicate(timeout=10)
     assert process.returncode == 130, stderr
     assert alive_with(f"--parent-pid {process.pid}") == []
-    with h5py.File(tmp_path / "c/results.h5") as f:
-        assert len(f["windows/time"]) > 0
+    with RunResults(tmp_path / "c") as results:
+        assert len(results.windows) > 0

@@ -48,3 +48,15 @@ def test_every_subcommand_is_registered_and_listed():
     text = parser().format_help()
     for name in commands():
         assert name in text
+
+
+def test_results_paths_are_spelled_only_in_the_results_module():
+    """Writer and reader share cosim/results.py's Layout; no other file spells an HDF5 path of the layout."""
+    import re
+    path_like = re.compile(r"""["'](/?)(windows|fields|snapshots|initial)/|["']components/|"/components""")
+    spelled = [f"{path.relative_to(ROOT)}:{number}"
+               for folder in (*OURS, "benchmarks", "scripts", "tests")
+               for path in sorted((ROOT / folder).rglob("*.py")) if path != ROOT / "cosim" / "results.py"
+               and path != ROOT / "tests" / "test_layering.py"
+               for number, line in enumerate(path.read_text().splitlines(), 1) if path_like.search(line)]
+    assert spelled == []

@@ -7,12 +7,12 @@ import os
 import subprocess
 import sys
 
-import h5py
 import numpy as np
 import pytest
 
 from coupler.run import run_scene
 from cosim.errors import ComponentError, SceneError
+from cosim.results import RunResults
 from cosim.scene import load_scene
 from rom_component.estimator import SolidRom
 from rom_component.selection import holdout_table
@@ -56,34 +56,34 @@ def rom_run(out, model, switch, *extra):
 def test_rom_fom_run_switches_backend_and_stays_close_to_fom_fom(fom, model, tmp_path):
     rom_run(tmp_path / "rom", model, TRAIN_END)
     assert children_of(os.getpid()) == []
-    with h5py.File(fom / "results.h5") as f, h5py.File(tmp_path / "rom/results.h5") as r:
-        components = r["components"]
-        assert set(components) == {"fluid", "solid", "solid_rom"}
-        pids = {int(components[n].attrs["pid"]) for n in components}
+    with RunResults(fom) as f, RunResults(tmp_path / "rom") as r:
+        names = r.component_names()
+        assert set(names) == {"fluid", "solid", "solid_rom"}
+        pids = {int(r.component(n).attributes["pid"]) for n in names}
         assert len(pids | {os.getpid()}) == 4
-        assert components["solid_rom"].attrs["kind"] == "rom" and components["solid_rom"].attrs["start_time"] == TRAIN_END
-        time = r["windows/time"][:]
-        after = time > TRAIN_END + 0.05
-        assert r["windows/converged"][:].all()
+        rom = r.component("solid_rom")
+        assert rom.attributes["kind"] == "rom" and rom.attributes["start_time"] == TRAIN_END
+        windows, fields, reference = r.windows, r.fields(), f.fields()
+        after = windows.time > TRAIN_END + 0.05
+        assert windows.converged.all()
         # identical before the switch, close after it
-        np.testing.assert_array_equal(r["fields/pressure"][~after], f["fields/pressure"][~after])
-        p_rom, p_fom = r["fields/pressure"][after, 0], f["fields/pressure"][after, 0]
+        np.testing.assert_array_equal(fields["pressure"][~after], reference["pressure"][~after])
+        p_rom, p_fom = fields["pressure"][after, 0], reference["pressure"][after, 0]
         assert np.linalg.norm(p_rom - p_fom) / np.linalg.norm(p_fom) < 5e-3
         # the ROM served exactly the windows after the switch, and its rebuilt full field is its output
-        assert len(components["solid_rom/compute_seconds"]) == r["windows/iterations"][after].sum()
-        final = components["solid_rom/final"]
-        np.testing.assert_allclose(final["time"][:], time[after])
-        np.testing.assert_allclose(final["full_field"][:], r["fields/section"][after], rtol=0, atol=1e-12)
-        assert final["reduced"].shape == (after.sum(), 9)
+        assert len(rom.compute_seconds) == windows.iterations[after].sum()
+        np.testing.assert_allclose(rom.final["time"], windows.time[after])
+        np.testing.assert_allclose(rom.final["full_field"], fields["section"][after], rtol=0, atol=1e-12)
+        assert rom.final["reduced"].shape == (after.sum(), 9)
         # the participant's snapshots hold the ROM's calls too
-        assert len(r["snapshots/solid/window"]) == r["windows/iterations"][:].sum()
+        assert len(r.calls("solid")) == windows.iterations.sum()
 
 
 def test_rom_from_the_start_launches_only_the_rom(model, tmp_path):
     rom_run(tmp_path / "rom0", model, 0.0, "time.end=1")
-    with h5py.File(tmp_path / "rom0/results.h5") as r:
-        assert set(r["components"]) == {"fluid", "solid_rom"}
-        assert r["windows/converged"][:].all()
+    with RunResults(tmp_path / "rom0") as r:
+        assert set(r.component_names()) == {"fluid", "solid_rom"}
+        assert r.windows.converged.all()
 
 
 def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
@@ -147,12 +147,12 @@ def test_fmu_backend_reproduces_the_rom_backend(fom, model, tmp_path):
                                     f"components.solid.fmu.path={fmu}", f"components.solid.fmu.switch_time={TRAIN_END}"])
     run_scene(scene, tmp_path / "fmu", progress=False)
     assert children_of(os.getpid()) == []
-    with h5py.File(tmp_path / "rom/results.h5") as r, h5py.File(tmp_path / "fmu/results.h5") as f:
-        assert set(f["components"]) == {"fluid", "solid", "solid_fmu"}
-        assert f["components/solid_fmu"].attrs["kind"] == "fmu"
-        np.testing.assert_array_equal(f["windows/iterations"][:], r["windows/iterations"][:])
+    with RunResults(tmp_path / "rom") as r, RunResults(tmp_path / "fmu") as f:
+        assert set(f.component_names()) == {"fluid", "solid", "solid_fmu"}
+        assert f.component("solid_fmu").attributes["kind"] == "fmu"
+        np.testing.assert_array_equal(f.windows.iterations, r.windows.iterations)
         for name in ("pressure", "section"):
-            a, b = r[f"fields/{name}"][:], f[f"fields/{name}"][:]
+            a, b = r.fields()[name], f.fields()[name]
             assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max()
             np.testing.assert_array_equal(a, b)  # the C path repeats the Python arithmetic exactly
 
