@@ -70,7 +70,7 @@ SCHEMA = {
             "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
         },
     },
-    "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": ""},
+    "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": ""},
 }
 LISTS = {"exchange": EXCHANGE}
 

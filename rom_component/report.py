@@ -1,11 +1,12 @@
-"""``cosim report``: ROM-FOM runs against their FOM-FOM references.
+"""``cosim report``: ROM-FOM runs against their FOM-FOM references (the figures; PNGs in ``report_plots``).
 
 Per run: the relative L2 error of a monitored value (the tube's inlet pressure) over
 the predicted range, per-window errors of every exchanged field and of the full
 displacement field (the paper's e(t) = ||U - U_rom|| / mean_t ||U||), accumulated
 coupling iterations against the reference, the solid speed-up sigma (compute and
 round trip per call), the total speed-up and its bound (T_f + T_s) / (T_f + T_s / sigma).
-Writes ``report.json``, ``report.txt`` and PNG plots.
+Writes ``report.json``, ``report.txt`` and the PNGs of ``rom_component.report_plots``, which
+adds a scene's own plots from its component package. A reference must have run the same scene.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.results import RunResults
+from rom_component.report_plots import write_plots
 from rom_component.persistence import ModelFileError, load_arrays
 
 
@@ -178,7 +180,13 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
         sigma_rt = fom["roundtrip_seconds"].mean() / rom["roundtrip_seconds"].mean()
         solid_total = fom["compute_seconds"].sum()
         others = sum(c["compute_seconds"].sum() for n, c in reference.components.items() if n != participant)
+        result["fom_solid_calls"] = int(len(run.components[participant]["compute_seconds"])) \
+            if participant in run.components else 0
+        result["rom_solid_calls"] = int(len(rom["compute_seconds"]))
+        result["reference_solid_calls"] = int(len(fom["compute_seconds"]))
         result["solid"] = {
+            "fom_compute_median_s": float(np.median(fom["compute_seconds"])),
+            "rom_compute_median_s": float(np.median(rom["compute_seconds"])),
             "fom_compute_per_call_s": float(fom["compute_seconds"].mean()),
             "rom_compute_per_call_s": float(rom["compute_seconds"].mean()),
             "fom_roundtrip_per_call_s": float(fom["roundtrip_seconds"].mean()),
@@ -198,7 +206,7 @@ def write_report(pairs: list[tuple[Run, Run]], out: str | Path, echo=print) -> d
     text = _table(rows)
     echo(text)
     (out / "report.txt").write_text(text + "\n")
-    _plots(pairs, rows, out)
+    write_plots(pairs, rows, out)
     clean = [{k: v for k, v in row.items() if not k.startswith("_")} for row in rows]
     document = {"runs": clean}
     (out / "report.json").write_text(json.dumps(document, indent=2, default=float))
@@ -230,76 +238,3 @@ def _num(value: Any, spec: str) -> str:
     width = int(spec.split(".")[0])
     return f"{value:{spec}}" if isinstance(value, (int, float)) and not (isinstance(value, float) and math.isnan(value)) \
         else f"{'-':>{width}}"
-
-
-def _plots(pairs: list[tuple[Run, Run]], rows: list[dict[str, Any]], out: Path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    for (run, ref), row in zip(pairs, rows):
-        monitor, index = row["monitor"].split("[")[0], int(row["monitor"].split("[")[1][:-1])
-        fig, ax = plt.subplots(figsize=(10, 4), constrained_layout=True)
-        ax.plot(ref.time, ref.fields[monitor][:, index], "g--", lw=1.0, label=f"FOM-FOM ({Path(row['reference']).name})")
-        ax.plot(run.time, run.fields[monitor][:, index], "b-", lw=0.8, label=f"ROM-FOM ({run.label})")
-        if run.switch_time is not None:
-            ax.axvline(run.switch_time, color="k", lw=1.0)
-        ax.set_xlabel("time")
-        ax.set_ylabel(run.scene.get("output", {}).get("plot_label") or row["monitor"])
-        ax.set_title(f"{run.label}: relative L2 error {row['monitor_error']:.2e} over t > {row['switch_time']}")
-        ax.legend(loc="upper right")
-        fig.savefig(out / f"monitor_{run.label}.png", dpi=110)
-        plt.close(fig)
-        if "pressure" in run.fields and "section" in run.fields and "tube" in run.scene:
-            _stress_strain(run, ref, out, plt)
-
-    fig, (ax_e, ax_i) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, constrained_layout=True)
-    for (run, ref), row in zip(pairs, rows):
-        if "_e" in row:
-            mask = run.predicted()
-            ax_e.semilogy(run.time[mask], np.maximum(row["_e"][mask], 1e-16), lw=0.8, label=run.label)
-        ax_i.plot(run.time, 100 * (np.cumsum(run.iterations) / np.cumsum(ref.iterations) - 1), lw=1.0, label=run.label)
-    ax_e.set_ylabel("e(t) = ||U - U_rom|| / mean ||U - U_rest||")
-    ax_e.legend(fontsize=8)
-    ax_i.set_ylabel("accumulated iterations vs FOM-FOM [%]")
-    ax_i.set_xlabel("time")
-    ax_i.axhline(0, color="k", lw=0.5)
-    ax_i.legend(fontsize=8)
-    fig.savefig(out / "error_and_iterations.png", dpi=110)
-    plt.close(fig)
-
-    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
-    for (run, _), row in zip(pairs, rows):
-        if row.get("solid"):
-            solid_time = row["solid"]["rom_compute_per_call_s"] * row["iterations"]
-            ax.loglog(solid_time, row["monitor_error"], "o")
-            ax.annotate(run.label, (solid_time, row["monitor_error"]), fontsize=8)
-    ax.set_xlabel("total solid compute time of the run [s]")
-    ax.set_ylabel(f"relative L2 error of {rows[0]['monitor'] if rows else ''}")
-    ax.grid(alpha=0.3, which="both")
-    fig.savefig(out / "error_vs_runtime.png", dpi=110)
-    plt.close(fig)
-
-
-def _stress_strain(run: Run, ref: Run, out: Path, plt) -> None:
-    """Hoop stress p r against strain (r - r0) / r0 from the converged fields of both runs."""
-    a0 = float(run.scene["tube"].get("a0", 1.0))
-    r0 = math.sqrt(a0 / math.pi)
-    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
-    predicted = run.predicted()
-    strains = []
-    for source, mask, style, label in ((ref, ~predicted, dict(s=2, c="0.6"), "FOM-FOM, before the switch"),
-                                       (run, predicted, dict(s=1, c="tab:blue"), "ROM-FOM prediction")):
-        r = np.sqrt(source.fields["section"][mask] / math.pi)
-        strains.append(((r - r0) / r0).ravel())
-        ax.scatter(strains[-1], (source.fields["pressure"][mask] * r).ravel(), label=label, **style)
-    solid = run.scene.get("components", {}).get("solid", {}).get("parameters", {})
-    E1, E2, s0, e0 = (solid.get(k, d) for k, d in (("E_small", 12500.0), ("E_large", 2500.0), ("s0", 20.0), ("eps0", 2e-3)))
-    extent = 1.2 * max(float(np.abs(np.concatenate(strains)).max()), 2 * e0)
-    eps = np.linspace(-extent, extent, 400)
-    ax.plot(eps, np.where(np.abs(eps) < e0, E1 * eps, E2 * eps + np.sign(eps) * s0), "k-", lw=0.8, label="law")
-    ax.set_xlabel("hoop strain")
-    ax.set_ylabel("hoop stress p r")
-    ax.legend(markerscale=5)
-    fig.savefig(out / f"stress_strain_{run.label}.png", dpi=110)
-    plt.close(fig)

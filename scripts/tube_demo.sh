@@ -45,6 +45,7 @@ run --set components.solid.backend=fmu --set components.solid.fmu.path=$OUT/soli
     --set components.solid.fmu.switch_time=18 --out $OUT/fmu_mu1
 
 echo "== cosim report"
+rm -rf $OUT/report   # a fresh report: no PNG of an earlier one stays behind
 "$COSIM" report $OUT/rom_mu1=$OUT/fom_mu1 $OUT/rom_mu2=$OUT/fom_mu2 $OUT/fmu_mu1=$OUT/fom_mu1 "${variants[@]}" \
     --out $OUT/report
 printf 'demo finished in %.0f s; see %s/report\n' "$(echo "$(date +%s.%N) - $start" | bc)" "$OUT"

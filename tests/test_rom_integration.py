@@ -102,8 +102,21 @@ def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
     assert row["total_speedup_bound"] == pytest.approx((t_f + t_s) / (t_f + t_s / solid["speedup_compute"]))
     assert t_f > 3 * t_s and 0.5 < row["total_speedup_bound"] < 1.5  # the fluid dominates the tube's cost
     assert row["model"]["n_disp_modes"] == 9 and row["model"]["n_force_modes"] == 3
-    for png in ("monitor_rom.png", "error_and_iterations.png", "error_vs_runtime.png", "stress_strain_rom.png"):
+    assert row["fom_solid_calls"] + row["rom_solid_calls"] == row["iterations"]
+    for png in ("monitor_rom.png", f"error_and_iterations_{fom.name}.png", "error_vs_cost.png",
+                "stress_strain_rom.png"):   # the last from the tube's own hook (solid_component.tube_report)
         assert (tmp_path / "report" / png).stat().st_size > 10_000, png
+
+
+def test_scene_plot_hooks_are_registered_and_keep_to_their_scene(tmp_path):
+    from importlib.metadata import entry_points
+
+    from solid_component.tube_report import stress_strain
+    assert {p.name for p in entry_points(group="cosim.report_plots")} >= {"tube"}
+
+    class Other:
+        scene, fields, label = {"flap": {}}, {"force": np.zeros((2, 3))}, "other"
+    assert stress_strain(Other(), Other(), tmp_path) == []
 
 
 def test_report_refuses_a_reference_that_ran_another_scene(fom, model, tmp_path):

@@ -1,0 +1,156 @@
+"""The report's PNGs: generic ones here, a scene's own from its component package.
+
+Generic plots know nothing of a scene's physics:
+- ``monitor_<run>.png``: the monitored value of the ROM-FOM run and its FOM-FOM reference,
+  with their difference in a panel of its own and the switch time marked;
+- ``error_and_iterations_<reference>.png``: per reference, e(t) and the accumulated
+  coupling iterations over the reference's, one panel per reference;
+- ``error_vs_cost.png``: the monitored error against the solid cost in solid-FOM-call
+  equivalents (calls weighted by median compute times), the FOM-FOM references marked.
+A scene's own plots come from functions registered under the entry-point group
+``cosim.report_plots``; each is called as ``plot(run, reference, out_dir)`` and returns the
+PNGs it wrote (none for a scene that is not its own). ``run`` and ``reference`` offer
+``scene``, ``time``, ``fields``, ``label``, ``switch_time`` and ``predicted()``.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+HOOKS = "cosim.report_plots"
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _value_label(run) -> str:
+    output = run.scene.get("output", {})
+    unit = output.get("plot_unit") or "dimensionless"
+    return f"{output.get('plot_label') or output.get('plot_field', 'value')} [{unit}]"
+
+
+def _mark_switch(ax, run) -> None:
+    if run.switch_time is not None:
+        ax.axvline(run.switch_time, color="k", lw=0.8, ls=":")
+        ax.annotate(f"ROM from t = {run.switch_time:g} s", (run.switch_time, 1.0), xycoords=("data", "axes fraction"),
+                    xytext=(4, -12), textcoords="offset points", fontsize=8)
+
+
+def monitor(run, reference, row: dict[str, Any], out: Path) -> Path:
+    """The monitored value of both runs, and their difference below."""
+    plt = _pyplot()
+    name, index = row["monitor"].split("[")[0], int(row["monitor"].split("[")[1][:-1])
+    ours, theirs = run.fields[name][:, index], reference.fields[name][:, index]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True, constrained_layout=True,
+                                      gridspec_kw={"height_ratios": [2, 1]})
+    top.plot(reference.time, theirs, color="0.55", lw=2.2, label=f"FOM-FOM ({reference.label})")
+    top.plot(run.time, ours, color="tab:blue", lw=0.8, label=f"ROM-FOM ({run.label})")
+    top.set_ylabel(_value_label(run))
+    top.legend(loc="upper right", fontsize=8)
+    bottom.plot(run.time, ours - theirs, color="tab:red", lw=0.8)
+    bottom.axhline(0.0, color="k", lw=0.5)
+    bottom.set_ylabel("ROM-FOM minus FOM-FOM\n[same unit]")
+    bottom.set_xlabel("time [s]")
+    for ax in (top, bottom):
+        _mark_switch(ax, run)
+        ax.grid(alpha=0.3)
+    top.set_title(f"{row['monitor']}: ROM-FOM '{run.label}' vs FOM-FOM '{reference.label}' "
+                  f"(relative L2 error {row['monitor_error']:.2e} after the switch)", fontsize=10)
+    path = out / f"monitor_{run.label}.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def error_and_iterations(pairs, rows, out: Path) -> list[Path]:
+    """Per reference: e(t) of every run against it, and its accumulated iterations over the reference's."""
+    plt = _pyplot()
+    by_reference: dict[str, list] = defaultdict(list)
+    for (run, reference), row in zip(pairs, rows):
+        by_reference[reference.label].append((run, reference, row))
+    paths = []
+    for label, items in by_reference.items():
+        fig, (ax_e, ax_i) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, constrained_layout=True)
+        for run, reference, row in items:
+            mask = run.predicted()
+            if "_e" in row:
+                ax_e.semilogy(run.time[mask], np.maximum(row["_e"][mask], 1e-16), lw=0.8, label=run.label)
+            ax_i.plot(run.time, 100 * (np.cumsum(run.iterations) / np.cumsum(reference.iterations) - 1), lw=1.0,
+                      label=run.label)
+        _mark_switch(ax_e, items[0][0])
+        ax_e.set_ylabel("e(t) = ||U - U_rom|| / mean ||U - U_rest||\n[dimensionless]")
+        ax_i.set_ylabel("accumulated coupling iterations,\nROM-FOM over FOM-FOM [%]")
+        ax_i.set_xlabel("time [s]")
+        ax_i.axhline(0, color="k", lw=0.5)
+        for ax in (ax_e, ax_i):
+            ax.legend(fontsize=8)
+            ax.grid(alpha=0.3)
+        ax_e.set_title(f"ROM-FOM runs against the FOM-FOM reference '{label}'")
+        path = out / f"error_and_iterations_{label}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def solid_cost(row: dict[str, Any]) -> float | None:
+    """Solid cost of a ROM-FOM run in solid-FOM-call equivalents (calls weighted by median compute time)."""
+    solid = row.get("solid")
+    if not solid:
+        return None
+    ratio = solid["rom_compute_median_s"] / solid["fom_compute_median_s"]
+    return row["fom_solid_calls"] + row["rom_solid_calls"] * ratio
+
+
+def error_vs_cost(pairs, rows, out: Path) -> Path:
+    """Monitored error against solid cost; each FOM-FOM reference is a vertical line (error 0 by definition)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 5.5), constrained_layout=True)
+    references = {}
+    for (run, reference), row in zip(pairs, rows):
+        cost = solid_cost(row)
+        if cost is None:
+            continue
+        ax.loglog(cost, row["monitor_error"], "o")
+        ax.annotate(f"{run.label} (vs {reference.label})", (cost, row["monitor_error"]), fontsize=8,
+                    xytext=(4, 2), textcoords="offset points")
+        references[reference.label] = row["reference_solid_calls"]
+    for label, calls in references.items():
+        ax.axvline(calls, color="0.5", ls="--", lw=1.0)
+        ax.annotate(f"FOM-FOM '{label}': {calls} solid calls, error 0", (calls, 0.5), xycoords=("data", "axes fraction"),
+                    rotation=90, fontsize=8, xytext=(-10, 0), textcoords="offset points", va="center")
+    ax.set_xlabel("solid cost of the run [solid-FOM-call equivalents: calls x median compute / FOM median]")
+    ax.set_ylabel(f"relative L2 error of {rows[0]['monitor'] if rows else ''} [dimensionless]")
+    ax.set_title("Accuracy against solid cost: ROM-FOM runs and their FOM-FOM references")
+    ax.grid(alpha=0.3, which="both")
+    path = out / "error_vs_cost.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def scene_plots(run, reference, out: Path) -> list[Path]:
+    """The plots a scene's component packages register for this pair."""
+    paths = []
+    for point in sorted(entry_points(group=HOOKS), key=lambda p: p.name):
+        paths += point.load()(run, reference, out)
+    return paths
+
+
+def write_plots(pairs, rows, out: Path) -> list[Path]:
+    """Every PNG of the report."""
+    paths = [monitor(run, reference, row, out) for (run, reference), row in zip(pairs, rows)]
+    paths += error_and_iterations(pairs, rows, out)
+    paths.append(error_vs_cost(pairs, rows, out))
+    for run, reference in pairs:
+        paths += scene_plots(run, reference, out)
+    return paths
