@@ -23,7 +23,7 @@ def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) ->
     field = output.get("plot_field") or next(iter(fields), "")
     index = int(output.get("plot_index", 0))
     values = fields[field][:, index] if field in fields else np.zeros(0)
-    label = output.get("plot_label") or f"{field}[{index}]"
+    label = f"{output.get('plot_label') or f'{field}[{index}]'} [{output.get('plot_unit') or 'dimensionless'}]"
     figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
     top.plot(time[:len(values)], values, lw=1.0)
     top.set_ylabel(label)
@@ -31,8 +31,8 @@ def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) ->
     bottom.plot(time, iterations, lw=0.8, drawstyle="steps-mid")
     mean = iterations.mean() if iterations.size else float("nan")
     bottom.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
-    bottom.set_ylabel("coupling iterations")
-    bottom.set_xlabel("time")
+    bottom.set_ylabel("coupling iterations per window [count]")
+    bottom.set_xlabel("time [s]")
     bottom.legend(loc="upper right")
     bottom.grid(alpha=0.3)
     figure.savefig(png, dpi=110)
