@@ -32,7 +32,6 @@ FILE_NAME = "results.h5"
 class Layout:
     """Where everything lives in the file: the one place that spells its paths."""
 
-    windows = "windows"
     fields = "fields"
     initial = "initial"
     components = "components"
@@ -280,11 +279,12 @@ class RunResults:
             raise CosimError(f"'{self.path}' has no recorded calls of '{name}' (recorded: "
                              f"{', '.join(self.recorded()) or 'none'}; set record = true in the scene)")
         group = self.file[Layout.calls(name)]
-        keep = group["converged"][:] if converged_only else slice(None)
+        converged = group["converged"][:]
+        keep = converged if converged_only else slice(None)
         arrays = {kind: {var: data[:][keep] for var, data in group.get(kind, {}).items()}
                   for kind in ("inputs", "outputs")}
         return Calls(arrays["inputs"], arrays["outputs"], group["window"][:][keep], group["iteration"][:][keep],
-                     group["converged"][:][keep])
+                     converged[keep])
 
 
 @contextmanager

@@ -94,7 +94,7 @@ def main() -> None:
         head, rest = content.split(BEGIN)
         _, tail = rest.split(END)
         readme.write_text(f"{head}{BEGIN}\n{text}\n{END}{tail}")
-        print(f"\nREADME.md updated between its figure markers")
+        print("\nREADME.md updated between its figure markers")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,6 @@ import threading
 
 import numpy as np
 
-
 from solid_component.tube import TubeSolid
 
 
