@@ -30,6 +30,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import Timing, fresh_directory, machine, per_call  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
+from cosim.component import MESH_PREFIX  # noqa: E402
 from cosim.results import RunResults  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
 from rom_component import persistence  # noqa: E402
@@ -39,7 +40,7 @@ from rom_component.fmu_export import export_fmu  # noqa: E402
 from rom_component.online import OnlineRom  # noqa: E402
 from solid_component.fmu import FmuSolid  # noqa: E402
 from rom_component.selection import holdout_table  # noqa: E402
-from rom_component.train import load_config, read_snapshots  # noqa: E402
+from rom_component.train import load_config, read_interface, read_snapshots  # noqa: E402
 from solid_component.tube import TubeSolid  # noqa: E402
 
 PAPER_ROM_CALL_US = 2800.0
@@ -82,8 +83,10 @@ def main(argv: list[str] | None = None) -> dict:
     started = time.perf_counter()
     holdout_table(SolidRom(**params), F, U, force_modes, disp_modes, selection["test_fraction"], selection["seed"])
     cv_seconds = time.perf_counter() - started
-    model_path = persistence.save(out / "model.npz", estimator.online_arrays(),
-                                  {"regressor": params["regressor"], "params": params,
+    variables, meshes = read_interface(results, config["snapshots"])   # the meshes the solid declared
+    model_path = persistence.save(out / "model.npz",
+                                  {**estimator.online_arrays(), **{MESH_PREFIX + k: v for k, v in meshes.items()}},
+                                  {"regressor": params["regressor"], "params": params, "variables": variables,
                                    "input_variable": "pressure", "output_variable": "section"})
     online = persistence.load(model_path)
     fast = OnlineRom(*persistence.load_arrays(model_path), arithmetic="fast")

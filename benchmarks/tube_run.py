@@ -112,7 +112,8 @@ def main(argv: list[str] | None = None) -> dict:
     variants = [("IQN-ILS (scene: 8 reused windows, QR2 1e-3)", [], main_run),
                 ("IQN-ILS + linear extrapolation", ["coupling.extrapolation_order=1"], None),
                 ("IQN-ILS, reused_time_windows = 0", ["coupling.acceleration.reused_time_windows=0"], None),
-                ("Aitken, initial relaxation 0.01", ["coupling.acceleration.type=aitken"], None)]
+                ("Aitken, initial relaxation 0.01",
+                 ['coupling.acceleration={type="aitken", data=["section"], initial_relaxation=0.01}'], None)]
     if args.small:
         variants = variants[:1] + variants[2:3]
     print(f"\nCoupling iterations per window, mu1 (our Duffing inlet), {main_run['windows']} windows")

@@ -5,7 +5,16 @@ variables, accepts parameters at ``instantiate``, receives inputs by
 ``set_values``, advances by ``do_step`` and hands out outputs by ``get_values``.
 ``step`` fuses the three for the hot path. Stateful components implement
 ``save_state``/``restore_state``; the handles of ``get_state`` stay in the
-component's process, only an integer crosses the wire.
+component's process, only an integer crosses the wire. A component that cannot
+snapshot its state but repeats a window by solving it again from its last iterate (as
+Kratos does) declares ``repeats_steps``: a ``step`` with the same ``t`` solves the same
+window again, one with a later ``t`` closes the window and moves on.
+
+Meshes and vectors: a component declares named meshes (node coordinates, n x dim); a
+variable lives on one of them with ``components`` values per node and travels as an
+array of shape (n,) for one component and (n, k) for k > 1. Variables with causality
+``local`` are returned by ``step`` and recorded with the component's snapshots, but
+never exchanged.
 """
 
 from __future__ import annotations
@@ -17,21 +26,35 @@ import numpy as np
 
 from cosim.errors import ComponentError
 
-CAUSALITIES = ("input", "output", "parameter")
+CAUSALITIES = ("input", "output", "local", "parameter")
 
 
 @dataclass(frozen=True)
 class Variable:
-    """An array-valued variable: ``size`` values of one physical quantity."""
+    """An array-valued variable: ``size`` values of one physical quantity.
+
+    ``mesh`` names the mesh it lives on ("" for none); ``components`` is the number of
+    values per node, so ``size`` = nodes x components.
+    """
 
     name: str
     causality: str
     size: int
     unit: str = ""
+    mesh: str = ""
+    components: int = 1
 
     def __post_init__(self) -> None:
         if self.causality not in CAUSALITIES:
             raise ValueError(f"variable '{self.name}': causality {self.causality!r} not in {CAUSALITIES}")
+        if self.components < 1 or self.size % self.components:
+            raise ValueError(f"variable '{self.name}': size {self.size} is not a multiple of "
+                             f"{self.components} components")
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The array shape on the wire: (n,) or (n, components)."""
+        return (self.size,) if self.components == 1 else (self.size // self.components, self.components)
 
 
 class Component:
@@ -49,22 +72,35 @@ class Component:
         """The component's variables (available after ``instantiate``)."""
         raise NotImplementedError
 
-    def coordinates(self) -> np.ndarray:
-        """Interface node coordinates, shape (n_nodes, dim), for mapping."""
-        return np.zeros((0, 1))
+    def meshes(self) -> dict[str, np.ndarray]:
+        """Node coordinates, (n_nodes, dim), of each mesh the variables name, for mapping."""
+        return {}
+
+    #: a ``step`` with the same ``t`` solves that window again from the last iterate
+    repeats_steps: bool = False
 
     @property
     def can_get_and_set_state(self) -> bool:
         return type(self).save_state is not Component.save_state
 
     def describe(self) -> dict[str, Any]:
-        """Name, variables, interface coordinates and capabilities."""
-        return {
+        """Name, variables, meshes (as arrays ``mesh:<name>``) and capabilities."""
+        description: dict[str, Any] = {
             "name": self.name,
             "variables": [asdict(v) for v in self.variables()],
-            "coordinates": np.asarray(self.coordinates(), dtype=np.float64),
             "can_get_and_set_state": self.can_get_and_set_state,
+            "repeats_steps": self.repeats_steps,
         }
+        for name, nodes in self.meshes().items():
+            description[MESH_PREFIX + name] = np.asarray(nodes, dtype=np.float64)
+        return description
+
+    def warn(self, message: str) -> None:
+        """A warning for the coupler, delivered with the reply of the current request."""
+        self.__dict__.setdefault("_warnings", []).append(message)
+
+    def take_warnings(self) -> list[str]:
+        return self.__dict__.pop("_warnings", [])
 
     # --- life cycle -----------------------------------------------------
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
@@ -92,13 +128,16 @@ class Component:
         raise NotImplementedError
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Set inputs, advance, return all outputs: one round trip on the hot path."""
+        """Set inputs, advance, return all outputs and locals: one round trip on the hot path."""
         self.set_values(inputs)
         self.do_step(t, dt)
-        return self.get_values(self.output_names())
+        return self.get_values(self.output_names() + self.local_names())
 
     def output_names(self) -> list[str]:
         return [v.name for v in self.variables() if v.causality == "output"]
+
+    def local_names(self) -> list[str]:
+        return [v.name for v in self.variables() if v.causality == "local"]
 
     # --- state ------------------------------------------------------------
     def save_state(self) -> Any:
@@ -127,11 +166,16 @@ class Component:
         return self._states[handle]
 
 
-def check_inputs(component: Component, values: Mapping[str, np.ndarray], sizes: Mapping[str, int]) -> None:
-    """Raise a ComponentError unless ``values`` are known inputs of the declared sizes."""
+MESH_PREFIX = "mesh:"
+
+
+def check_inputs(component: Component, values: Mapping[str, np.ndarray],
+                 shapes: Mapping[str, int | tuple[int, ...]]) -> None:
+    """Raise a ComponentError unless ``values`` are known inputs of the declared shapes (a size means (size,))."""
     for name, value in values.items():
-        if name not in sizes:
-            raise ComponentError(component.name, f"'{name}' is not an input (inputs: {', '.join(sizes)})")
-        if np.shape(value) != (sizes[name],):
-            raise ComponentError(
-                component.name, f"input '{name}' has shape {np.shape(value)}, expected ({sizes[name]},)")
+        if name not in shapes:
+            raise ComponentError(component.name, f"'{name}' is not an input (inputs: {', '.join(shapes)})")
+        shape = shapes[name]
+        shape = (shape,) if isinstance(shape, int) else tuple(shape)
+        if np.shape(value) != shape:
+            raise ComponentError(component.name, f"input '{name}' has shape {np.shape(value)}, expected {shape}")

@@ -72,11 +72,11 @@ class Launcher:
         if self._previous_sigterm is not None:
             signal.signal(signal.SIGTERM, self._previous_sigterm)
 
-    def spawn(self, name: str, entry: str) -> ComponentProcess:
-        """Start one component (returns before its handshake; see ``handshake``)."""
+    def spawn(self, name: str, entry: str, environment: dict[str, str] | None = None) -> ComponentProcess:
+        """Start one component with extra ``environment`` variables (returns before its handshake)."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log_path = self.log_dir / f"{name}.log"
-        env = dict(os.environ)
+        env = {**os.environ, **(environment or {})}
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
         command = [sys.executable, "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",
                    "--name", name, "--parent-pid", str(os.getpid())]

@@ -16,7 +16,7 @@ import numpy as np
 import zmq
 
 from cosim import protocol
-from cosim.component import Variable
+from cosim.component import MESH_PREFIX, Variable
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, NonFiniteOutput, ProtocolError
 from cosim.launcher import ComponentProcess
 
@@ -39,8 +39,10 @@ class ComponentProxy:
         self._ids = itertools.count(1)
         self._pending: tuple[int, str] | None = None
         self.variables: dict[str, Variable] = {}
-        self.coordinates = np.zeros((0, 1))
+        self.meshes: dict[str, np.ndarray] = {}
         self.can_get_and_set_state = False
+        self.repeats_steps = False
+        self.warnings: list[str] = []   # delivered with replies, taken by the coupler
         self.pid: int | None = process.pid if process else None
         self.compute_seconds: list[float] = []
         self.roundtrip_seconds: list[float] = []
@@ -84,6 +86,7 @@ class ComponentProxy:
             shown = "" if kind == "ComponentError" else f"{kind}: "
             raise ComponentError(self.name, f"'{op}' failed: {shown}{error.get('message', '')}", kind=kind)
         compute = float(header.get("compute_seconds", 0.0))
+        self.warnings.extend(str(w) for w in header.get("warnings") or ())
         if op == "step":
             self.compute_seconds.append(compute)
             self.roundtrip_seconds.append(roundtrip)
@@ -105,9 +108,23 @@ class ComponentProxy:
     # --- contract ---------------------------------------------------------
     def describe(self) -> dict[str, Any]:
         result, arrays = self.call("describe")
-        self.variables = {v["name"]: Variable(**v) for v in result["variables"]}
-        self.coordinates = np.array(arrays.get("coordinates", np.zeros((0, 1))))
+        try:
+            self.variables = {v["name"]: Variable(**v) for v in result["variables"]}
+        except (TypeError, ValueError) as exc:
+            raise ComponentError(self.name, f"malformed variable description: {exc}") from None
+        self.meshes = {k[len(MESH_PREFIX):]: np.array(v) for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
+        for variable in self.variables.values():
+            if not variable.mesh:
+                continue
+            nodes = self.meshes.get(variable.mesh)
+            if nodes is None:
+                raise ComponentError(self.name, f"variable '{variable.name}' lives on mesh '{variable.mesh}', "
+                                                f"which the component does not declare (meshes: {', '.join(self.meshes) or 'none'})")
+            if variable.shape[0] != len(nodes):
+                raise ComponentError(self.name, f"variable '{variable.name}' has {variable.shape[0]} nodes, "
+                                                f"but mesh '{variable.mesh}' has {len(nodes)}")
         self.can_get_and_set_state = bool(result.get("can_get_and_set_state"))
+        self.repeats_steps = bool(result.get("repeats_steps"))
         return result
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
@@ -162,6 +179,11 @@ class ComponentProxy:
     def output_names(self) -> list[str]:
         return [v.name for v in self.variables.values() if v.causality == "output"]
 
+    def mesh_of(self, name: str) -> np.ndarray:
+        """Node coordinates of the mesh variable ``name`` lives on (empty if none)."""
+        variable = self.variables[name]
+        return self.meshes[variable.mesh] if variable.mesh else np.zeros((0, 1))
+
     # --- checks -------------------------------------------------------------
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Outputs as declared by ``describe``; a wrong name or length (naming both shapes), NaN or Inf is an error."""
@@ -169,9 +191,9 @@ class ComponentProxy:
             variable = self.variables.get(name)
             if variable is None:
                 raise ComponentError(self.name, f"returned '{name}', which it did not declare")
-            if value.shape != (variable.size,):
+            if value.shape != variable.shape:
                 raise ComponentError(self.name, f"output '{name}' has shape {value.shape}, "
-                                                f"but the component declared shape ({variable.size},)")
+                                                f"but the component declared shape {variable.shape}")
             if value.dtype.kind == "f" and not np.isfinite(value).all():
                 raise NonFiniteOutput(self.name, name, value)
         return dict(arrays)

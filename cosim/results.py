@@ -3,7 +3,8 @@
 Layout (see DESIGN.md; ``Layout`` below is its only spelling): root attributes ``scene``,
 ``scene_resolved`` and ``versions``; ``/windows/{time,iterations,converged,wall_seconds}``;
 ``/fields/<data>``; ``/initial/<data>``; ``/components/<name>`` with ``compute_seconds`` and
-``roundtrip_seconds`` per call and ``final/`` arrays; ``/snapshots/<name>/{inputs,outputs}/<var>``
+``roundtrip_seconds`` per call, ``final/`` arrays, ``meshes/<mesh>`` node coordinates and a
+``variables`` attribute (JSON: name, causality, size, mesh, components of each variable); ``/snapshots/<name>/{inputs,outputs}/<var>``
 with ``window``, ``iteration`` and ``converged`` per call. The writer appends and flushes every
 window: a crash loses at most the window in flight.
 """
@@ -56,6 +57,10 @@ class Layout:
     @staticmethod
     def final(name: str) -> str:
         return f"components/{name}/final"
+
+    @staticmethod
+    def meshes(name: str) -> str:
+        return f"components/{name}/meshes"
 
     @staticmethod
     def calls(name: str) -> str:
@@ -145,6 +150,12 @@ class ResultsStore:
             self._append(f"{base}/converged", np.array(calls["converged"]))
         self.file.flush()
 
+    def write_description(self, component: str, variables: list[dict[str, Any]],
+                          meshes: Mapping[str, np.ndarray]) -> None:
+        """A component's variables (as JSON) and mesh coordinates."""
+        self.file.require_group(Layout.component(component)).attrs["variables"] = json.dumps(variables)
+        self._write_arrays(Layout.meshes(component), meshes)
+
     def write_initial(self, values: Mapping[str, np.ndarray]) -> None:
         """Data values before the first window."""
         self._write_arrays(Layout.initial, values)
@@ -192,6 +203,8 @@ class ComponentRecord:
     compute_seconds: np.ndarray
     roundtrip_seconds: np.ndarray
     final: dict[str, np.ndarray]
+    variables: list[dict[str, Any]]
+    meshes: dict[str, np.ndarray]
 
 
 @dataclass
@@ -266,7 +279,9 @@ class RunResults:
                    for p in (Layout.timing(name, "compute"), Layout.timing(name, "roundtrip"))]
         final = {k: v[:] for k, v in self.file.get(Layout.final(name), {}).items()}
         attributes = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
-        return ComponentRecord(name, attributes, *timings, final)
+        variables = json.loads(attributes.pop("variables", "[]"))
+        meshes = {k: v[:] for k, v in self.file.get(Layout.meshes(name), {}).items()}
+        return ComponentRecord(name, attributes, *timings, final, variables, meshes)
 
     # --- snapshots --------------------------------------------------------------
     def recorded(self) -> list[str]:

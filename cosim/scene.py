@@ -4,7 +4,9 @@ Top-level tables: ``time``, ``components.<name>``, ``[[exchange]]``, ``coupling`
 (with ``[[coupling.convergence]]`` and ``coupling.acceleration``), ``output``, plus
 model sections that components name in their ``sections`` list (for the tube:
 ``tube`` and ``inlet``); each such section is handed to those components under its
-own name. Every error names the dotted key and the file.
+own name. Every error names the dotted key and the file. The plug-ins a scene names
+(scheme, acceleration, convergence measures, mappings) own their settings: the coupler
+checks those tables against the chosen plug-in before anything starts.
 """
 
 from __future__ import annotations
@@ -15,13 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
-from cosim.schema import AnyTable, Positive, Required, Value, unknown_key_message, validate
-
-SCHEMES = ("serial-explicit", "serial-implicit", "parallel-implicit")
-ACCELERATIONS = ("none", "constant", "aitken", "iqn-ils")
-FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
-MEASURES = ("relative", "absolute", "residual-relative")
-MAPPINGS = ("identity", "nearest-neighbour", "nearest-neighbour-conservative")
+from cosim.schema import AnyTable, PluginChoice, Positive, Required, Value, unknown_key_message, validate
 
 COMPONENT = {
     "entry": "",            # "package.module:Class", started as a local process
@@ -31,6 +27,8 @@ COMPONENT = {
     "record": False,        # record every call into /snapshots/<name>
     "timeout": Positive(120.0),         # seconds per request
     "startup_timeout": Positive(60.0),
+    "threads": Positive(1),             # OpenMP/BLAS threads of the component's process
+    "environment": AnyTable(),          # extra environment variables of the component's process
     "backend": "fom",       # "fom": the entry above; "rom" or "fmu": see the tables below
     "rom": {                # a trained ROM (the .npz written by `cosim train`)
         "entry": "rom_component.component:RomSolid",
@@ -46,8 +44,7 @@ COMPONENT = {
     },
 }
 BACKEND_FILE = {"rom": "model", "fmu": "path"}
-EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": "identity"}
-MEASURE = {"data": Required(str), "type": "relative", "limit": Value(low=0.0, low_open=True)}
+EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity")}
 MAX_WINDOWS = 10_000_000
 SCHEMA = {
     "name": "",
@@ -60,15 +57,7 @@ SCHEMA = {
         "on_max_iterations": "fail",
         "divergence_factor": Value(1e3, low=1.0, low_open=True),  # residual growth in a window that is divergence
         "extrapolation_order": Value(0, low=0, high=2),
-        "acceleration": {
-            "type": "none",
-            "data": [],
-            "initial_relaxation": Value(0.5, low=0.0, high=1.0, low_open=True),
-            "max_used_iterations": Positive(50),
-            "reused_time_windows": Value(0, low=0),
-            "filter": "qr2",
-            "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
-        },
+        "acceleration": PluginChoice("none"),
     },
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": ""},
 }
@@ -187,8 +176,7 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
     data = validate({k: v for k, v in raw.items() if k in SCHEMA and k != "coupling"},
                     {k: v for k, v in SCHEMA.items() if k != "coupling"}, "", source)
     data["coupling"] = validate(coupling_raw, SCHEMA["coupling"], "coupling.", source)
-    data["coupling"]["convergence"] = [validate(m, MEASURE, f"coupling.convergence.{i}.", source)
-                                       for i, m in enumerate(_table_list(convergence, "coupling.convergence", source))]
+    data["coupling"]["convergence"] = [dict(m) for m in _table_list(convergence, "coupling.convergence", source)]
     data["components"] = components
     data["exchange"] = [validate(e, EXCHANGE, f"exchange.{i}.", source)
                         for i, e in enumerate(_table_list(raw.get("exchange", []), "exchange", source))]
@@ -224,11 +212,11 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
         raise SceneError(f"{source}: 'time.dt' = {time['dt']:g} makes {windows:.3g} windows on "
                          f"[{time['start']:g}, {time['end']:g}]; at most {MAX_WINDOWS:,} are allowed")
     names = set(data["components"])
-    _one_of(coupling["scheme"], SCHEMES, "coupling.scheme", source)
     _one_of(coupling["on_max_iterations"], ("fail", "accept"), "coupling.on_max_iterations", source)
     acceleration = coupling["acceleration"]
-    _one_of(acceleration["type"], ACCELERATIONS, "coupling.acceleration.type", source)
-    _one_of(acceleration["filter"], FILTERS, "coupling.acceleration.filter", source)
+    accelerated = acceleration.get("data", []) if isinstance(acceleration, dict) else []
+    if not isinstance(accelerated, list):
+        raise SceneError(f"{source}: 'coupling.acceleration.data' must be a list, got {accelerated!r}")
     participants = coupling["participants"]
     _string_list(participants, "coupling.participants", source)
     if len(participants) != 2 or len(set(participants)) != 2:
@@ -245,22 +233,20 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
                                  f"({', '.join(participants)})")
         if exchange["from"] == exchange["to"]:
             raise SceneError(f"{source}: 'exchange.{i}' goes from '{exchange['from']}' to itself")
-        _one_of(exchange["mapping"], MAPPINGS, f"exchange.{i}.mapping", source)
         exchanged.add(exchange["data"])
     if not exchanged:
         raise SceneError(f"{source}: the scene exchanges no data (add [[exchange]] tables)")
     for i, measure in enumerate(coupling["convergence"]):
-        _one_of(measure["type"], MEASURES, f"coupling.convergence.{i}.type", source)
-        if measure["data"] not in exchanged:
-            raise SceneError(f"{source}: 'coupling.convergence.{i}.data' is '{measure['data']}', "
+        if "data" in measure and measure["data"] not in exchanged:
+            raise SceneError(f"{source}: 'coupling.convergence.{i}.data' is {measure['data']!r}, "
                              f"not exchanged data ({', '.join(sorted(exchanged))})")
     second = participants[1]
     fed_back = sorted(e["data"] for e in data["exchange"] if e["from"] == second)
-    for i, name in enumerate(acceleration["data"]):
+    for i, name in enumerate(accelerated):
         where = f"coupling.acceleration.data.{i}"
         if not isinstance(name, str) or name not in exchanged:
             raise SceneError(f"{source}: '{where}' is {name!r}, not exchanged data ({', '.join(sorted(exchanged))})")
-        if acceleration["data"].index(name) != i:
+        if accelerated.index(name) != i:
             raise SceneError(f"{source}: '{where}' repeats '{name}'")
         if coupling["scheme"] == "serial-implicit" and name not in fed_back:
             raise SceneError(f"{source}: '{where}' is '{name}', but serial-implicit accelerates the data the second "

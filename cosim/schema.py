@@ -77,6 +77,13 @@ class AnyTable:
     """A free-form table: any keys (validated later by whoever consumes it)."""
 
 
+@dataclass(frozen=True)
+class PluginChoice:
+    """A plug-in named by a string or by a table with ``type`` (validated by its registry later)."""
+
+    default: Any = _NO_DEFAULT
+
+
 def _type_name(kind: type | tuple[type, ...]) -> str:
     kinds = kind if isinstance(kind, tuple) else (kind,)
     names = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true or false",
@@ -135,6 +142,11 @@ def _leaf(given: dict[str, Any], key: str, spec: Any, where: str, source: str) -
     """The validated value of one key."""
     if isinstance(spec, AnyTable):
         return dict(check_type(given.get(key, {}), dict, where))
+    if isinstance(spec, PluginChoice):
+        if key not in given and spec.default is _NO_DEFAULT:
+            raise SceneError(f"missing key '{where}'")
+        value = check_type(given.get(key, spec.default), (str, dict), where)
+        return dict(value) if isinstance(value, dict) else value
     if isinstance(spec, Mapping):
         return validate(given.get(key, {}), spec, where + ".", source)
     if isinstance(spec, Required):

@@ -136,6 +136,9 @@ class ComponentServer:
             for key, value in result.items():
                 (out_arrays if isinstance(value, np.ndarray) else values)[key] = value
         reply = {"id": request_id, "ok": True, "result": values, "compute_seconds": compute}
+        warnings = self.component.take_warnings()
+        if warnings:
+            reply["warnings"] = warnings
         return protocol.encode(reply, out_arrays), op == "shutdown"
 
 

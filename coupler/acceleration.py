@@ -20,13 +20,23 @@ from collections import deque
 import numpy as np
 from scipy.linalg import solve_triangular
 
+from cosim.errors import SceneError
+from cosim.registry import Registry
+from cosim.schema import Positive, Value
+
+ACCELERATIONS = Registry("acceleration")
 FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
+COMMON = {"data": []}   # the data items accelerated (default: the scheme's choice)
+RELAXATION = Value(0.5, low=0.0, high=1.0, low_open=True)
 
 
+@ACCELERATIONS.register("none")
 class Acceleration:
     """Plain fixed-point iteration (no acceleration); base class."""
 
-    def __init__(self) -> None:
+    SETTINGS: dict = {}
+
+    def __init__(self, block_sizes: list[int] | None = None) -> None:
         self.x: np.ndarray | None = None
         self.x_tilde: np.ndarray | None = None
         self.iteration = 0
@@ -45,8 +55,11 @@ class Acceleration:
         pass
 
 
+@ACCELERATIONS.register("constant")
 class ConstantRelaxation(Acceleration):
-    def __init__(self, relaxation: float) -> None:
+    SETTINGS = {"relaxation": RELAXATION}
+
+    def __init__(self, relaxation: float, block_sizes: list[int] | None = None) -> None:
         super().__init__()
         self.omega = relaxation
 
@@ -54,8 +67,11 @@ class ConstantRelaxation(Acceleration):
         return self.x + self.omega * (self.x_tilde - self.x)
 
 
+@ACCELERATIONS.register("aitken")
 class Aitken(Acceleration):
-    def __init__(self, initial_relaxation: float) -> None:
+    SETTINGS = {"initial_relaxation": RELAXATION}
+
+    def __init__(self, initial_relaxation: float, block_sizes: list[int] | None = None) -> None:
         super().__init__()
         self.initial = initial_relaxation
         self.omega = initial_relaxation
@@ -77,6 +93,7 @@ class Aitken(Acceleration):
         return self.x + self.omega * r
 
 
+@ACCELERATIONS.register("iqn-ils")
 class IQNILS(Acceleration):
     """Interface quasi-Newton, inverse Jacobian by least squares (IQN-ILS), as preCICE does it.
 
@@ -91,6 +108,16 @@ class IQNILS(Acceleration):
     """
 
     ROUNDOFF = 1e3 * np.finfo(float).eps
+
+    SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50),
+                "reused_time_windows": Value(0, low=0), "filter": "qr2",
+                "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True)}
+
+    @staticmethod
+    def check_settings(settings: dict, where: str, source: str) -> None:
+        if settings["filter"] not in FILTERS:
+            raise SceneError(f"{source + ': ' if source else ''}'{where}.filter' is {settings['filter']!r}; "
+                             f"allowed: {', '.join(FILTERS)}")
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, block_sizes: list[int] | None = None) -> None:
@@ -214,16 +241,11 @@ class IQNILS(Acceleration):
             self._windows.pop()
 
 
+def resolve_acceleration(table: object, where: str = "coupling.acceleration", source: str = "") -> dict:
+    """A scene's acceleration table checked against the chosen class's settings, defaults filled in."""
+    return ACCELERATIONS.settings(table, where, source, common=COMMON)
+
+
 def make_acceleration(settings: dict, block_sizes: list[int]) -> Acceleration:
-    """The acceleration a scene's ``coupling.acceleration`` table names."""
-    kind = settings["type"]
-    if kind == "none":
-        return Acceleration()
-    if kind == "constant":
-        return ConstantRelaxation(settings["initial_relaxation"])
-    if kind == "aitken":
-        return Aitken(settings["initial_relaxation"])
-    if kind == "iqn-ils":
-        return IQNILS(settings["initial_relaxation"], settings["max_used_iterations"],
-                      settings["reused_time_windows"], settings["filter"], settings["filter_limit"], block_sizes)
-    raise ValueError(f"unknown acceleration type {kind!r}")
+    """The acceleration resolved ``settings`` name (``data`` is the scheme's business)."""
+    return ACCELERATIONS.create({k: v for k, v in settings.items() if k != "data"}, block_sizes=block_sizes)

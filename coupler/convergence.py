@@ -1,46 +1,151 @@
-"""Convergence measures of implicit coupling, as in preCICE.
+"""Convergence measures of implicit coupling, as preCICE and Kratos express them.
 
 Each measure compares the new value of one exchanged data item with its previous
-value (for data fed back to the first participant: the value the participant used):
-- ``relative``: ||new - old|| / ||new|| < limit
-- ``absolute``: ||new - old|| < limit
-- ``residual-relative``: ||new - old|| / ||new - old||_first iteration of the window < limit
+value (for data fed back to the first participant: the value the participant used);
+r = new - old, n = the number of values. Measures are plug-ins chosen by name:
+
+- ``relative``: ||r|| / ||new|| < limit
+- ``absolute``: ||r|| < limit
+- ``absolute-rms``: ||r|| / sqrt(n) < limit
+- ``residual-relative``: ||r|| / ||r of the window's first iteration|| < limit
+- ``any-of`` / ``all-of``: combinators of ``measures`` (tables as above; ``data`` is
+  inherited), met when any / all of them are met. Kratos's
+  ``relative_norm_previous_residual`` is ``any-of`` an ``absolute-rms`` and a ``relative``.
+
+The scene's list of measures must all be met (``all-of``, as in preCICE).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from typing import Any
 
 import numpy as np
 
-KINDS = ("relative", "absolute", "residual-relative")
+from cosim.errors import SceneError
+from cosim.registry import Registry
+from cosim.schema import Required, Value
+
+MEASURES = Registry("convergence measure")
+COMMON = {"data": Required(str)}
+LIMIT = Value(low=0.0, low_open=True)
 
 
-@dataclass
 class ConvergenceMeasure:
-    data: str
-    kind: str
-    limit: float
-    value: float = field(default=np.inf, init=False)
-    _first: float = field(default=0.0, init=False)
+    """One measure on one data item; ``value`` is its last value."""
 
-    def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise ValueError(f"convergence measure type {self.kind!r} not in {KINDS}")
+    SETTINGS: dict[str, Any] = {"limit": LIMIT}
+    type_name = ""
+
+    def __init__(self, data: str, limit: float = math.inf):
+        self.data = data
+        self.limit = limit
+        self.value = math.inf
+
+    def start_window(self) -> None:
+        """A new time window begins."""
+
+    def measure(self, old: np.ndarray, new: np.ndarray) -> bool:
+        """Update ``value`` from one iteration; True if the measure is met."""
+        self.value = self.evaluate(float(np.linalg.norm(new - old)), old, new)
+        return self.value < self.limit
+
+    def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
+        raise NotImplementedError
+
+    def summary(self) -> str:
+        return f"{self.data} {self.type_name} {self.value:.3e} (limit {self.limit:g})"
+
+
+@MEASURES.register("absolute")
+class Absolute(ConvergenceMeasure):
+    def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
+        return difference
+
+
+@MEASURES.register("absolute-rms")
+class AbsoluteRms(ConvergenceMeasure):
+    def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
+        return difference / math.sqrt(max(new.size, 1))
+
+
+@MEASURES.register("relative")
+class Relative(ConvergenceMeasure):
+    def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
+        scale = float(np.linalg.norm(new))
+        return difference / scale if scale > 0 else (0.0 if difference == 0 else math.inf)
+
+
+@MEASURES.register("residual-relative")
+class ResidualRelative(ConvergenceMeasure):
+    def __init__(self, data: str, limit: float = math.inf):
+        super().__init__(data, limit)
+        self._first = 0.0
 
     def start_window(self) -> None:
         self._first = 0.0
 
+    def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
+        if self._first == 0.0:
+            self._first = difference
+        return difference / self._first if self._first > 0 else 0.0
+
+
+class Combination(ConvergenceMeasure):
+    """Met when ``combine`` of the member measures' results holds; ``value`` is the member value nearest its limit."""
+
+    SETTINGS = {"measures": Required(list)}
+    combine = all
+
+    def __init__(self, data: str, measures: list[dict[str, Any]]):
+        super().__init__(data)
+        self.members = [make_measure(m) for m in measures]
+
+    @classmethod
+    def check_settings(cls, settings: dict, where: str, source: str) -> None:
+        items = settings["measures"]
+        if not items:
+            raise SceneError(f"{source + ': ' if source else ''}'{where}.measures' is empty")
+        settings["measures"] = [resolve_measure({"data": settings["data"], **_table(m, f"{where}.measures.{i}", source)},
+                                                f"{where}.measures.{i}", source) for i, m in enumerate(items)]
+
+    def start_window(self) -> None:
+        for member in self.members:
+            member.start_window()
+
     def measure(self, old: np.ndarray, new: np.ndarray) -> bool:
-        """Update ``value`` from one iteration; True if the measure is met."""
-        difference = float(np.linalg.norm(new - old))
-        if self.kind == "absolute":
-            self.value = difference
-        elif self.kind == "relative":
-            scale = float(np.linalg.norm(new))
-            self.value = difference / scale if scale > 0 else (0.0 if difference == 0 else np.inf)
-        else:
-            if self._first == 0.0:
-                self._first = difference
-            self.value = difference / self._first if self._first > 0 else 0.0
-        return self.value < self.limit
+        met = [member.measure(old, new) for member in self.members]
+        ratios = [m.value / m.limit for m in self.members]
+        nearest = self.members[int(np.argmin(ratios))]
+        self.value, self.limit = nearest.value, nearest.limit
+        return self.combine(met)
+
+    def summary(self) -> str:
+        inner = ", ".join(m.summary().removeprefix(f"{m.data} ") for m in self.members)
+        return f"{self.data} {self.type_name}({inner})"
+
+
+@MEASURES.register("any-of")
+class AnyOf(Combination):
+    combine = any
+
+
+@MEASURES.register("all-of")
+class AllOf(Combination):
+    combine = all
+
+
+def _table(value: Any, where: str, source: str) -> dict:
+    if not isinstance(value, dict):
+        raise SceneError(f"{source + ': ' if source else ''}'{where}' must be a table, got {value!r}")
+    return value
+
+
+def resolve_measure(table: Any, where: str, source: str = "") -> dict[str, Any]:
+    """A measure's table checked against its class's settings, defaults filled in."""
+    return MEASURES.settings(table, where, source, common=COMMON)
+
+
+def make_measure(settings: dict[str, Any]) -> ConvergenceMeasure:
+    """A measure from resolved settings."""
+    return MEASURES.create(settings)

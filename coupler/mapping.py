@@ -1,70 +1,154 @@
-"""Interface mapping between the node sets of two components.
+"""Interface mapping of one variable between the meshes of two components.
 
-- ``identity``: same nodes, same order (checked by size).
-- ``nearest-neighbour``: each target node takes the value of its nearest source node
-  (``consistent``, for displacements); ``conservative`` (for forces) sums each
-  source value into its nearest target node, so totals are preserved. The KD-tree
-  query runs once at set-up; mapping is one gather or one ``bincount``.
+Every mapping is a linear operator from the source mesh's nodes to the target mesh's
+nodes, applied to arrays of shape (n,) or (n, k) (the same operator for each of the k
+components). Mappings are plug-ins chosen by name (``MAPPINGS``):
+
+- ``identity``: same nodes, same order (checked by shape).
+- ``nearest-neighbour``: ``consistent`` (for displacements: each target node takes the
+  value of its nearest source node) or ``conservative`` (for forces: each source value
+  goes to its nearest target node, so totals are preserved).
+- ``rbf``: radial basis functions with compact support (Wendland C2, radius
+  ``support_radius``) plus a linear polynomial, so constant and linear fields are
+  reproduced exactly; ``conservative`` is the transpose of the consistent mapping in the
+  other direction, so it preserves the total force to round-off.
+
+The operators are sparse matrices built once at set-up; mapping is one product.
 """
 
 from __future__ import annotations
 
-import numpy as np
+from typing import Any
 
-KINDS = ("identity", "nearest-neighbour", "nearest-neighbour-conservative")
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+from scipy.spatial import cKDTree
+
+from cosim.errors import SceneError
+from cosim.registry import Registry
+from cosim.schema import Positive
+
+MAPPINGS = Registry("mapping")
+CONSTRAINTS = ("consistent", "conservative")
 
 
 class Mapping:
-    def __call__(self, values: np.ndarray) -> np.ndarray:
+    """A linear map from source nodes to target nodes (``matrix``: n_target x n_source)."""
+
+    SETTINGS: dict[str, Any] = {}
+    needs_meshes = True
+
+    def __init__(self, source: np.ndarray, target: np.ndarray, **settings: Any):
+        self.matrix = self.build(np.asarray(source, float), np.asarray(target, float), **settings)
+
+    def build(self, source: np.ndarray, target: np.ndarray, **settings: Any) -> Any:
         raise NotImplementedError
 
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        return self.matrix @ values
 
+    @staticmethod
+    def check_settings(settings: dict, where: str, source: str) -> None:
+        constraint = settings.get("constraint")
+        if constraint is not None and constraint not in CONSTRAINTS:
+            raise SceneError(f"{source + ': ' if source else ''}'{where}.constraint' is {constraint!r}; "
+                             f"allowed: {', '.join(CONSTRAINTS)}")
+
+
+@MAPPINGS.register("identity")
 class IdentityMapping(Mapping):
+    needs_meshes = False
+
+    def __init__(self, source: np.ndarray | None = None, target: np.ndarray | None = None):
+        self.matrix = None
+
     def __call__(self, values: np.ndarray) -> np.ndarray:
         return values
 
 
-class NearestNeighbourConsistent(Mapping):
-    def __init__(self, source: np.ndarray, target: np.ndarray, components: int = 1):
-        from scipy.spatial import cKDTree
-        _, nearest = cKDTree(source).query(target)
-        self.index = _expand(nearest, components)
+@MAPPINGS.register("nearest-neighbour")
+class NearestNeighbour(Mapping):
+    SETTINGS = {"constraint": "consistent"}
 
-    def __call__(self, values: np.ndarray) -> np.ndarray:
-        return values[self.index]
-
-
-class NearestNeighbourConservative(Mapping):
-    def __init__(self, source: np.ndarray, target: np.ndarray, components: int = 1):
-        from scipy.spatial import cKDTree
-        _, nearest = cKDTree(target).query(source)
-        self.index = _expand(nearest, components)
-        self.size = len(target) * components
-
-    def __call__(self, values: np.ndarray) -> np.ndarray:
-        return np.bincount(self.index, weights=values, minlength=self.size)
+    def build(self, source: np.ndarray, target: np.ndarray, constraint: str = "consistent") -> sp.csr_matrix:
+        if constraint == "consistent":
+            _, nearest = cKDTree(source).query(target)
+            rows, cols = np.arange(len(target)), nearest
+        else:
+            _, nearest = cKDTree(target).query(source)
+            rows, cols = nearest, np.arange(len(source))
+        return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(target), len(source)))
 
 
-def _expand(nodes: np.ndarray, components: int) -> np.ndarray:
-    """Indices of node-major values (node 0 x, node 0 y, ...) for ``components`` per node."""
-    return (nodes[:, None] * components + np.arange(components)).ravel()
+@MAPPINGS.register("rbf")
+class RadialBasisFunctions(Mapping):
+    SETTINGS = {"constraint": "consistent", "support_radius": Positive()}
+
+    def build(self, source: np.ndarray, target: np.ndarray, constraint: str = "consistent",
+              support_radius: float = 1.0) -> Any:
+        if constraint == "consistent":
+            return _RbfOperator(source, target, support_radius, transpose=False)
+        return _RbfOperator(target, source, support_radius, transpose=True)
 
 
-def make_mapping(kind: str, source: np.ndarray, target: np.ndarray, source_size: int, target_size: int,
-                 where: str) -> Mapping:
-    """The mapping ``kind`` from ``source`` nodes to ``target`` nodes; errors name ``where``."""
-    if kind == "identity":
-        if source_size != target_size:
-            raise ValueError(f"{where}: identity mapping needs equal sizes, got {source_size} and {target_size}")
-        return IdentityMapping()
-    if len(source) == 0 or len(target) == 0:
-        raise ValueError(f"{where}: {kind} mapping needs interface coordinates from both components")
-    components = source_size // len(source)
-    if components * len(source) != source_size or components * len(target) != target_size:
-        raise ValueError(f"{where}: sizes {source_size} -> {target_size} do not fit "
-                         f"{len(source)} -> {len(target)} nodes with the same number of components")
-    if kind == "nearest-neighbour":
-        return NearestNeighbourConsistent(source, target, components)
-    if kind == "nearest-neighbour-conservative":
-        return NearestNeighbourConservative(source, target, components)
-    raise ValueError(f"{where}: unknown mapping {kind!r} (known: {', '.join(KINDS)})")
+class _RbfOperator:
+    """Consistent RBF interpolation from ``centres`` to ``points`` (or its transpose), factorised once.
+
+    With A = [[Phi, P], [P^T, 0]] on the centres and B = [Phi(points, centres), P(points)],
+    the consistent map is B A^-1 [I; 0]; its transpose is [I 0] A^-1 B^T (A is symmetric).
+    """
+
+    def __init__(self, centres: np.ndarray, points: np.ndarray, radius: float, transpose: bool):
+        n = len(centres)
+        polynomial_centres, polynomial_points = _linear_basis(centres), _linear_basis(points)
+        A = sp.bmat([[_wendland(centres, centres, radius), sp.csr_matrix(polynomial_centres)],
+                     [sp.csr_matrix(polynomial_centres.T), None]], format="csc")
+        self.B = sp.hstack([_wendland(points, centres, radius), sp.csr_matrix(polynomial_points)], format="csr")
+        self.lu = splu(A)
+        self.n, self.m = n, polynomial_centres.shape[1]
+        self.transpose = transpose
+        self.shape = (n, len(points)) if transpose else (len(points), n)
+
+    def __matmul__(self, values: np.ndarray) -> np.ndarray:
+        values = np.asarray(values, float)
+        if self.transpose:
+            return self.lu.solve(np.asarray(self.B.T @ values))[:self.n]
+        padded = np.concatenate([values, np.zeros((self.m,) + values.shape[1:])])
+        return self.B @ self.lu.solve(padded)
+
+
+def _wendland(points: np.ndarray, centres: np.ndarray, radius: float) -> sp.csr_matrix:
+    """Wendland C2 kernel (1 - r)^4 (4 r + 1), r = distance / radius < 1, as a sparse matrix."""
+    distances = cKDTree(points).sparse_distance_matrix(cKDTree(centres), radius, output_type="coo_matrix")
+    r = distances.data / radius
+    values = (1.0 - r) ** 4 * (4.0 * r + 1.0)
+    return sp.coo_matrix((values, (distances.row, distances.col)), shape=(len(points), len(centres))).tocsr()
+
+
+def _linear_basis(points: np.ndarray) -> np.ndarray:
+    """[1, x, y, ...] per point, without coordinates that are constant over the points."""
+    varying = np.ptp(points, axis=0) > 1e-12 * max(1.0, float(np.abs(points).max(initial=0.0)))
+    return np.hstack([np.ones((len(points), 1)), points[:, varying]])
+
+
+def make_mapping(settings: dict[str, Any], source_nodes: np.ndarray, target_nodes: np.ndarray,
+                 source_shape: tuple[int, ...], target_shape: tuple[int, ...], where: str) -> Mapping:
+    """The mapping ``settings`` names, between two variables of the given shapes on the given nodes."""
+    cls = MAPPINGS.classes[settings["type"]]
+    if not cls.needs_meshes:
+        if tuple(source_shape) != tuple(target_shape):
+            raise SceneError(f"{where}: identity mapping needs equal shapes, got {tuple(source_shape)} "
+                             f"and {tuple(target_shape)}")
+        return cls()
+    if len(source_nodes) == 0 or len(target_nodes) == 0:
+        raise SceneError(f"{where}: {settings['type']} mapping needs the meshes of both variables")
+    if source_shape[1:] != target_shape[1:]:
+        raise SceneError(f"{where}: the variables have {source_shape[1:] or (1,)} and {target_shape[1:] or (1,)} "
+                         f"components per node")
+    if source_shape[0] != len(source_nodes) or target_shape[0] != len(target_nodes):
+        raise SceneError(f"{where}: shapes {tuple(source_shape)} -> {tuple(target_shape)} do not fit "
+                         f"{len(source_nodes)} -> {len(target_nodes)} nodes")
+    if np.shape(source_nodes)[1] != np.shape(target_nodes)[1]:
+        raise SceneError(f"{where}: meshes of dimension {np.shape(source_nodes)[1]} and {np.shape(target_nodes)[1]}")
+    return MAPPINGS.create(settings, source=source_nodes, target=target_nodes)

@@ -14,12 +14,13 @@ import math
 import socket
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from coupler.acceleration import make_acceleration
-from coupler.convergence import ConvergenceMeasure
+from coupler.convergence import make_measure
 from coupler.mapping import make_mapping
+from coupler.plugins import resolve_plugins
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange
@@ -81,7 +82,8 @@ def plan_backends(scene: Scene) -> list[Backend]:
 
 def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) -> None:
     """Spawn every local backend first (they start in parallel), then handshake each."""
-    processes = {b.name: launcher.spawn(b.name, b.entry) for b in backends if b.entry}
+    processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(scene["components"][b.participant]))
+                 for b in backends if b.entry}
     for backend in backends:
         spec = scene["components"][backend.participant]
         process = processes.get(backend.name)
@@ -93,6 +95,14 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) ->
         backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"])
         if process is None:
             backend.proxy.pid = int(backend.proxy.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
+
+
+def component_environment(spec: dict) -> dict[str, str]:
+    """Environment of a component's process: its thread count (default one) and any extra variables."""
+    threads = str(spec["threads"])
+    environment = {name: threads for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+    environment.update({str(k): str(v) for k, v in spec["environment"].items()})
+    return environment
 
 
 def participants_of(backends: list[Backend]) -> dict[str, ComponentProxy | BackendSchedule]:
@@ -120,15 +130,12 @@ def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedu
             inputs = [v.name for v in target.variables.values() if v.causality == "input"]
             raise SceneError(f"exchange.{i}: component '{target.name}' has no input '{data}' "
                              f"(inputs: {', '.join(inputs)})")
-        try:
-            mapping = make_mapping(spec["mapping"], source.coordinates, target.coordinates,
-                                   out_var.size, in_var.size, f"exchange.{i} ({data})")
-        except ValueError as exc:
-            raise SceneError(str(exc)) from None
+        mapping = make_mapping(spec["mapping"], source.mesh_of(data), target.mesh_of(data),
+                               out_var.shape, in_var.shape, f"exchange.{i} ({data})")
         exchanges.append(Exchange(data, source, target, mapping))
     participants = [proxies[name] for name in coupling["participants"]]
-    measures = [ConvergenceMeasure(m["data"], m["type"], m["limit"]) for m in coupling["convergence"]]
-    scheme_class = SCHEMES[coupling["scheme"]]
+    measures = [make_measure(m) for m in coupling["convergence"]]
+    scheme_class = SCHEMES.classes[coupling["scheme"]]
     scheme = scheme_class(participants, exchanges, measures, None, coupling["acceleration"]["data"],
                           coupling["max_iterations"], coupling["on_max_iterations"],
                           coupling["extrapolation_order"], recorders, coupling["divergence_factor"])
@@ -140,6 +147,7 @@ def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedu
 def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:
     """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
     out_dir = Path(out_dir)
+    resolve_plugins(scene)
     start, end, dt = scene["time"]["start"], scene["time"]["end"], scene["time"]["dt"]
     n_windows = int(math.floor((end - start) / dt + 0.5))
     if abs(start + n_windows * dt - end) > 1e-9 * max(1.0, abs(end)):
@@ -172,6 +180,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                     store.add_component(b.name, b.proxy.pid, host, b.entry or b.address, b.proxy.endpoint,
                                         participant=b.participant, kind=b.kind, start_time=b.start_time)
                     b.proxy.instantiate(b.parameters)
+                    store.write_description(b.name, [asdict(v) for v in b.proxy.variables.values()],
+                                            b.proxy.meshes)
                     b.proxy.enter_initialization_mode(start, start + n_windows * dt)
                     b.proxy.exit_initialization_mode()
                 recorders = {n: CallRecorder() for n, s in scene["components"].items() if s["record"]}

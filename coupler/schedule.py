@@ -19,18 +19,27 @@ class BackendSchedule:
         self.stages = sorted(stages, key=lambda stage: stage[0])
         first = self.stages[0][1]
         for _, proxy in self.stages[1:]:
-            mine = {(v.name, v.causality, v.size) for v in first.variables.values()}
-            theirs = {(v.name, v.causality, v.size) for v in proxy.variables.values()}
+            mine = {(v.name, v.causality, v.size, v.components) for v in first.variables.values()
+                    if v.causality != "local"}
+            theirs = {(v.name, v.causality, v.size, v.components) for v in proxy.variables.values()
+                      if v.causality != "local"}
             if mine != theirs:
                 raise SceneError(f"components.{name}: backends '{first.name}' and '{proxy.name}' declare different "
                                  f"variables: {sorted(mine)} vs {sorted(theirs)}")
+            for variable in first.variables.values():
+                mine_nodes, theirs_nodes = first.mesh_of(variable.name), proxy.mesh_of(variable.name)
+                if mine_nodes.shape != theirs_nodes.shape or not np.allclose(mine_nodes, theirs_nodes):
+                    raise SceneError(f"components.{name}: backends '{first.name}' and '{proxy.name}' place "
+                                     f"'{variable.name}' on different meshes ({len(mine_nodes)} and "
+                                     f"{len(theirs_nodes)} nodes)")
         for _, proxy in self.stages:
             if proxy.can_get_and_set_state:
                 raise SceneError(f"components.{name}: backend '{proxy.name}' is stateful; "
                                  "only stateless backends can be switched during a run")
         self.variables = first.variables
-        self.coordinates = first.coordinates
+        self.meshes = first.meshes
         self.can_get_and_set_state = False
+        self.repeats_steps = any(proxy.repeats_steps for _, proxy in self.stages)
         self._sent: ComponentProxy | None = None
 
     def active(self, t: float) -> ComponentProxy:
@@ -40,6 +49,9 @@ class BackendSchedule:
             if t >= start - 1e-9 * max(1.0, abs(start)):
                 current = proxy
         return current
+
+    def mesh_of(self, name: str) -> np.ndarray:
+        return self.stages[0][1].mesh_of(name)
 
     def output_names(self) -> list[str]:
         return self.stages[0][1].output_names()

@@ -21,6 +21,9 @@ from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
 from cosim.errors import ConvergenceError, DivergenceError, SceneError
 from cosim.proxy import ComponentProxy
+from cosim.registry import Registry
+
+SCHEMES = Registry("coupling scheme")
 
 
 @dataclass
@@ -111,13 +114,16 @@ class CouplingScheme:
 
     @staticmethod
     def _stack(values: Mapping[str, np.ndarray], names: Sequence[str]) -> np.ndarray:
-        return np.concatenate([values[n] for n in names]) if len(names) > 1 else values[names[0]].copy()
+        """The named arrays as one flat vector (a copy)."""
+        return np.concatenate([values[n].ravel() for n in names]) if len(names) > 1 else values[names[0]].ravel().copy()
 
     def _split(self, vector: np.ndarray, names: Sequence[str]) -> dict[str, np.ndarray]:
+        """Inverse of ``_stack``: each array back in its own shape."""
         out, start = {}, 0
         for name in names:
+            shape = self.values[name].shape
             size = self.values[name].size
-            out[name] = vector[start:start + size]
+            out[name] = vector[start:start + size].reshape(shape)
             start += size
         return out
 
@@ -186,7 +192,7 @@ class CouplingScheme:
             for recorder in self.recorders.values():
                 recorder.mark_converged(iterations)
         elif self.implicit:
-            measures = ", ".join(f"{m.data} {m.kind} {m.value:.3e} (limit {m.limit:g})" for m in self.measures)
+            measures = ", ".join(m.summary() for m in self.measures)
             first, last = (self._residuals[0], self._residuals[-1]) if self._residuals else (0.0, 0.0)
             where = f"window {self.window} (t = {self.t:g} to {t:g})"
             if last > self.divergence_factor * first:
@@ -208,6 +214,7 @@ class CouplingScheme:
         raise NotImplementedError
 
 
+@SCHEMES.register("serial-explicit")
 class SerialExplicit(CouplingScheme):
     """First participant, then second, once per window."""
 
@@ -220,10 +227,11 @@ class SerialExplicit(CouplingScheme):
             inputs = self.inputs_for(proxy, self.values)
             outputs = proxy.step(t, dt, inputs)
             self._record(proxy, 1, inputs, outputs)
-            self.values.update(outputs)
+            self.values.update({k: outputs[k] for k in self.sent_by(proxy)})
         return self._finish(t + dt, 1, True)
 
 
+@SCHEMES.register("serial-implicit")
 class SerialImplicit(CouplingScheme):
     """Gauss-Seidel: first participant, then second, iterated on the second's data."""
 
@@ -256,6 +264,7 @@ class SerialImplicit(CouplingScheme):
         return self._end_implicit_window(values, t + dt, iteration, converged)
 
 
+@SCHEMES.register("parallel-implicit")
 class ParallelImplicit(CouplingScheme):
     """Jacobi: both participants step concurrently on the previous iterate."""
 
@@ -276,8 +285,9 @@ class ParallelImplicit(CouplingScheme):
                 p.send_step(t, dt, inputs[p.name], restore=self._restore(p, iteration))
             outputs = {}
             for p in proxies:
-                outputs.update(p.receive_step())
-                self._record(p, iteration, inputs[p.name], {k: outputs[k] for k in p.output_names()})
+                returned = p.receive_step()
+                self._record(p, iteration, inputs[p.name], returned)
+                outputs.update(returned)
             new = {k: outputs[k] for k in names}
             converged = all([m.measure(values[m.data], new[m.data]) for m in self.measures])
             self._observe(self._stack(values, accelerated), self._stack(new, accelerated))
@@ -286,7 +296,3 @@ class ParallelImplicit(CouplingScheme):
                 break
             values.update(self._next_iterate(accelerated))
         return self._end_implicit_window(values, t + dt, iteration, converged)
-
-
-SCHEMES = {"serial-explicit": SerialExplicit, "serial-implicit": SerialImplicit,
-           "parallel-implicit": ParallelImplicit}

@@ -58,10 +58,10 @@ class TubeFluid(Component):
         self._build_pattern()
 
     def variables(self) -> list[Variable]:
-        return [Variable("section", "input", self.n), Variable("pressure", "output", self.n)]
+        return [Variable("section", "input", self.n, mesh="axis"), Variable("pressure", "output", self.n, mesh="axis")]
 
-    def coordinates(self) -> np.ndarray:
-        return np.linspace(0.0, self.length, self.n)[:, None]
+    def meshes(self) -> dict[str, np.ndarray]:
+        return {"axis": np.linspace(0.0, self.length, self.n)[:, None]}
 
     def enter_initialization_mode(self, start: float, stop: float) -> None:
         self.inlet = make_inlet(self.inlet_parameters, start, stop)

@@ -12,7 +12,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from cosim.component import Component, Variable, check_inputs
+from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
 from cosim.errors import ComponentError
 from cosim.schema import Required, validate
 from rom_component.persistence import ModelFileError, load
@@ -36,7 +36,14 @@ class RomSolid(Component):
         meta = self.rom.metadata
         self.input_name = meta.get("input_variable", "pressure")
         self.output_name = meta.get("output_variable", "section")
-        self.coords = np.asarray(self.rom.arrays.get("coordinates", np.zeros((0, 1))))
+        declared = {v["name"]: v for v in meta.get("variables", [])}   # as the full-order solid declared them
+        self.placement = {name: (declared.get(name, {}).get("mesh", ""), declared.get(name, {}).get("components", 1))
+                          for name in (self.input_name, self.output_name)}
+        self.mesh_nodes = {k[len(MESH_PREFIX):]: v for k, v in self.rom.arrays.items() if k.startswith(MESH_PREFIX)}
+        self.input_shape = Variable(self.input_name, "input", self.rom.n_inputs,
+                                    components=self.placement[self.input_name][1]).shape
+        self.output_shape = Variable(self.output_name, "output", self.rom.n_outputs,
+                                     components=self.placement[self.output_name][1]).shape
         self.force = np.zeros(self.rom.n_inputs)
         self.displacement = self.rom(np.zeros(self.rom.n_inputs))  # at rest until the first step
         self._window_time: float | None = None
@@ -45,19 +52,21 @@ class RomSolid(Component):
         self._last_reduced: np.ndarray | None = None
 
     def variables(self) -> list[Variable]:
-        return [Variable(self.input_name, "input", self.rom.n_inputs),
-                Variable(self.output_name, "output", self.rom.n_outputs)]
+        (in_mesh, in_k), (out_mesh, out_k) = self.placement[self.input_name], self.placement[self.output_name]
+        return [Variable(self.input_name, "input", self.rom.n_inputs, mesh=in_mesh, components=in_k),
+                Variable(self.output_name, "output", self.rom.n_outputs, mesh=out_mesh, components=out_k)]
 
-    def coordinates(self) -> np.ndarray:
-        return self.coords
+    def meshes(self) -> dict[str, np.ndarray]:
+        return self.mesh_nodes
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
-        check_inputs(self, values, {self.input_name: self.rom.n_inputs})
+        check_inputs(self, values, {self.input_name: self.input_shape})
         if self.input_name in values:
-            self.force = values[self.input_name]
+            self.force = np.ravel(values[self.input_name])
 
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
-        known = {self.output_name: self.displacement, self.input_name: self.force}
+        known = {self.output_name: self.displacement.reshape(self.output_shape),
+                 self.input_name: self.force.reshape(self.input_shape)}
         return {name: np.array(known[name]) for name in names}
 
     def do_step(self, t: float, dt: float) -> None:
@@ -71,7 +80,7 @@ class RomSolid(Component):
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.set_values(inputs)
         self.do_step(t, dt)
-        return {self.output_name: self.displacement}
+        return {self.output_name: self.displacement.reshape(self.output_shape)}
 
     def _keep_converged(self) -> None:
         self._times.append(self._window_time + self._dt)

@@ -10,6 +10,7 @@ Scalar variables are named ``<input>[node]`` / ``<output>[node]`` (1-based nodes
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shutil
 import struct
@@ -23,6 +24,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from cosim.errors import CosimError
+from cosim.component import MESH_PREFIX
 from rom_component.online import OnlineRom
 from rom_component.persistence import load_arrays
 
@@ -141,7 +143,9 @@ def export_fmu(model: str | Path, out: str | Path, components_per_node: int | No
     """Write the FMU for the ROM stored in ``model``; returns its path. The same model gives the same bytes."""
     arrays, metadata = load_arrays(model)
     rom = OnlineRom(arrays, metadata)
-    components = components_per_node or int(metadata.get("components_per_node", 1))
+    declared = {v["name"]: v for v in metadata.get("variables", [])}
+    input_components = declared.get(metadata.get("input_variable"), {}).get("components", 1)
+    components = components_per_node or int(metadata.get("components_per_node", input_components))
     scalar_names("input", rom.n_inputs, components)
     scalar_names("output", rom.n_outputs, components)
     guid = model_guid(rom, components)
@@ -156,6 +160,10 @@ def export_fmu(model: str | Path, out: str | Path, components_per_node: int | No
             shutil.copy(fmi_headers() / header, root / "sources" / header)
         (root / "resources" / "rom.bin").write_bytes(resource_bytes(rom, guid, components))
         (root / "modelDescription.xml").write_bytes(model_description(rom, guid, components))
+        if metadata.get("variables"):   # the meshes the solid declared, for the coupler's mappings
+            meshes = {k[len(MESH_PREFIX):]: v.tolist() for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
+            (root / "resources" / "interface.json").write_text(
+                json.dumps({"variables": metadata["variables"], "meshes": meshes}, sort_keys=True))
         compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so")
         with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(root.rglob("*")):

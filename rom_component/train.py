@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from cosim.errors import SceneError
+from cosim.component import MESH_PREFIX
 from cosim.results import RunResults
 from cosim.scene import apply_override, parse_override
 from cosim.schema import validate
@@ -66,10 +67,25 @@ def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarra
     times = window_time[np.minimum(calls.window, len(window_time)) - 1]
     keep = finished & (times >= spec["t_min"] - 1e-9) & (times <= spec["t_max"] + 1e-9)
     F, U = calls.inputs[spec["input"]][keep], calls.outputs[spec["output"]][keep]
+    F, U = F.reshape(len(F), -1), U.reshape(len(U), -1)   # one row per call, node-major (x, y of node 0, ...)
     if len(F) < 3:
         raise SceneError(f"'{results}': only {len(F)} snapshots of '{spec['component']}' fall in "
                          f"t in [{spec['t_min']:g}, {spec['t_max']:g}]")
     return F, U, times[keep]
+
+
+def read_interface(results: str | Path, spec: dict[str, Any]) -> tuple[list[dict[str, Any]], dict[str, np.ndarray]]:
+    """The trained variables as the full-order component declared them (mesh, components) and their meshes."""
+    with RunResults(results) as run:
+        names = run.component_names()
+        if spec["component"] not in names:
+            return [], {}
+        record = run.component(spec["component"])
+    declared = {v["name"]: v for v in record.variables}
+    variables = [{k: declared[name][k] for k in ("name", "mesh", "components")}
+                 for name in (spec["input"], spec["output"]) if name in declared]
+    meshes = {v["mesh"]: record.meshes[v["mesh"]] for v in variables if v["mesh"] in record.meshes}
+    return variables, meshes
 
 
 def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=print) -> dict[str, Any]:
@@ -103,11 +119,13 @@ def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=pri
         "t_range": [float(times.min()), float(times.max())], "n_snapshots": int(len(F)),
         "fit_seconds": fit_seconds, "training_error": training_error,
     }
+    variables, meshes = read_interface(results, config["snapshots"])
+    metadata["variables"] = variables   # the meshes the ROM declares, as the full-order solid did
     if table is not None:
         metadata["selection"] = {"force_modes": table.force_modes, "disp_modes": table.disp_modes,
                                  "errors": table.errors.tolist(), "best": list(table.best),
                                  "energy_choice": list(table.energy_choice)}
-    persistence.save(out, model.online_arrays(), metadata)
+    persistence.save(out, {**model.online_arrays(), **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
     echo(f"fitted r_f = {params['n_force_modes']}, r_u = {params['n_disp_modes']}, {params['regressor']} regression, "
          f"{params['decoder']} decoder in {fit_seconds:.3f} s (training time); mean training error {training_error:.3e}")
     echo(f"saved {out}")

@@ -9,6 +9,8 @@ quasi-static solid's); ``stateful = true`` uses ``fmi2GetFMUstate``/``fmi2SetFMU
 
 from __future__ import annotations
 
+import json
+
 import ctypes
 import re
 import shutil
@@ -74,6 +76,22 @@ class FmuSolid(Component):
             raise ComponentError(self.name, f"FMU '{path}' failed to instantiate ({exc}): "
                                             f"{'; '.join(self.messages) or 'the FMU logged nothing'}") from None
         self._bind_raw()
+        self._read_interface(Path(self.unzipped) / "resources")
+
+    def _read_interface(self, resources: Path) -> None:
+        """Meshes and components per node of the variables, from resources/interface.json if present."""
+        self.placement = {name: ("", 1) for name in [*self.inputs, *self.outputs]}
+        self.mesh_nodes: dict[str, np.ndarray] = {}
+        described = resources / "interface.json"
+        if described.is_file():
+            interface = json.loads(described.read_text())
+            for v in interface["variables"]:
+                if v["name"] in self.placement:
+                    self.placement[v["name"]] = (v["mesh"], int(v["components"]))
+            self.mesh_nodes = {k: np.array(v, dtype=np.float64) for k, v in interface["meshes"].items()}
+
+    def meshes(self) -> dict[str, np.ndarray]:
+        return self.mesh_nodes
 
     def _callbacks(self):
         """FMI callbacks whose logger keeps the FMU's messages (and writes them to the log)."""
@@ -138,8 +156,8 @@ class FmuSolid(Component):
 
     # --- contract -----------------------------------------------------------
     def variables(self) -> list[Variable]:
-        return [Variable(n, "input", len(r)) for n, (r, _) in self.inputs.items()] + \
-               [Variable(n, "output", len(r)) for n, (r, _) in self.outputs.items()]
+        return [Variable(n, causality, len(r), mesh=self.placement[n][0], components=self.placement[n][1])
+                for causality, group in (("input", self.inputs), ("output", self.outputs)) for n, (r, _) in group.items()]
 
     def enter_initialization_mode(self, start: float, stop: float) -> None:
         self.slave.setupExperiment(startTime=start)
@@ -149,9 +167,9 @@ class FmuSolid(Component):
         self.slave.exitInitializationMode()
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
-        check_inputs(self, values, {n: len(r) for n, (r, _) in self.inputs.items()})
+        check_inputs(self, values, {v.name: v.shape for v in self.variables() if v.causality == "input"})
         for name, value in values.items():
-            np.copyto(self.inputs[name][1], value)
+            np.copyto(self.inputs[name][1], np.ravel(value))
             refs, count, data = self._pointers[name]
             self._check(self._set(self.slave.component, refs, count, data), "fmi2SetReal")
 
@@ -160,7 +178,9 @@ class FmuSolid(Component):
         for name in names:
             refs, count, data = self._pointers[name]
             self._check(self._get(self.slave.component, refs, count, data), "fmi2GetReal")
-            out[name] = (self.outputs.get(name) or self.inputs[name])[1].copy()
+            components = self.placement[name][1]
+            values = (self.outputs.get(name) or self.inputs[name])[1]
+            out[name] = (values if components == 1 else values.reshape(-1, components)).copy()
         return out
 
     def do_step(self, t: float, dt: float) -> None:

@@ -51,10 +51,10 @@ class TubeSolid(Component):
         self.section = np.full(self.n, tube["a0"])
 
     def variables(self) -> list[Variable]:
-        return [Variable("pressure", "input", self.n), Variable("section", "output", self.n)]
+        return [Variable("pressure", "input", self.n, mesh="axis"), Variable("section", "output", self.n, mesh="axis")]
 
-    def coordinates(self) -> np.ndarray:
-        return np.linspace(0.0, self.length, self.n)[:, None]
+    def meshes(self) -> dict[str, np.ndarray]:
+        return {"axis": np.linspace(0.0, self.length, self.n)[:, None]}
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
         check_inputs(self, values, {"pressure": self.n})

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 from coupler.acceleration import IQNILS, Acceleration, Aitken, ConstantRelaxation
-from coupler.convergence import ConvergenceMeasure
+from coupler.convergence import make_measure, resolve_measure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import make_mapping
+from cosim.errors import SceneError
 
 
 def iterate(acceleration, H, x0, tol=1e-10, max_iterations=200):
@@ -161,16 +162,52 @@ def test_filters_drop_a_repeated_secant_column(kind):
     assert iqn.columns_filtered == 1 and iqn.columns_used == 1
 
 
+def measure(table: dict):
+    return make_measure(resolve_measure({"data": "x", **table}, "m"))
+
+
 def test_convergence_measures():
     old, new = np.array([1.0, 1.0]), np.array([1.0, 1.1])
-    rel = ConvergenceMeasure("x", "relative", 0.1)
+    rel = measure({"type": "relative", "limit": 0.1})
     assert rel.measure(old, new) and rel.value == pytest.approx(0.1 / np.linalg.norm(new))
-    absolute = ConvergenceMeasure("x", "absolute", 0.05)
+    absolute = measure({"type": "absolute", "limit": 0.05})
     assert not absolute.measure(old, new) and absolute.value == pytest.approx(0.1)
-    residual = ConvergenceMeasure("x", "residual-relative", 0.5)
+    rms = measure({"type": "absolute-rms", "limit": 0.08})
+    assert rms.measure(old, new) and rms.value == pytest.approx(0.1 / np.sqrt(2))
+    residual = measure({"type": "residual-relative", "limit": 0.5})
     residual.start_window()
     assert not residual.measure(old, new) and residual.value == 1.0
     assert residual.measure(old, np.array([1.0, 1.04])) and residual.value == pytest.approx(0.4)
+
+
+def test_combinators_any_of_and_all_of():
+    """Kratos's relative_norm_previous_residual: absolute RMS or relative, 5e-3."""
+    members = [{"type": "absolute-rms", "limit": 5e-3}, {"type": "relative", "limit": 5e-3}]
+    any_of, all_of = measure({"type": "any-of", "measures": members}), measure({"type": "all-of", "measures": members})
+    small_values = (np.full(100, 1e-3), np.full(100, 1.003e-3))     # rms 3e-6 met, relative 3e-3 met
+    large_change = (np.full(100, 1.0), np.full(100, 1.004))         # rms 4e-3 met, relative 4e-3 met
+    rms_only = (np.full(100, 1e-4), np.full(100, 2e-4))              # rms 1e-4 met, relative 0.5 not
+    relative_only = (np.full(100, 100.0), np.full(100, 100.1))      # rms 0.1 not, relative 1e-3 met
+    neither = (np.full(100, 1.0), np.full(100, 1.1))                # rms 0.1, relative 0.09
+    for (old, new), expected_any, expected_all in [(small_values, True, True), (large_change, True, True),
+                                                   (rms_only, True, False), (relative_only, True, False),
+                                                   (neither, False, False)]:
+        assert any_of.measure(old, new) is expected_any
+        assert all_of.measure(old, new) is expected_all
+    assert "any-of(absolute-rms" in any_of.summary()
+
+
+def test_a_setting_that_does_not_belong_to_the_plugin_is_an_error():
+    from coupler.acceleration import resolve_acceleration
+    from cosim.errors import SceneError
+    with pytest.raises(SceneError, match="unknown key 'coupling.acceleration.filter'"):
+        resolve_acceleration({"type": "aitken", "filter": "qr2"})
+    with pytest.raises(SceneError, match="known accelerations: none, constant, aitken, iqn-ils"):
+        resolve_acceleration({"type": "newton"})
+    assert resolve_acceleration("aitken") == {"type": "aitken", "data": [], "initial_relaxation": 0.5}
+    with pytest.raises(SceneError, match="'m.measures.1.limit' is -1.0"):
+        resolve_measure({"data": "x", "type": "any-of", "measures": [{"type": "relative", "limit": 1e-3},
+                                                                    {"type": "relative", "limit": -1}]}, "m")
 
 
 def test_extrapolation_is_exact_for_polynomials_of_its_order():
@@ -191,16 +228,16 @@ def test_nearest_neighbour_mappings():
     rng = np.random.default_rng(1)
     source = rng.uniform(size=(40, 2))
     target = source[rng.permutation(40)] + 1e-6
-    forces = rng.standard_normal(80)  # two components per node
-    consistent = make_mapping("nearest-neighbour", source, target, 80, 80, "test")
-    back = make_mapping("nearest-neighbour", target, source, 80, 80, "test")
+    forces = rng.standard_normal((40, 2))
+    nearest = {"type": "nearest-neighbour", "constraint": "consistent"}
+    consistent = make_mapping(nearest, source, target, (40, 2), (40, 2), "test")
+    back = make_mapping(nearest, target, source, (40, 2), (40, 2), "test")
     np.testing.assert_array_equal(back(consistent(forces)), forces)
     coarse = source[::4]
-    conservative = make_mapping("nearest-neighbour-conservative", source, coarse, 80, 20, "test")
-    mapped = conservative(forces)
-    np.testing.assert_allclose([mapped[0::2].sum(), mapped[1::2].sum()], [forces[0::2].sum(), forces[1::2].sum()])
-    constant = np.tile([1.5, -2.0], 10)
-    np.testing.assert_allclose(make_mapping("nearest-neighbour", coarse, source, 20, 80, "test")(constant),
-                               np.tile([1.5, -2.0], 40))
-    with pytest.raises(ValueError, match="identity mapping needs equal sizes, got 80 and 20"):
-        make_mapping("identity", source, coarse, 80, 20, "test")
+    conservative = make_mapping({**nearest, "constraint": "conservative"}, source, coarse, (40, 2), (10, 2), "test")
+    np.testing.assert_allclose(conservative(forces).sum(axis=0), forces.sum(axis=0), rtol=1e-14)
+    constant = np.tile([1.5, -2.0], (10, 1))
+    np.testing.assert_allclose(make_mapping(nearest, coarse, source, (10, 2), (40, 2), "test")(constant),
+                               np.tile([1.5, -2.0], (40, 1)))
+    with pytest.raises(SceneError, match=r"identity mapping needs equal shapes, got \(80,\) and \(20,\)"):
+        make_mapping({"type": "identity"}, source, coarse, (80,), (20,), "test")

@@ -60,7 +60,7 @@ def test_schemes_agree_on_the_converged_solution(tmp_path):
     run(tmp_path, *tight, name="serial")
     run(tmp_path, *tight, "coupling.scheme=parallel-implicit", "coupling.acceleration.data=[\"pressure\", \"section\"]",
         "coupling.acceleration.initial_relaxation=0.1", name="parallel")
-    run(tmp_path, *tight, "coupling.acceleration.type=aitken", name="aitken")
+    run(tmp_path, *tight, 'coupling.acceleration={type="aitken", initial_relaxation=0.01}', name="aitken")
     with RunResults(tmp_path / "serial") as s, RunResults(tmp_path / "parallel") as p, \
             RunResults(tmp_path / "aitken") as a:
         for other in (p, a):

@@ -1,7 +1,15 @@
 import pytest
 
+from coupler.plugins import resolve_plugins
 from cosim.errors import SceneError
-from cosim.scene import load_scene
+from cosim.scene import load_scene as load_only
+
+
+def load_scene(path, overrides=()):
+    """A scene as ``cosim run`` sees it: loaded, then its plug-in tables resolved by the coupler."""
+    scene = load_only(path, overrides)
+    resolve_plugins(scene)
+    return scene
 
 
 def write(tmp_path, text):
@@ -35,11 +43,17 @@ def test_set_overrides_values_and_records_them(tube_scene_path):
     ("coupling.acceleration.inital_relaxation=0.1",
      "unknown key 'coupling.acceleration.inital_relaxation'.*did you mean 'coupling.acceleration.initial_relaxation'"),
     ("coupling.max_iterations=ten", "'coupling.max_iterations' must be an integer"),
-    ("coupling.scheme=jacobi", "'coupling.scheme' is 'jacobi'; allowed: serial-explicit"),
+    ("coupling.scheme=jacobi", "'coupling.scheme' is 'jacobi'; known coupling schemes: serial-explicit"),
+    ('coupling.acceleration={type="aitken", filter="qr2"}', "unknown key 'coupling.acceleration.filter'"),
+    ('exchange.0.mapping={type="rbf"}', "missing key 'exchange.0.mapping.support_radius'"),
+    ('exchange.0.mapping={type="nearest-neighbour", constraint="sideways"}',
+     "'exchange.0.mapping.constraint' is 'sideways'; allowed: consistent, conservative"),
+    ("coupling.convergence.0.type=any-of", "unknown key 'coupling.convergence.0.limit'.*known keys: data, measures"),
+    ('coupling.convergence.0={data="pressure", type="any-of"}', "missing key 'coupling.convergence.0.measures'"),
     ("coupling.participants=[\"fluid\", \"soild\"]", "'coupling.participants.1' is 'soild', not a component"),
     ("time.dt=-0.1", r"'time.dt' is -0.1; allowed: a number > 0"),
     ("coupling.convergence.0.data=presure", "'coupling.convergence.0.data' is 'presure', not exchanged data"),
-    ("exchange.0.mapping=magic", "'exchange.0.mapping' is 'magic'"),
+    ("exchange.0.mapping=magic", "'exchange.0.mapping.type' is 'magic'; known mappings: identity"),
     ("components.solid.entyr=x", "unknown key 'components.solid.entyr'.*did you mean 'components.solid.entry'"),
     ("inlte.f=1", "unknown key 'inlte'.*did you mean 'inlet'"),
 ])

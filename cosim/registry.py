@@ -1,0 +1,75 @@
+"""Plug-ins chosen by name: each class registers under a name and owns its settings.
+
+A plug-in class declares ``SETTINGS``, a schema in the form ``cosim.schema.validate``
+reads (defaults, ranges, required keys). A scene names a plug-in by a table with a
+``type`` key and the plug-in's settings, or by its name alone; ``Registry.settings``
+checks that table against the class's own schema, so a setting that does not belong to
+the chosen plug-in is an error naming the key, and ``Registry.create`` builds the plug-in
+from the validated settings.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Mapping, TypeVar
+
+from cosim.errors import SceneError
+from cosim.schema import validate
+
+T = TypeVar("T", bound=type)
+
+
+class Registry:
+    """Named plug-in classes of one kind (accelerations, measures, mappings, schemes)."""
+
+    def __init__(self, kind: str):
+        self.kind = kind
+        self.classes: dict[str, type] = {}
+
+    def register(self, name: str) -> Callable[[T], T]:
+        def decorate(cls: T) -> T:
+            if name in self.classes:
+                raise ValueError(f"{self.kind} '{name}' is registered twice")
+            self.classes[name] = cls
+            cls.type_name = name
+            return cls
+        return decorate
+
+    def names(self) -> list[str]:
+        return list(self.classes)
+
+    def lookup(self, name: Any, where: str, source: str = "") -> type:
+        if name not in self.classes:
+            raise SceneError(f"{_at(source)}'{where}' is {name!r}; known {self.kind}s: {', '.join(self.classes)}")
+        return self.classes[name]
+
+    def settings(self, table: Any, where: str, source: str = "", common: Mapping[str, Any] | None = None,
+                 context: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """``table`` (a name, or a table with ``type``) checked against the chosen class's settings.
+
+        ``common`` are keys every plug-in of this kind accepts (validated with it);
+        ``context`` is handed to a class's ``check_settings`` for cross-checks.
+        """
+        if isinstance(table, str):
+            table = {"type": table}
+        if not isinstance(table, Mapping):
+            raise SceneError(f"{_at(source)}'{where}' must be a name or a table with 'type', got {table!r}")
+        table = dict(table)
+        if "type" not in table:
+            raise SceneError(f"{_at(source)}missing key '{where}.type' (known {self.kind}s: {', '.join(self.classes)})")
+        name = table.pop("type")
+        cls = self.lookup(name, f"{where}.type", source)
+        schema = {**(common or {}), **getattr(cls, "SETTINGS", {})}
+        settings = validate(table, schema, f"{where}.", source)
+        check = getattr(cls, "check_settings", None)
+        if check is not None:
+            check(settings, where, source, **(context or {}))
+        return {"type": name, **settings}
+
+    def create(self, settings: Mapping[str, Any], **context: Any) -> Any:
+        """An instance from settings returned by ``settings`` (``type`` picks the class)."""
+        options = {k: v for k, v in settings.items() if k != "type"}
+        return self.classes[settings["type"]](**options, **context)
+
+
+def _at(source: str) -> str:
+    return f"{source}: " if source else ""
