@@ -38,9 +38,10 @@ def quiet() -> None:
 class SteppedStage:
     """An initialised ``AnalysisStage`` advanced window by window, solved iteration by iteration."""
 
-    def __init__(self, name: str, stage: Any):
+    def __init__(self, name: str, stage: Any, solve_step: Any = None):
         self.name = name
         self.stage = stage
+        self.solve_step = solve_step or (lambda: self.solver.SolveSolutionStep())
         self.window_start: float | None = None
         self.window_end = 0.0
         self.solves = 0
@@ -70,7 +71,7 @@ class SteppedStage:
             self.stage.InitializeSolutionStep()
             self.solver.Predict()
             self.window_start, self.window_end = t, t + dt
-        converged = bool(self.solver.SolveSolutionStep())
+        converged = bool(self.solve_step())
         self.solves += 1
         self.unconverged += not converged
         return converged

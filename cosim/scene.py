@@ -181,7 +181,7 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
     data["exchange"] = [validate(e, EXCHANGE, f"exchange.{i}.", source)
                         for i, e in enumerate(_table_list(raw.get("exchange", []), "exchange", source))]
     for section in sections:
-        data[section] = raw[section]
+        data.setdefault(section, raw[section])   # "time" may be handed to components too (validated)
     _check_consistency(data, source)
     return data
 

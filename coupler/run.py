@@ -165,7 +165,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     store = ResultsStore(out_dir / "results.h5", scene.text)
     store.set_attributes(scene_resolved=json.dumps(scene.data))
     wall_start = time.perf_counter()
-    windows = iterations = unconverged = 0
+    windows = iterations = unconverged = warned = 0
     state = "failed"
     directory.status("starting", force=True, windows_total=n_windows, windows_completed=0)
     backends = plan_backends(scene)
@@ -200,6 +200,12 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                             {n: r.take() for n, r in recorders.items()})
                         windows += 1
                         iterations += result.iterations
+                        for b in backends:
+                            for message in b.proxy.warnings:
+                                warned += 1
+                                _warn(f"warning: component '{b.name}' in window {windows} (t = {result.time - dt:g} "
+                                      f"to {result.time:g}): {message}", bar)
+                            b.proxy.warnings.clear()
                         if not result.converged and result.message:
                             unconverged += 1
                             _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar)
@@ -230,7 +236,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 _shutdown([b.proxy for b in backends if b.proxy is not None])
     finally:
         wall = time.perf_counter() - wall_start
-        store.set_attributes(wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged)
+        store.set_attributes(wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged,
+                             component_warnings=warned)
         store.close()
         if state == "finished":
             directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,

@@ -1,0 +1,121 @@
+"""Benchmark of the double flap: our coupler against Kratos CoSimulationApplication's own, same run.
+
+Runs N windows of ``scenes/double_flap.toml`` through our coupler (fluid and solid as separate
+processes over 127.0.0.1, one thread each) and the same case through Kratos's coupler
+(``benchmarks/kratos_peer.py``, one process, one thread), one after the other on this machine,
+and prints side by side: coupling iterations per window, fluid and solid compute per call,
+coupler overhead per iteration (wall minus solver compute; for ours also the wire part, round
+trip minus compute), wall time per window, and both flap tips' x-displacement at the last
+window with the largest difference over all windows relative to the peer's tip amplitude.
+
+Usage: python benchmarks/double_flap_run.py N [--linear-solver sparse_lu|sparse_qr] [--small]
+(--small: 3 windows, for the tests)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.common import Timing, fresh_directory, machine  # noqa: E402
+from benchmarks.kratos_peer import TIPS  # noqa: E402
+from coupler.run import run_scene  # noqa: E402
+from cosim.results import RunResults  # noqa: E402
+from cosim.scene import load_scene  # noqa: E402
+
+SCENE = ROOT / "scenes" / "double_flap.toml"
+DT = 0.008
+
+
+def ours(windows: int, linear_solver: str, out: Path) -> dict:
+    scene = load_scene(SCENE, [f"time.end={windows * DT!r}",
+                               f"components.solid.parameters.linear_solver={linear_solver}"])
+    run_scene(scene, out, progress=False)
+    with RunResults(out) as run:
+        interface = run.component("solid").meshes["interface"]
+        tips = {side: int(np.argmin(np.linalg.norm(interface - xy, axis=1))) for side, xy in TIPS.items()}
+        displacement = run.fields()["displacement"]
+        fluid, solid = run.component("fluid"), run.component("solid")
+        wire = (fluid.roundtrip_seconds - fluid.compute_seconds).sum() + \
+            (solid.roundtrip_seconds - solid.compute_seconds).sum()
+        return {"iterations": run.windows.iterations.tolist(), "wall_seconds": run.windows.wall_seconds.tolist(),
+                "fluid_compute": fluid.compute_seconds.tolist(), "solid_compute": solid.compute_seconds.tolist(),
+                "wire_seconds": float(wire), "converged": bool(run.windows.converged.all()),
+                **{f"tip_{side}": displacement[:, i, 0].tolist() for side, i in tips.items()}}
+
+
+def peer(windows: int, linear_solver: str, out: Path) -> dict:
+    path = out / "peer.json"
+    with open(out / "peer.log", "wb") as log:
+        subprocess.run([sys.executable, str(ROOT / "benchmarks" / "kratos_peer.py"), str(windows), str(path),
+                        "--linear-solver", linear_solver], check=True, stdout=log, stderr=subprocess.STDOUT,
+                       env={**os.environ, "OMP_NUM_THREADS": "1"})
+    return json.loads(path.read_text())
+
+
+def overhead(result: dict) -> float:
+    """Seconds per coupling iteration spent outside the two solvers (wall minus compute)."""
+    compute = sum(result["fluid_compute"]) + sum(result["solid_compute"])
+    return (sum(result["wall_seconds"]) - compute) / sum(result["iterations"])
+
+
+def table(mine: dict, theirs: dict, linear_solver: str) -> list[str]:
+    n = len(mine["iterations"])
+    lines = [f"machine: {machine()}",
+             f"double flap, Re = 250, {n} windows of 8 ms, solid linear solver {linear_solver}; "
+             "ours: 2 processes over 127.0.0.1, Kratos's: 1 process; one thread per solver",
+             f"{'':44s}{'ours':>24s}{'Kratos CoSimulation':>24s}"]
+
+    def row(label: str, a: str, b: str) -> None:
+        lines.append(f"{label:44s}{a:>24s}{b:>24s}")
+
+    for first in sorted({min(n, k) for k in (10, 50, 100, n)}):
+        row(f"iterations per window, windows 1-{first}", f"{np.mean(mine['iterations'][:first]):.3f}",
+            f"{np.mean(theirs['iterations'][:first]):.3f}")
+    row("iterations, max in a window", str(max(mine["iterations"])), str(max(theirs["iterations"])))
+    for key, label in (("fluid_compute", "fluid compute per call, ms"), ("solid_compute", "solid compute per call, ms")):
+        a, b = Timing.of(np.array(mine[key]) / 1e3), Timing.of(np.array(theirs[key]) / 1e3)
+        row(label, str(a).strip(), str(b).strip())
+    fluid_median = float(np.median(mine["fluid_compute"]))
+    row("coupler overhead per iteration, ms", f"{overhead(mine) * 1e3:.2f}", f"{overhead(theirs) * 1e3:.2f}")
+    row("  as % of a fluid solve (ours' median)", f"{100 * overhead(mine) / fluid_median:.2f} %",
+        f"{100 * overhead(theirs) / fluid_median:.2f} %")
+    row("  of which on the wire (round trip - compute)", f"{mine['wire_seconds'] / sum(mine['iterations']) * 1e3:.2f}", "-")
+    a, b = Timing.of(np.array(mine["wall_seconds"]) / 1e3), Timing.of(np.array(theirs["wall_seconds"]) / 1e3)
+    row("wall per window, ms", str(a).strip(), str(b).strip())
+    for side in TIPS:
+        ours_tip, peer_tip = np.array(mine[f"tip_{side}"]), np.array(theirs[f"tip_{side}"])
+        row(f"{side} tip x-displacement at t = {n * DT:g} s, mm", f"{ours_tip[-1] * 1e3:.4f}", f"{peer_tip[-1] * 1e3:.4f}")
+        amplitude = np.abs(peer_tip).max()
+        row(f"  max |ours - peer| / peer amplitude, {side}", f"{np.abs(ours_tip - peer_tip).max() / amplitude * 100:.3f} %", "")
+    return lines
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("windows", type=int, nargs="?", default=100)
+    parser.add_argument("--linear-solver", default="sparse_lu", choices=["sparse_lu", "sparse_qr", "skyline_lu_factorization"])
+    parser.add_argument("--small", action="store_true", help="3 windows (for the tests)")
+    args = parser.parse_args(argv)
+    windows = 3 if args.small else args.windows
+    out = fresh_directory("double_flap")
+    theirs = peer(windows, args.linear_solver, out)
+    mine = ours(windows, args.linear_solver, out / "ours")
+    lines = table(mine, theirs, args.linear_solver)
+    print("\n".join(lines))
+    (out / "table.txt").write_text("\n".join(lines) + "\n")
+    (out / "ours.json").write_text(json.dumps(mine))
+    return {"ours": mine, "peer": theirs, "out": str(out)}
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,207 @@
+"""The double flap's fluid: Kratos's ALE Navier-Stokes solver behind the component contract.
+
+The authors' settings (shared/scenes/double_flap.md): mesh motion by structural similarity,
+monolithic ``dvms`` element, Bossak scheme, Newton to 1e-6 (at most 20 iterations), parabolic
+inlet v(y) = 41.32 y (0.492 - y) ramped by (1 - cos(pi t)) / 2 over the first second, outlet
+p = 0, no slip elsewhere; the viscosity mu = rho v_max D / Re sets the Reynolds number.
+Input ``displacement`` (MESH_DISPLACEMENT of the 265 interface nodes, (265, 2) m); output
+``force`` on the solid (minus the interface REACTION, (265, 2) N). A coupling iteration is
+repeated by solving the same step again from the last iterate (``repeats_steps``).
+Kratos is imported only here, in the component's own process.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from cosim.component import Component, Variable, check_inputs
+from cosim.errors import ComponentError
+from cosim.kratos_stage import (SteppedStage, kratos_parameters, nodal_vector, node_coordinates, quiet,
+                                set_nodal_vector, set_threads)
+from cosim.schema import Positive, Required, validate
+
+FLUID_SCHEMA = {
+    "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
+    "flow": {"reynolds": Positive(250.0), "density": Positive(1000.0), "peak_velocity": Positive(2.5),
+             "diameter": Positive(0.1), "ramp_time": Positive(1.0), "channel_height": Positive(0.492),
+             "profile_coefficient": Positive(41.32)},   # v(y) = c y (h - y): the authors' 41.32 (4 v_max / h^2 = 41.31)
+    "mesh": Required(str),                 # the .mdpa file
+    "tolerance": Positive(1e-6),
+    "max_iterations": Positive(20),
+    "on_unconverged": "warn",              # "warn" or "fail" when Newton hits max_iterations
+    "threads": Positive(1),
+    "interface": "NoSlip2D_Interface",
+}
+WALLS = ("NoSlip2D_Top", "NoSlip2D_Bottom", "NoSlip2D_Cylinder")
+INLET, OUTLET = "AutomaticInlet2D_Inlet", "Outlet2D_Outlet"
+
+
+class KratosFluid(Component):
+    """Kratos FluidDynamicsAnalysis with the ``ale_fluid`` solver, one solve per coupling iteration."""
+
+    name = "fluid"
+    repeats_steps = True
+
+    def instantiate(self, parameters: Mapping[str, Any]) -> None:
+        prm = validate(parameters, FLUID_SCHEMA)
+        if prm["on_unconverged"] not in ("warn", "fail"):
+            raise ComponentError(self.name, f"'on_unconverged' is {prm['on_unconverged']!r}; allowed: warn, fail")
+        mesh = Path(prm["mesh"]).with_suffix("")
+        if not mesh.with_suffix(".mdpa").is_file():
+            raise ComponentError(self.name, f"mesh '{mesh.with_suffix('.mdpa')}' does not exist")
+        self.settings = prm
+        import KratosMultiphysics as KM
+        import KratosMultiphysics.MeshMovingApplication  # noqa: F401  (registers the mesh-motion solvers)
+        from KratosMultiphysics.FluidDynamicsApplication.fluid_dynamics_analysis import FluidDynamicsAnalysis
+        quiet()
+        set_threads(prm["threads"])
+        self._workdir = tempfile.TemporaryDirectory(prefix="cosim-kratos-fluid-")
+        materials = Path(self._workdir.name) / "materials.json"
+        materials.write_text(json.dumps(self._materials(prm["flow"])))
+        self.model = KM.Model()
+        stage = FluidDynamicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
+        self.stepped = SteppedStage(self.name, stage, self._solve_step)
+        part = self.model["FluidModelPart"]
+        self.interface = part.GetSubModelPart(prm["interface"]).Nodes
+        self.volume = part.GetSubModelPart("FluidParts_FluidPart")
+        self.interface_nodes = node_coordinates(self.interface, 2)
+        self.KM = KM
+        self.displacement = np.zeros((len(self.interface_nodes), 2))
+
+    def _solve_step(self) -> bool:
+        """The ALE solver's step, judged by the fluid's Newton alone.
+
+        Kratos's ALE solver also folds in the mesh-motion solve's return value, which is a
+        norm (0.0 when the mesh does not move), not a convergence flag.
+        """
+        ale = self.stepped.solver
+        for mesh_solver in ale.GetMeshMotionSolvers():
+            mesh_solver.SolveSolutionStep()
+        ale._AleFluidSolver__ApplyALEBoundaryCondition()   # mesh velocity -> fluid velocity on the interface
+        return bool(ale.GetFluidSolver().SolveSolutionStep())
+
+    @staticmethod
+    def viscosity(flow: dict) -> float:
+        """mu = rho v_max D / Re."""
+        return flow["density"] * flow["peak_velocity"] * flow["diameter"] / flow["reynolds"]
+
+    @classmethod
+    def _materials(cls, flow: dict) -> dict:
+        return {"properties": [{
+            "model_part_name": "FluidModelPart.FluidParts_FluidPart", "properties_id": 1,
+            "Material": {"constitutive_law": {"name": "Newtonian2DLaw"},
+                         "Variables": {"DENSITY": flow["density"], "DYNAMIC_VISCOSITY": cls.viscosity(flow)},
+                         "Tables": None}}]}
+
+    @staticmethod
+    def _project(prm: dict, mesh: Path, materials: Path) -> dict:
+        flow, tolerance, interface = prm["flow"], prm["tolerance"], prm["interface"]
+        h = flow["channel_height"]
+        profile = f"y*({h!r}-y)*{flow['profile_coefficient']!r}"
+        ramp = flow["ramp_time"]
+
+        def inlet(interval: list, modulus: str) -> dict:
+            return {"python_module": "apply_inlet_process", "kratos_module": "KratosMultiphysics.FluidDynamicsApplication",
+                    "process_name": "ApplyInletProcess",
+                    "Parameters": {"model_part_name": f"FluidModelPart.{INLET}", "variable_name": "VELOCITY",
+                                   "interval": interval, "modulus": modulus, "direction": "automatic_inwards_normal"}}
+
+        def no_slip(part: str) -> dict:
+            return {"python_module": "apply_noslip_process", "kratos_module": "KratosMultiphysics.FluidDynamicsApplication",
+                    "process_name": "ApplyNoSlipProcess", "Parameters": {"model_part_name": f"FluidModelPart.{part}"}}
+
+        def fixed_mesh(part: str) -> dict:
+            return {"python_module": "fix_vector_variable_process", "kratos_module": "KratosMultiphysics",
+                    "process_name": "AssignVectorVariableProcess",
+                    "Parameters": {"model_part_name": f"FluidModelPart.{part}", "variable_name": "MESH_DISPLACEMENT",
+                                   "constrained": [True, True, True]}}
+
+        outlet = {"python_module": "apply_outlet_process", "kratos_module": "KratosMultiphysics.FluidDynamicsApplication",
+                  "process_name": "ApplyOutletProcess",
+                  "Parameters": {"model_part_name": f"FluidModelPart.{OUTLET}", "variable_name": "PRESSURE",
+                                 "constrained": True, "value": 0.0, "hydrostatic_outlet": False, "h_top": 0.0}}
+        return {
+            "problem_data": {"problem_name": "double_flap_fluid", "parallel_type": "OpenMP", "echo_level": 0,
+                             "start_time": prm["time"]["start"], "end_time": prm["time"]["end"]},
+            "solver_settings": {
+                "solver_type": "ale_fluid", "ale_boundary_parts": [interface],
+                "mesh_motion_solver_settings": {"solver_type": "structural_similarity"},
+                "fluid_solver_settings": {
+                    "model_part_name": "FluidModelPart", "domain_size": 2, "solver_type": "Monolithic",
+                    "model_import_settings": {"input_type": "mdpa", "input_filename": str(mesh)},
+                    "material_import_settings": {"materials_filename": str(materials)},
+                    "echo_level": 0, "compute_reactions": True, "maximum_iterations": prm["max_iterations"],
+                    "relative_velocity_tolerance": tolerance, "absolute_velocity_tolerance": tolerance,
+                    "relative_pressure_tolerance": tolerance, "absolute_pressure_tolerance": tolerance,
+                    "volume_model_part_name": "FluidParts_FluidPart",
+                    "skin_parts": [INLET, OUTLET, *WALLS, interface], "no_skin_parts": [],
+                    "time_scheme": "bossak",
+                    "time_stepping": {"automatic_time_step": False, "time_step": prm["time"]["dt"]},
+                    "formulation": {"element_type": "dvms", "use_orthogonal_subscales": False, "dynamic_tau": 1.0},
+                    "reform_dofs_at_each_step": False}},
+            "processes": {
+                "initial_conditions_process_list": [],
+                "boundary_conditions_process_list": [
+                    inlet([0.0, ramp], f"0.5*(1-cos(pi*t/{ramp!r}))*{profile}"), inlet([ramp, "End"], profile),
+                    outlet, *[no_slip(p) for p in (*WALLS, interface)]],
+                "gravity": [],
+                "ale_boundary_conditions": [fixed_mesh(p) for p in (*WALLS, INLET, OUTLET, interface)]},
+            "output_processes": {},
+        }
+
+    def variables(self) -> list[Variable]:
+        n = 2 * len(self.interface_nodes)
+        return [Variable("displacement", "input", n, "m", mesh="interface", components=2),
+                Variable("force", "output", n, "N", mesh="interface", components=2)]
+
+    def meshes(self) -> dict[str, np.ndarray]:
+        return {"interface": self.interface_nodes}
+
+    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
+        check_inputs(self, values, {"displacement": self.displacement.shape})
+        if "displacement" in values:
+            self.displacement = np.array(values["displacement"], dtype=np.float64)
+
+    def do_step(self, t: float, dt: float) -> None:
+        set_nodal_vector(self.interface, self.KM.MESH_DISPLACEMENT, self.displacement)
+        if not self.stepped.solve(t, dt):
+            message = (f"Kratos's fluid solve did not converge in {self.settings['max_iterations']} iterations "
+                       f"(window starting at t = {t:g} s)")
+            if self.settings["on_unconverged"] == "fail":
+                raise ComponentError(self.name, message)
+            self.warn(message)
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        known = {"force": lambda: -nodal_vector(self.interface, self.KM.REACTION, 2),
+                 "displacement": lambda: self.displacement.copy()}
+        unknown = [n for n in names if n not in known]
+        if unknown:
+            raise ComponentError(self.name, f"unknown variable(s) {', '.join(unknown)}")
+        return {name: known[name]() for name in names}
+
+    def terminate(self) -> dict[str, np.ndarray]:
+        """The last window for the run's picture: deformed nodes, triangles, velocity and pressure."""
+        nodes = self.volume.Nodes
+        index = {node.Id: i for i, node in enumerate(nodes)}
+        final = {
+            "nodes": np.asarray(self.KM.VariableUtils().GetCurrentPositionsVector(nodes, 2)).reshape(-1, 2),
+            "triangles": np.array([[index[n.Id] for n in e.GetNodes()] for e in self.volume.Elements], dtype=np.int64),
+            "velocity": nodal_vector(nodes, self.KM.VELOCITY, 2),
+            "pressure": np.asarray(self.KM.VariableUtils().GetSolutionStepValuesVector(nodes, self.KM.PRESSURE, 0)),
+            "newton_unconverged": np.array(self.stepped.unconverged),
+        }
+        self.close()
+        return final
+
+    def close(self) -> None:
+        """Finalise Kratos; the stage goes before the model (Kratos crashes at exit otherwise)."""
+        if getattr(self, "stepped", None) is not None:
+            self.stepped.finalize()
+            self.stepped = None
+            self.model = None
+            self._workdir.cleanup()

@@ -1,0 +1,175 @@
+"""The double flap's solid: Kratos's static nonlinear solver behind the component contract.
+
+Total Lagrangian bilinear quadrilaterals, plane strain Neo-Hookean (``HyperElasticPlaneStrain2DLaw``),
+Newton on the residual to 1e-6, clamped base; the authors' settings (shared/scenes/double_flap.md).
+Input ``force`` (POINT_LOAD on the 265 interface nodes, (265, 2) N); output ``displacement``
+on the same nodes; local ``displacement_field`` on all 1805 nodes (recorded, not exchanged).
+A coupling iteration is repeated by solving the same step again (``repeats_steps``).
+The linear solver is a parameter: the authors' ``sparse_qr`` or a fast direct one.
+Kratos is imported only here, in the component's own process.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from cosim.component import Component, Variable, check_inputs
+from cosim.errors import ComponentError
+from cosim.kratos_stage import (SteppedStage, kratos_parameters, nodal_vector, node_coordinates, quiet,
+                                set_nodal_vector, set_threads)
+from cosim.schema import Positive, Required, Value, validate
+
+LINEAR_SOLVERS = {
+    "sparse_qr": "LinearSolversApplication.sparse_qr",     # the authors' (slow)
+    "sparse_lu": "LinearSolversApplication.sparse_lu",     # Eigen's SparseLU (fast, same displacements)
+    "skyline_lu_factorization": "skyline_lu_factorization",
+}
+SOLID_SCHEMA = {
+    "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
+    "mesh": Required(str),                 # the .mdpa file
+    "young_modulus": Positive(10e6),
+    "poisson_ratio": Value(0.3, low=0.0, high=0.5, high_open=True),
+    "density": Positive(1000.0),           # unused by the static solver, required by the material
+    "linear_solver": "sparse_lu",
+    "tolerance": Positive(1e-6),
+    "max_iterations": Positive(25),
+    "on_unconverged": "warn",              # "warn" or "fail" when Newton hits max_iterations
+    "threads": Positive(1),
+    "interface": "StructureInterface2D_Struc_Fsi",
+    "clamped": "DISPLACEMENT_BCDisp",
+}
+
+
+class KratosSolid(Component):
+    """Kratos StructuralMechanicsAnalysis, one Newton solve per coupling iteration."""
+
+    name = "solid"
+    repeats_steps = True
+
+    def instantiate(self, parameters: Mapping[str, Any]) -> None:
+        prm = validate(parameters, SOLID_SCHEMA)
+        if prm["linear_solver"] not in LINEAR_SOLVERS:
+            raise ComponentError(self.name, f"'linear_solver' is {prm['linear_solver']!r}; "
+                                            f"allowed: {', '.join(LINEAR_SOLVERS)}")
+        if prm["on_unconverged"] not in ("warn", "fail"):
+            raise ComponentError(self.name, f"'on_unconverged' is {prm['on_unconverged']!r}; allowed: warn, fail")
+        mesh = Path(prm["mesh"]).with_suffix("")
+        if not mesh.with_suffix(".mdpa").is_file():
+            raise ComponentError(self.name, f"mesh '{mesh.with_suffix('.mdpa')}' does not exist")
+        self.settings = prm
+        import KratosMultiphysics as KM
+        import KratosMultiphysics.StructuralMechanicsApplication as SMA
+        from KratosMultiphysics.StructuralMechanicsApplication.structural_mechanics_analysis import \
+            StructuralMechanicsAnalysis
+        quiet()
+        set_threads(prm["threads"])
+        self._workdir = tempfile.TemporaryDirectory(prefix="cosim-kratos-solid-")
+        materials = Path(self._workdir.name) / "materials.json"
+        materials.write_text(json.dumps(self._materials(prm)))
+        self.model = KM.Model()
+        stage = StructuralMechanicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
+        self.stepped = SteppedStage(self.name, stage)
+        part = self.model["Structure"]
+        self.interface = part.GetSubModelPart(prm["interface"]).Nodes
+        self.clamped = part.GetSubModelPart(prm["clamped"]).Nodes
+        self.all_nodes = part.Nodes
+        self.interface_nodes = node_coordinates(self.interface, 2)
+        self.field_nodes = node_coordinates(self.all_nodes, 2)
+        self.quads = np.array([[n.Id for n in e.GetNodes()] for e in part.Elements], dtype=np.int64)
+        self._node_index = {node.Id: i for i, node in enumerate(self.all_nodes)}
+        self.KM, self.SMA = KM, SMA
+        self.force = np.zeros((len(self.interface_nodes), 2))
+
+    @staticmethod
+    def _materials(prm: dict) -> dict:
+        return {"properties": [{
+            "model_part_name": "Structure.Parts_Solid_Structure", "properties_id": 1,
+            "Material": {"constitutive_law": {"name": "HyperElasticPlaneStrain2DLaw"},
+                         "Variables": {"DENSITY": prm["density"], "YOUNG_MODULUS": prm["young_modulus"],
+                                       "POISSON_RATIO": prm["poisson_ratio"], "THICKNESS": 1.0},
+                         "Tables": {}}}]}
+
+    @staticmethod
+    def _project(prm: dict, mesh: Path, materials: Path) -> dict:
+        tolerance = prm["tolerance"]
+        return {
+            "problem_data": {"problem_name": "double_flap_solid", "parallel_type": "OpenMP", "echo_level": 0,
+                             "start_time": prm["time"]["start"], "end_time": prm["time"]["end"]},
+            "solver_settings": {
+                "solver_type": "Static", "model_part_name": "Structure", "domain_size": 2, "echo_level": 0,
+                "analysis_type": "non_linear",
+                "model_import_settings": {"input_type": "mdpa", "input_filename": str(mesh)},
+                "material_import_settings": {"materials_filename": str(materials)},
+                "time_stepping": {"time_step": prm["time"]["dt"]},
+                "line_search": False, "convergence_criterion": "residual_criterion",
+                "displacement_relative_tolerance": tolerance, "displacement_absolute_tolerance": tolerance,
+                "residual_relative_tolerance": tolerance, "residual_absolute_tolerance": tolerance,
+                "max_iteration": prm["max_iterations"],
+                "linear_solver_settings": {"solver_type": LINEAR_SOLVERS[prm["linear_solver"]]},
+                "rotation_dofs": False},
+            "processes": {
+                "constraints_process_list": [{
+                    "python_module": "assign_vector_variable_process", "kratos_module": "KratosMultiphysics",
+                    "process_name": "AssignVectorVariableProcess",
+                    "Parameters": {"model_part_name": f"Structure.{prm['clamped']}", "variable_name": "DISPLACEMENT",
+                                   "interval": [0.0, "End"], "constrained": [True, True, True],
+                                   "value": [0.0, 0.0, 0.0]}}],
+                "loads_process_list": [], "list_other_processes": []},
+            "output_processes": {},
+        }
+
+    def variables(self) -> list[Variable]:
+        n, m = len(self.interface_nodes), len(self.field_nodes)
+        return [Variable("force", "input", 2 * n, "N", mesh="interface", components=2),
+                Variable("displacement", "output", 2 * n, "m", mesh="interface", components=2),
+                Variable("displacement_field", "local", 2 * m, "m", mesh="solid", components=2)]
+
+    def meshes(self) -> dict[str, np.ndarray]:
+        return {"interface": self.interface_nodes, "solid": self.field_nodes}
+
+    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
+        check_inputs(self, values, {"force": self.force.shape})
+        if "force" in values:
+            self.force = np.array(values["force"], dtype=np.float64)
+
+    def do_step(self, t: float, dt: float) -> None:
+        set_nodal_vector(self.interface, self.SMA.POINT_LOAD, self.force)
+        if not self.stepped.solve(t, dt):
+            message = (f"Kratos's Newton solve did not converge in {self.settings['max_iterations']} iterations "
+                       f"(window starting at t = {t:g} s)")
+            if self.settings["on_unconverged"] == "fail":
+                raise ComponentError(self.name, message)
+            self.warn(message)
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        known = {"displacement": lambda: nodal_vector(self.interface, self.KM.DISPLACEMENT, 2),
+                 "displacement_field": lambda: nodal_vector(self.all_nodes, self.KM.DISPLACEMENT, 2),
+                 "force": lambda: self.force.copy()}
+        unknown = [n for n in names if n not in known]
+        if unknown:
+            raise ComponentError(self.name, f"unknown variable(s) {', '.join(unknown)}")
+        return {name: known[name]() for name in names}
+
+    def reactions(self) -> np.ndarray:
+        """Reactions at the clamped base, (n_base, 2) N (for the equilibrium check)."""
+        return nodal_vector(self.clamped, self.KM.REACTION, 2)
+
+    def terminate(self) -> dict[str, np.ndarray]:
+        final = {"nodes": self.field_nodes, "quads": np.vectorize(self._node_index.get)(self.quads),
+                 "displacement_field": nodal_vector(self.all_nodes, self.KM.DISPLACEMENT, 2),
+                 "newton_unconverged": np.array(self.stepped.unconverged)}
+        self.close()
+        return final
+
+    def close(self) -> None:
+        """Finalise Kratos; the stage goes before the model (Kratos crashes at exit otherwise)."""
+        if getattr(self, "stepped", None) is not None:
+            self.stepped.finalize()
+            self.stepped = None
+            self.model = None
+            self._workdir.cleanup()
