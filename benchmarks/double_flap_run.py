@@ -8,8 +8,8 @@ coupler overhead per iteration (wall minus solver compute; for ours also the wir
 trip minus compute), wall time per window, and both flap tips' x-displacement at the last
 window with the largest difference over all windows relative to the peer's tip amplitude.
 
-Usage: python benchmarks/double_flap_run.py N [--linear-solver sparse_lu|sparse_qr] [--small]
-(--small: 3 windows, for the tests)
+Usage: python benchmarks/double_flap_run.py N [--linear-solver sparse_lu|sparse_qr] [--small] [--readme]
+(--small: 3 windows, for the tests; --readme: also rewrite the README's double-flap table)
 """
 
 from __future__ import annotations
@@ -100,11 +100,23 @@ def table(mine: dict, theirs: dict, linear_solver: str) -> list[str]:
     return lines
 
 
+def rewrite_readme(lines: list[str], command: str) -> None:
+    """Replace the README's block between the double-flap markers with this run's table."""
+    readme = ROOT / "README.md"
+    text = readme.read_text()
+    begin, end = "<!-- double-flap:begin", "<!-- double-flap:end -->"
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    block = f"{begin} ({command} writes this part) -->\n```\n" + "\n".join(lines) + "\n```\n"
+    readme.write_text(head + block + end + tail)
+
+
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("windows", type=int, nargs="?", default=100)
     parser.add_argument("--linear-solver", default="sparse_lu", choices=["sparse_lu", "sparse_qr", "skyline_lu_factorization"])
     parser.add_argument("--small", action="store_true", help="3 windows (for the tests)")
+    parser.add_argument("--readme", action="store_true", help="rewrite the README's double-flap table")
     args = parser.parse_args(argv)
     windows = 3 if args.small else args.windows
     out = fresh_directory("double_flap")
@@ -114,6 +126,9 @@ def main(argv: list[str] | None = None) -> dict:
     print("\n".join(lines))
     (out / "table.txt").write_text("\n".join(lines) + "\n")
     (out / "ours.json").write_text(json.dumps(mine))
+    if args.readme:
+        command = f"python benchmarks/double_flap_run.py {windows} --linear-solver {args.linear_solver} --readme"
+        rewrite_readme(lines, command)
     return {"ours": mine, "peer": theirs, "out": str(out)}
 
 

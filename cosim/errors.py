@@ -44,6 +44,13 @@ class ComponentDied(ComponentError):
 
     def __init__(self, component: str, exit_code: int | None, stderr_tail: str):
         detail = f"process exited with code {exit_code}"
+        if exit_code is not None and exit_code < 0:
+            import signal
+            try:
+                name = signal.Signals(-exit_code).name
+            except ValueError:
+                name = f"signal {-exit_code}"
+            detail = f"process was killed by {name} (exit code {exit_code})"
         if stderr_tail.strip():
             detail += "; last lines of its stderr:\n" + stderr_tail.rstrip()
         super().__init__(component, detail, kind="ComponentDied")

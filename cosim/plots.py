@@ -11,7 +11,8 @@ from cosim.results import RunResults
 
 
 def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) -> Path:
-    """Two panels: ``output.plot_field[output.plot_index]`` over time, and iterations per window."""
+    """Two panels: ``output.plot_field`` value number ``output.plot_index`` (node-major) over time, and
+    iterations per window."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -22,7 +23,7 @@ def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) ->
     time, iterations = windows.time, windows.iterations
     field = output.get("plot_field") or next(iter(fields), "")
     index = int(output.get("plot_index", 0))
-    values = fields[field][:, index] if field in fields else np.zeros(0)
+    values = fields[field].reshape(len(fields[field]), -1)[:, index] if field in fields else np.zeros(0)
     label = f"{output.get('plot_label') or f'{field}[{index}]'} [{output.get('plot_unit') or 'dimensionless'}]"
     figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
     top.plot(time[:len(values)], values, lw=1.0)

@@ -59,7 +59,8 @@ SCHEMA = {
         "extrapolation_order": Value(0, low=0, high=2),
         "acceleration": PluginChoice("none"),
     },
-    "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": ""},
+    "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
+               "plots": []},   # a scene's own run plots: names of cosim.run_plots entry points
 }
 LISTS = {"exchange": EXCHANGE}
 

@@ -148,6 +148,7 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
     """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
     out_dir = Path(out_dir)
     resolve_plugins(scene)
+    run_plot_hooks(scene)   # unknown plot names fail before anything starts
     start, end, dt = scene["time"]["start"], scene["time"]["end"], scene["time"]["dt"]
     n_windows = int(math.floor((end - start) / dt + 0.5))
     if abs(start + n_windows * dt - end) > 1e-9 * max(1.0, abs(end)):
@@ -156,7 +157,22 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
         summary = _run(scene, directory, start, dt, n_windows, progress)
     from cosim.plots import plot_run
     plot_run(out_dir / "results.h5", out_dir / "run.png", scene["output"])
+    for hook in run_plot_hooks(scene):
+        hook(out_dir / "results.h5", out_dir)
     return summary
+
+
+def run_plot_hooks(scene: Scene) -> list:
+    """The scene's own run plots (``output.plots``), loaded from the ``cosim.run_plots`` entry points."""
+    from importlib.metadata import entry_points
+    available = {e.name: e for e in entry_points(group="cosim.run_plots")}
+    hooks = []
+    for i, name in enumerate(scene["output"]["plots"]):
+        if name not in available:
+            raise SceneError(f"{scene.source}: 'output.plots.{i}' is {name!r}; known run plots: "
+                             f"{', '.join(available) or 'none'}")
+        hooks.append(available[name].load())
+    return hooks
 
 
 def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windows: int,

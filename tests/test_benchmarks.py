@@ -29,3 +29,16 @@ def test_rom_call_benchmark_small(capsys):
     paper_style = calls["solid FOM, paper-style scalar root solve per node (baseline)"].median
     assert paper_style > 10 * calls["ROM online path, fast arithmetic (BLAS)"].median
     assert {key[1] for key in results["coupled"]} == {"solid", "solid_rom", "solid_fmu", "fluid"}
+
+
+def test_double_flap_benchmark_small(capsys):
+    from benchmarks import double_flap_run
+    results = double_flap_run.main(["--small"])
+    text = capsys.readouterr().out
+    assert "machine: " in text and "Kratos CoSimulation" in text and "coupler overhead per iteration" in text
+    ours, peer = results["ours"], results["peer"]
+    assert ours["converged"] and len(ours["iterations"]) == len(peer["iterations"]) == 3
+    assert len(ours["fluid_compute"]) == sum(ours["iterations"]) and len(peer["fluid_compute"]) == sum(peer["iterations"])
+    # the same case: after three windows both tips agree with the peer's to a few per cent of their value
+    for side in ("left", "right"):
+        assert abs(ours[f"tip_{side}"][-1] - peer[f"tip_{side}"][-1]) < 0.05 * abs(peer[f"tip_{side}"][-1])

@@ -1,0 +1,80 @@
+"""Run plots of the double flap (hook ``double_flap`` of the ``cosim.run_plots`` entry points).
+
+- ``tips.png``: x-displacement of the left and right flap tips over time, and coupling
+  iterations per window;
+- ``last_window.png``: fluid velocity magnitude on the deformed fluid mesh and the deformed
+  solid at the end of the run (from the arrays both components hand back at terminate).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from cosim.results import RunResults
+
+TIPS = {"left": (1.2, 0.28), "right": (1.52, 0.28)}
+
+
+def tip_displacements(run: RunResults) -> dict[str, np.ndarray]:
+    """x-displacement of each flap tip per window (solid interface nodes nearest the undeformed tips)."""
+    displacement = run.fields()["displacement"]
+    interface = next(record.meshes["interface"] for record in map(run.component, run.component_names())
+                     if "interface" in record.meshes and len(record.meshes["interface"]) == displacement.shape[1]
+                     and record.attributes.get("participant") == "solid")
+    nodes = {side: int(np.argmin(np.linalg.norm(interface - xy, axis=1))) for side, xy in TIPS.items()}
+    return {side: displacement[:, node, 0] for side, node in nodes.items()}
+
+
+def run_plots(results: str | Path, out_dir: str | Path) -> list[Path]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+    from matplotlib.tri import Triangulation
+
+    out_dir = Path(out_dir)
+    with RunResults(results) as run:
+        windows = run.windows
+        tips = tip_displacements(run)
+        finals = {name: run.component(name).final for name in run.component_names()}
+    written = []
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
+    for side, values in tips.items():
+        top.plot(windows.time[:len(values)], values * 1e3, lw=1.0, label=f"{side} tip")
+    top.set_ylabel("tip x-displacement [mm]")
+    top.legend(loc="upper left")
+    top.grid(alpha=0.3)
+    bottom.plot(windows.time, windows.iterations, lw=0.8, drawstyle="steps-mid")
+    mean = windows.iterations.mean() if len(windows) else float("nan")
+    bottom.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
+    bottom.set_ylabel("coupling iterations per window [count]")
+    bottom.set_xlabel("time [s]")
+    bottom.legend(loc="upper right")
+    bottom.grid(alpha=0.3)
+    written.append(out_dir / "tips.png")
+    figure.savefig(written[-1], dpi=110)
+    plt.close(figure)
+
+    fluid = next((f for f in finals.values() if "triangles" in f), None)
+    solid = next((f for f in finals.values() if "quads" in f), None)
+    if fluid is None:
+        return written
+    figure, axis = plt.subplots(figsize=(11, 3.2), constrained_layout=True)
+    speed = np.linalg.norm(fluid["velocity"], axis=1)
+    mesh = Triangulation(fluid["nodes"][:, 0], fluid["nodes"][:, 1], fluid["triangles"])
+    shading = axis.tripcolor(mesh, speed, shading="gouraud", cmap="viridis")
+    figure.colorbar(shading, ax=axis, label="fluid velocity magnitude [m/s]", pad=0.01)
+    if solid is not None:
+        deformed = solid["nodes"] + solid["displacement_field"]
+        axis.add_collection(PolyCollection(deformed[solid["quads"]], facecolor="0.85", edgecolor="0.4", lw=0.2))
+    time = windows.time[-1] if len(windows) else 0.0
+    axis.set_title(f"last window, t = {time:g} s: deformed fluid mesh and solid")
+    axis.set_aspect("equal")
+    axis.set_xlabel("x [m]")
+    axis.set_ylabel("y [m]")
+    written.append(out_dir / "last_window.png")
+    figure.savefig(written[-1], dpi=130)
+    plt.close(figure)
+    return written

@@ -1,0 +1,162 @@
+"""The double-flap scene: mappings on the real interfaces, the Kratos solid and fluid components,
+an in-process coupling of both, and three windows through real processes."""
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from coupler.acceleration import IQNILS
+from coupler.mapping import make_mapping
+from coupler.run import run_scene
+from cosim.results import RunResults
+from cosim.scene import load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = ROOT / "scenes" / "double_flap.toml"
+MESHES = ROOT / "scenes" / "double_flap"
+DT = 0.008
+
+
+def mdpa_sub_model_part_nodes(path: Path, part: str) -> np.ndarray:
+    """Coordinates (x, y) of a sub-model part's nodes, in node-id order, read from an .mdpa file."""
+    text = path.read_text()
+    nodes_block = re.search(r"Begin Nodes\n(.*?)End Nodes", text, re.S).group(1)
+    table = np.array([line.split() for line in nodes_block.strip().splitlines()], dtype=float)
+    coordinates = dict(zip(table[:, 0].astype(int), table[:, 1:3]))
+    block = re.search(rf"Begin SubModelPart {part}\b.*?Begin SubModelPartNodes\n(.*?)End SubModelPartNodes", text, re.S)
+    ids = sorted(int(i) for i in block.group(1).split())
+    return np.array([coordinates[i] for i in ids])
+
+
+@pytest.fixture(scope="module")
+def interfaces():
+    fluid = mdpa_sub_model_part_nodes(MESHES / "fluid.mdpa", "NoSlip2D_Interface")
+    solid = mdpa_sub_model_part_nodes(MESHES / "solid.mdpa", "StructureInterface2D_Struc_Fsi")
+    assert len(fluid) == len(solid) == 265
+    return fluid, solid
+
+
+MAPPINGS = [{"type": "nearest-neighbour"}, {"type": "rbf", "support_radius": 0.02}]
+
+
+@pytest.mark.parametrize("settings", MAPPINGS, ids=["nearest-neighbour", "rbf"])
+def test_conservative_mapping_keeps_the_total_force_on_the_real_interfaces(interfaces, settings):
+    fluid, solid = interfaces
+    forces = np.random.default_rng(0).standard_normal((265, 2)) * [3.0, 0.5]
+    mapping = make_mapping({**settings, "constraint": "conservative"}, fluid, solid, (265, 2), (265, 2), "force")
+    mapped = mapping(forces)
+    assert mapped.shape == (265, 2)
+    np.testing.assert_allclose(mapped.sum(axis=0), forces.sum(axis=0), rtol=0, atol=1e-12 * np.abs(forces).sum())
+
+
+@pytest.mark.parametrize("settings", MAPPINGS, ids=["nearest-neighbour", "rbf"])
+def test_consistent_mapping_reproduces_constant_fields_on_the_real_interfaces(interfaces, settings):
+    fluid, solid = interfaces
+    mapping = make_mapping({**settings, "constraint": "consistent"}, solid, fluid, (265, 2), (265, 2), "displacement")
+    np.testing.assert_allclose(mapping(np.tile([1e-3, -2e-3], (265, 1))), np.tile([1e-3, -2e-3], (265, 1)),
+                               rtol=1e-12, atol=1e-15)
+
+
+def test_rbf_consistent_mapping_reproduces_linear_fields_on_the_real_interfaces(interfaces):
+    fluid, solid = interfaces
+    mapping = make_mapping({"type": "rbf", "support_radius": 0.02, "constraint": "consistent"}, solid, fluid,
+                           (265, 2), (265, 2), "displacement")
+
+    def linear(nodes):
+        return np.column_stack([0.01 + 0.2 * nodes[:, 0] - 0.1 * nodes[:, 1], 0.3 * nodes[:, 1]])
+
+    np.testing.assert_allclose(mapping(linear(solid)), linear(fluid), rtol=0, atol=1e-12)
+    # nearest neighbour cannot: the nodes lie up to 0.38 mm apart
+    nearest = make_mapping({"type": "nearest-neighbour", "constraint": "consistent"}, solid, fluid,
+                           (265, 2), (265, 2), "displacement")
+    assert np.abs(nearest(linear(solid)) - linear(fluid)).max() > 1e-6
+
+
+@pytest.fixture
+def solid():
+    from solid_component.kratos import KratosSolid
+    component = KratosSolid()
+    component.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": DT}, "mesh": str(MESHES / "solid.mdpa")})
+    yield component
+    component.close()
+
+
+def test_kratos_solid_at_rest_and_in_equilibrium(solid):
+    at_rest = solid.step(0.0, DT, {"force": np.zeros((265, 2))})
+    assert np.abs(at_rest["displacement"]).max() < 1e-15 and np.abs(at_rest["displacement_field"]).max() < 1e-15
+    loads = np.zeros((265, 2))
+    loads[:, 0], loads[:, 1] = 2.0, -0.5
+    solid.step(0.0, DT, {"force": loads})          # the same window again, now loaded
+    out = solid.step(0.0, DT, {"force": loads})    # and once more: Kratos re-solves from its last iterate
+    # loads on the clamped base's own nodes go straight into the support: the rest balances the reactions
+    base = solid.interface_nodes[:, 1] == 0.0
+    assert base.sum() == 2
+    np.testing.assert_allclose(solid.reactions().sum(axis=0), -loads[~base].sum(axis=0), rtol=1e-9)
+    assert out["displacement"][:, 0].max() > 1e-4          # pushed in +x
+    field_at_interface = out["displacement_field"][[solid._node_index[n.Id] for n in solid.interface]]
+    np.testing.assert_array_equal(field_at_interface, out["displacement"])
+    again = solid.step(0.0, DT, {"force": loads})
+    np.testing.assert_allclose(again["displacement"], out["displacement"], rtol=0, atol=1e-15)
+    assert solid.take_warnings() == []
+
+
+def test_fluid_and_solid_coupled_in_process_for_two_windows():
+    """Gauss-Seidel with IQN-ILS on the fluid's force, driven directly (no processes)."""
+    from fluid_component.kratos import KratosFluid
+    from solid_component.kratos import KratosSolid
+    time = {"start": 0.0, "end": 1.0, "dt": DT}
+    fluid, solid = KratosFluid(), KratosSolid()
+    try:
+        fluid.instantiate({"time": time, "mesh": str(MESHES / "fluid.mdpa"), "flow": {"reynolds": 250.0}})
+        solid.instantiate({"time": time, "mesh": str(MESHES / "solid.mdpa")})
+        to_solid = make_mapping({"type": "nearest-neighbour", "constraint": "conservative"},
+                                fluid.interface_nodes, solid.interface_nodes, (265, 2), (265, 2), "force")
+        to_fluid = make_mapping({"type": "nearest-neighbour", "constraint": "consistent"},
+                                solid.interface_nodes, fluid.interface_nodes, (265, 2), (265, 2), "displacement")
+        acceleration = IQNILS(0.5, reused_time_windows=2)
+        force = np.zeros((265, 2))
+        for window in range(2):
+            t = window * DT
+            acceleration.start_window()
+            for iteration in range(1, 51):
+                displacement = solid.step(t, DT, {"force": to_solid(force)})["displacement"]
+                new_force = fluid.step(t, DT, {"displacement": to_fluid(displacement)})["force"]
+                change = np.linalg.norm(new_force - force)
+                acceleration.observe(force.ravel(), new_force.ravel())
+                if change < 5e-3 * np.linalg.norm(new_force) or change / np.sqrt(530) < 5e-3:
+                    break
+                force = acceleration.next_iterate().reshape(265, 2)
+            acceleration.end_window()
+            force = new_force
+            assert iteration < 50, f"window {window + 1} did not converge"
+            assert np.isfinite(force).all() and np.abs(force).sum() > 1.0
+            np.testing.assert_allclose(to_solid(force).sum(axis=0), force.sum(axis=0), rtol=1e-13)
+        assert displacement[:, 0].max() > 0.0       # the inflow pushes the flaps downstream
+        assert fluid.take_warnings() == [] and solid.take_warnings() == []
+    finally:   # the stages go before the models, in both components
+        fluid.close()
+        solid.close()
+
+
+def test_three_windows_through_real_processes(tmp_path):
+    out = tmp_path / "flap"
+    summary = run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}"]), out, progress=False)
+    assert summary.windows == 3
+    with RunResults(out) as run:
+        assert run.windows.converged.all()
+        pids = {name: run.component(name).attributes["pid"] for name in ("fluid", "solid")}
+        assert len(set(pids.values()) | {os.getpid()}) == 3
+        assert run.component("fluid").attributes["endpoint"].startswith("tcp://127.0.0.1:")
+        calls = run.calls("solid")
+        n = int(run.windows.iterations.sum())
+        assert calls.inputs["force"].shape == (n, 265, 2)
+        assert calls.outputs["displacement"].shape == (n, 265, 2)
+        assert calls.outputs["displacement_field"].shape == (n, 1805, 2)
+        assert calls.window.tolist() == [w for w, k in enumerate(run.windows.iterations, 1) for _ in range(k)]
+        assert calls.converged.sum() == 3
+        assert run.fields()["displacement"].shape == (3, 265, 2)
+    for png in ("run.png", "tips.png", "last_window.png"):
+        assert (out / png).stat().st_size > 10_000
