@@ -10,6 +10,7 @@ the component processes that use this module.
 from __future__ import annotations
 
 import json
+import os
 from typing import Any
 
 import numpy as np
@@ -23,10 +24,10 @@ def kratos_parameters(settings: dict[str, Any]):
     return KM.Parameters(json.dumps(settings))
 
 
-def set_threads(count: int) -> None:
-    """Kratos's OpenMP thread count (the launcher also sets OMP_NUM_THREADS)."""
+def set_threads(count: int | None = None) -> None:
+    """Kratos's OpenMP thread count: ``count``, else OMP_NUM_THREADS (set by the launcher), else 1."""
     import KratosMultiphysics as KM
-    KM.ParallelUtilities.SetNumThreads(int(count))
+    KM.ParallelUtilities.SetNumThreads(int(count or os.environ.get("OMP_NUM_THREADS", "1")))
 
 
 def quiet() -> None:

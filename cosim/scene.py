@@ -57,6 +57,9 @@ SCHEMA = {
         "on_max_iterations": "fail",
         "divergence_factor": Value(1e3, low=1.0, low_open=True),  # residual growth in a window that is divergence
         "extrapolation_order": Value(0, low=0, high=2),
+        # the first iterate of a window: "none" (the last window's values, extrapolated by extrapolation_order)
+        # or "acceleration" (the acceleration's update from the last window's converged iteration)
+        "predictor": "none",
         "acceleration": PluginChoice("none"),
     },
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
@@ -214,6 +217,10 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
                          f"[{time['start']:g}, {time['end']:g}]; at most {MAX_WINDOWS:,} are allowed")
     names = set(data["components"])
     _one_of(coupling["on_max_iterations"], ("fail", "accept"), "coupling.on_max_iterations", source)
+    _one_of(coupling["predictor"], ("none", "acceleration"), "coupling.predictor", source)
+    if coupling["predictor"] == "acceleration" and coupling["extrapolation_order"] > 0:
+        raise SceneError(f"{source}: 'coupling.predictor' = \"acceleration\" replaces extrapolation; "
+                         f"'coupling.extrapolation_order' must be 0, got {coupling['extrapolation_order']}")
     acceleration = coupling["acceleration"]
     accelerated = acceleration.get("data", []) if isinstance(acceleration, dict) else []
     if not isinstance(accelerated, list):

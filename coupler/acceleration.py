@@ -249,3 +249,64 @@ def resolve_acceleration(table: object, where: str = "coupling.acceleration", so
 def make_acceleration(settings: dict, block_sizes: list[int]) -> Acceleration:
     """The acceleration resolved ``settings`` name (``data`` is the scheme's business)."""
     return ACCELERATIONS.create({k: v for k, v in settings.items() if k != "data"}, block_sizes=block_sizes)
+
+
+@ACCELERATIONS.register("iqn-imvj")
+class IQNIMVJ(IQNILS):
+    """Interface quasi-Newton with a multi-vector Jacobian (Lindner et al. 2015), as preCICE's IQN-IMVJ.
+
+    The inverse Jacobian J (mapping residual differences to differences of H) is kept as a
+    matrix across windows: within a window J = J_prev + (W - J_prev V) V^+ with the window's
+    own columns (filtered as in IQN-ILS), the update is x_tilde - J r, and at the end of the
+    window J becomes J_prev. In the first window it is IQN-ILS without reuse.
+    """
+
+    SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50), "filter": "qr2",
+                "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True)}
+
+    def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, filter: str = "qr2",
+                 filter_limit: float = 1e-3, block_sizes: list[int] | None = None) -> None:
+        super().__init__(initial_relaxation, max_used_iterations, 1, filter, filter_limit, None)
+        self.jacobian: np.ndarray | None = None
+
+    def _columns(self) -> tuple[list[np.ndarray], list[np.ndarray], list[tuple[int, int]]]:
+        V, W = self._windows[0]
+        return list(V), list(W), [(0, j) for j in range(len(V))]
+
+    def _update(self, r: np.ndarray) -> np.ndarray | None:
+        """J r with this window's columns (filtered), or None when there is neither J_prev nor a column."""
+        while True:
+            V, W, origin = self._columns()
+            if not V:
+                self.columns_used = 0
+                return None if self.jacobian is None else self.jacobian @ r
+            Vm = np.stack(V, axis=1)
+            Q, R = np.linalg.qr(Vm)
+            bad = self._filtered_column(R, Vm)
+            if bad is not None:
+                self._remove(origin[bad])
+                continue
+            self.columns_used = len(V)
+            pinv_r = solve_triangular(R, Q.T @ r, check_finite=False)
+            Wm = np.stack(W, axis=1)
+            if self.jacobian is None:
+                return Wm @ pinv_r
+            return self.jacobian @ r + (Wm - self.jacobian @ Vm) @ pinv_r
+
+    def next_iterate(self) -> np.ndarray:
+        r = self.x_tilde - self.x
+        update = self._update(r)
+        return self.x + self.initial * r if update is None else self.x_tilde - update
+
+    def end_window(self) -> None:
+        V, W, _ = self._columns()
+        if V:
+            Vm, Wm = np.stack(V, axis=1), np.stack(W, axis=1)
+            Q, R = np.linalg.qr(Vm)
+            keep = np.abs(np.diag(R)) > self.ROUNDOFF * max(float(np.linalg.norm(Vm, axis=0).max()), np.finfo(float).tiny)
+            if keep.any():
+                Vm, Wm = Vm[:, keep], Wm[:, keep]
+                pinv = np.linalg.pinv(Vm)
+                previous = self.jacobian if self.jacobian is not None else np.zeros((Wm.shape[0], Vm.shape[0]))
+                self.jacobian = previous + (Wm - previous @ Vm) @ pinv
+        self._windows.clear()

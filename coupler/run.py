@@ -14,6 +14,7 @@ import math
 import socket
 import sys
 import time
+from collections import Counter
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -138,7 +139,8 @@ def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedu
     scheme_class = SCHEMES.classes[coupling["scheme"]]
     scheme = scheme_class(participants, exchanges, measures, None, coupling["acceleration"]["data"],
                           coupling["max_iterations"], coupling["on_max_iterations"],
-                          coupling["extrapolation_order"], recorders, coupling["divergence_factor"])
+                          coupling["extrapolation_order"], recorders, coupling["divergence_factor"],
+                          coupling["predictor"])
     scheme.initialize()
     scheme.acceleration = make_acceleration(coupling["acceleration"], scheme.block_sizes(scheme.accelerated))
     return scheme
@@ -217,10 +219,11 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         windows += 1
                         iterations += result.iterations
                         for b in backends:
-                            for message in b.proxy.warnings:
-                                warned += 1
+                            warned += len(b.proxy.warnings)
+                            for message, count in Counter(b.proxy.warnings).items():
+                                calls = f" ({count} calls)" if count > 1 else ""
                                 _warn(f"warning: component '{b.name}' in window {windows} (t = {result.time - dt:g} "
-                                      f"to {result.time:g}): {message}", bar)
+                                      f"to {result.time:g}): {message}{calls}", bar)
                             b.proxy.warnings.clear()
                         if not result.converged and result.message:
                             unconverged += 1

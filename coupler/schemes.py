@@ -54,7 +54,7 @@ class CouplingScheme:
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
                  accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
                  extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None,
-                 divergence_factor: float = 1e3):
+                 divergence_factor: float = 1e3, predictor: str = "none"):
         self.first, self.second = participants
         self.exchanges = list(exchanges)
         self.measures = list(measures)
@@ -70,6 +70,8 @@ class CouplingScheme:
         self.t = self.dt = 0.0
         self._residuals: list[float] = []   # ||H(x) - x|| of the accelerated data, per iteration
         self._extrapolation = Extrapolation(extrapolation_order)
+        self.predictor = predictor
+        self._next_start: dict[str, np.ndarray] | None = None   # the acceleration's estimate for the next window
         self._state: dict[str, int] = {}
 
     def sent_by(self, proxy) -> list[str]:
@@ -99,8 +101,21 @@ class CouplingScheme:
     def _predicted(self) -> dict[str, np.ndarray]:
         """Data values for the first iteration: the last ones, accelerated data extrapolated."""
         values = dict(self.values)
-        values.update(self._split(self._extrapolation.predict(), self.accelerated))
+        if self._next_start is not None:
+            values.update(self._next_start)
+            self._next_start = None
+        else:
+            values.update(self._split(self._extrapolation.predict(), self.accelerated))
         return values
+
+    def _predict_next_window(self, converged: bool) -> None:
+        """With ``predictor = "acceleration"``: one more update from the converged iteration's data.
+
+        The update is what the acceleration would have proposed had the window gone on: its
+        estimate of the fixed point, better than the last value (the solvers are not called).
+        """
+        if converged and self.predictor == "acceleration" and self.accelerated:
+            self._next_start = self._next_iterate(self.accelerated)
 
     def _stateful(self, proxy: ComponentProxy) -> bool:
         return proxy.can_get_and_set_state
@@ -261,6 +276,7 @@ class SerialImplicit(CouplingScheme):
             if converged or iteration == self.max_iterations:
                 break
             values.update(self._next_iterate(accelerated))
+        self._predict_next_window(converged)
         return self._end_implicit_window(values, t + dt, iteration, converged)
 
 
@@ -295,4 +311,5 @@ class ParallelImplicit(CouplingScheme):
             if converged or iteration == self.max_iterations:
                 break
             values.update(self._next_iterate(accelerated))
+        self._predict_next_window(converged)
         return self._end_implicit_window(values, t + dt, iteration, converged)

@@ -34,7 +34,6 @@ FLUID_SCHEMA = {
     "tolerance": Positive(1e-6),
     "max_iterations": Positive(20),
     "on_unconverged": "warn",              # "warn" or "fail" when Newton hits max_iterations
-    "threads": Positive(1),
     "interface": "NoSlip2D_Interface",
 }
 WALLS = ("NoSlip2D_Top", "NoSlip2D_Bottom", "NoSlip2D_Cylinder")
@@ -59,7 +58,7 @@ class KratosFluid(Component):
         import KratosMultiphysics.MeshMovingApplication  # noqa: F401  (registers the mesh-motion solvers)
         from KratosMultiphysics.FluidDynamicsApplication.fluid_dynamics_analysis import FluidDynamicsAnalysis
         quiet()
-        set_threads(prm["threads"])
+        set_threads()   # OMP_NUM_THREADS, which the launcher sets from the scene (default 1)
         self._workdir = tempfile.TemporaryDirectory(prefix="cosim-kratos-fluid-")
         materials = Path(self._workdir.name) / "materials.json"
         materials.write_text(json.dumps(self._materials(prm["flow"])))

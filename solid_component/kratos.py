@@ -39,7 +39,6 @@ SOLID_SCHEMA = {
     "tolerance": Positive(1e-6),
     "max_iterations": Positive(25),
     "on_unconverged": "warn",              # "warn" or "fail" when Newton hits max_iterations
-    "threads": Positive(1),
     "interface": "StructureInterface2D_Struc_Fsi",
     "clamped": "DISPLACEMENT_BCDisp",
 }
@@ -67,7 +66,7 @@ class KratosSolid(Component):
         from KratosMultiphysics.StructuralMechanicsApplication.structural_mechanics_analysis import \
             StructuralMechanicsAnalysis
         quiet()
-        set_threads(prm["threads"])
+        set_threads()   # OMP_NUM_THREADS, which the launcher sets from the scene (default 1)
         self._workdir = tempfile.TemporaryDirectory(prefix="cosim-kratos-solid-")
         materials = Path(self._workdir.name) / "materials.json"
         materials.write_text(json.dumps(self._materials(prm)))

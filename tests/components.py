@@ -54,3 +54,12 @@ class DivergingSolid(TubeSolid):
             self._t, self._calls = t, 0
         self._calls += 1
         self.section = np.full(self.n, math.pi * self.r0 ** 2 * (1.0 + 1e-3 * 10.0 ** self._calls))
+
+
+class WarningSolid(TubeSolid):
+    """Reports, as Kratos's Newton does when it hits its cap, in every call of its second window."""
+
+    def do_step(self, t, dt):
+        super().do_step(t, dt)
+        if abs(t - 0.1) < 1e-12:
+            self.warn("Newton hit its iteration cap (25)")

@@ -241,3 +241,46 @@ def test_nearest_neighbour_mappings():
                                np.tile([1.5, -2.0], (40, 1)))
     with pytest.raises(SceneError, match=r"identity mapping needs equal shapes, got \(80,\) and \(20,\)"):
         make_mapping({"type": "identity"}, source, coarse, (80,), (20,), "test")
+
+
+def test_iqn_imvj_learns_the_jacobian_of_a_linear_problem_across_windows():
+    """x = A x + b with b changing per window: after one window IMVJ has A's inverse Jacobian, IQN-ILS (reuse 0) not."""
+    from coupler.acceleration import IQNIMVJ, IQNILS
+    rng = np.random.default_rng(0)
+    n = 20
+    A = rng.standard_normal((n, n))
+    A *= -3.0 / np.linalg.norm(A, 2)     # plain fixed-point iteration diverges
+    loads = rng.standard_normal((6, n))
+    counts = {}
+    for name, acceleration in (("ils", IQNILS(0.1, reused_time_windows=0)), ("imvj", IQNIMVJ(0.1))):
+        x, iterations = np.zeros(n), []
+        for b in loads:
+            acceleration.start_window()
+            for k in range(1, 100):
+                x_tilde = A @ x + b
+                acceleration.observe(x, x_tilde)
+                if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
+                    break
+                x = acceleration.next_iterate()
+            acceleration.end_window()
+            np.testing.assert_allclose(x, np.linalg.solve(np.eye(n) - A, b), rtol=1e-8, atol=1e-9)
+            iterations.append(k)
+        counts[name] = iterations
+    assert counts["imvj"][0] == counts["ils"][0] > 10          # the first window: the same method
+    assert counts["imvj"][1:] == [2] * 5                      # then one exact quasi-Newton step and the check
+    assert max(counts["ils"][1:]) > 10
+
+
+def test_a_scheme_with_the_acceleration_predictor_starts_from_the_next_update():
+    """predictor = "acceleration": a window's first iterate is the update the acceleration proposes after convergence."""
+    from coupler.acceleration import ConstantRelaxation
+    from coupler.schemes import CouplingScheme
+    scheme = CouplingScheme([None, None], [], accelerated=["f"], predictor="acceleration")
+    scheme.values = {"f": np.array([1.0, 1.0])}
+    scheme._extrapolation.store(scheme.values["f"])
+    scheme.acceleration = ConstantRelaxation(0.5)
+    scheme.acceleration.start_window()
+    scheme._observe(np.array([1.0, 1.0]), np.array([3.0, 5.0]))
+    scheme._predict_next_window(converged=True)
+    np.testing.assert_allclose(scheme._predicted()["f"], [2.0, 3.0])   # x + 0.5 (x_tilde - x)
+    np.testing.assert_allclose(scheme._predicted()["f"], [1.0, 1.0])   # used once; then the last values

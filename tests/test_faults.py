@@ -116,3 +116,16 @@ def test_an_unreachable_tolerance_stops_with_a_convergence_error_not_a_crash(tmp
                                                r"iterations: pressure relative"):
         run(tmp_path / "tight", "coupling.convergence.0.limit=1e-16", "coupling.convergence.1.limit=1e-16",
             "time.end=5")
+
+
+def test_component_warnings_reach_the_run_output_with_their_window(tmp_path, capsys):
+    code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "warn"), "--quiet", "--set", "time.end=0.3",
+                 "--set", "components.solid.entry=tests.components:WarningSolid"])
+    _, err = capsys.readouterr()
+    assert code == 0
+    lines = [line for line in err.splitlines() if line.startswith("warning:")]
+    with RunResults(tmp_path / "warn") as results:
+        calls = int(results.windows.iterations[1])
+        assert results.attributes["component_warnings"] == calls > 1
+    assert lines == [f"warning: component 'solid' in window 2 (t = 0.1 to 0.2): "
+                     f"Newton hit its iteration cap (25) ({calls} calls)"]

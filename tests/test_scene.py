@@ -48,6 +48,7 @@ def test_set_overrides_values_and_records_them(tube_scene_path):
     ('exchange.0.mapping={type="rbf"}', "missing key 'exchange.0.mapping.support_radius'"),
     ('exchange.0.mapping={type="nearest-neighbour", constraint="sideways"}',
      "'exchange.0.mapping.constraint' is 'sideways'; allowed: consistent, conservative"),
+    ("coupling.predictor=psychic", "'coupling.predictor' is 'psychic'; allowed: none, acceleration"),
     ("coupling.convergence.0.type=any-of", "unknown key 'coupling.convergence.0.limit'.*known keys: data, measures"),
     ('coupling.convergence.0={data="pressure", type="any-of"}', "missing key 'coupling.convergence.0.measures'"),
     ("coupling.participants=[\"fluid\", \"soild\"]", "'coupling.participants.1' is 'soild', not a component"),
@@ -73,3 +74,9 @@ def test_missing_required_key(tmp_path, tube_scene_path):
     text = tube_scene_path.read_text().replace("dt = 0.1\n", "")
     with pytest.raises(SceneError, match="missing key 'time.dt'"):
         load_scene(write(tmp_path, text))
+
+
+def test_the_acceleration_predictor_replaces_extrapolation(tube_scene_path):
+    assert load_scene(tube_scene_path, ["coupling.predictor=acceleration"])["coupling"]["predictor"] == "acceleration"
+    with pytest.raises(SceneError, match="'coupling.extrapolation_order' must be 0, got 1"):
+        load_scene(tube_scene_path, ["coupling.predictor=acceleration", "coupling.extrapolation_order=1"])
