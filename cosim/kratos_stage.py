@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from cosim.component import Component, check_inputs
 from cosim.errors import ComponentError
 
 
@@ -42,7 +43,7 @@ class SteppedStage:
     def __init__(self, name: str, stage: Any, solve_step: Any = None):
         self.name = name
         self.stage = stage
-        self.solve_step = solve_step or (lambda: self.solver.SolveSolutionStep())
+        self.solve_step = solve_step or stage._GetSolver().SolveSolutionStep
         self.window_start: float | None = None
         self.window_end = 0.0
         self.solves = 0
@@ -85,8 +86,59 @@ class SteppedStage:
             self.window_start = None
 
     def finalize(self) -> None:
+        """Finalise Kratos and let go of the stage (before its model goes: Kratos crashes otherwise)."""
         self.finish_window()
         self.stage.Finalize()
+        self.stage = self.solve_step = None
+
+
+class KratosComponent(Component):
+    """A component around one Kratos analysis stage with one vector input on its interface nodes.
+
+    Subclasses build ``self.stepped`` (a ``SteppedStage``), ``self.interface`` (Kratos nodes),
+    ``self.model``, ``self.settings`` and ``self.input`` (an (n, 2) array) in ``instantiate``,
+    and name the Kratos variable the input goes to (``input_variable``) and how each output is
+    read (``readers``).
+    """
+
+    repeats_steps = True
+    input_name = ""
+    solve_label = "solve"
+
+    def input_variable(self) -> Any:
+        raise NotImplementedError
+
+    def readers(self) -> dict[str, Callable[[], np.ndarray]]:
+        raise NotImplementedError
+
+    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
+        check_inputs(self, values, {self.input_name: self.input.shape})
+        if self.input_name in values:
+            self.input = np.array(values[self.input_name], dtype=np.float64)
+
+    def do_step(self, t: float, dt: float) -> None:
+        set_nodal_vector(self.interface, self.input_variable(), self.input)
+        if not self.stepped.solve(t, dt):
+            message = (f"Kratos's {self.solve_label} did not converge in {self.settings['max_iterations']} "
+                       f"iterations (window starting at t = {t:g} s)")
+            if self.settings["on_unconverged"] == "fail":
+                raise ComponentError(self.name, message)
+            self.warn(message)
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        readers = {**self.readers(), self.input_name: lambda: self.input.copy()}
+        unknown = [n for n in names if n not in readers]
+        if unknown:
+            raise ComponentError(self.name, f"unknown variable(s) {', '.join(unknown)}")
+        return {name: readers[name]() for name in names}
+
+    def close(self) -> None:
+        """Finalise Kratos; the stage goes before the model (Kratos crashes at exit otherwise)."""
+        if getattr(self, "stepped", None) is not None:
+            self.stepped.finalize()
+            self.stepped = None
+            self.model = None
+            self._workdir.cleanup()
 
 
 def nodal_vector(nodes: Any, variable: Any, dim: int) -> np.ndarray:

@@ -15,14 +15,14 @@ from __future__ import annotations
 import json
 import tempfile
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from cosim.component import Component, Variable, check_inputs
+from cosim.component import Variable
 from cosim.errors import ComponentError
-from cosim.kratos_stage import (SteppedStage, kratos_parameters, nodal_vector, node_coordinates, quiet,
-                                set_nodal_vector, set_threads)
+from cosim.kratos_stage import (KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates,
+                                quiet, set_threads)
 from cosim.schema import Positive, Required, validate
 
 FLUID_SCHEMA = {
@@ -40,11 +40,12 @@ WALLS = ("NoSlip2D_Top", "NoSlip2D_Bottom", "NoSlip2D_Cylinder")
 INLET, OUTLET = "AutomaticInlet2D_Inlet", "Outlet2D_Outlet"
 
 
-class KratosFluid(Component):
+class KratosFluid(KratosComponent):
     """Kratos FluidDynamicsAnalysis with the ``ale_fluid`` solver, one solve per coupling iteration."""
 
     name = "fluid"
-    repeats_steps = True
+    input_name = "displacement"
+    solve_label = "fluid solve"
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, FLUID_SCHEMA)
@@ -70,7 +71,7 @@ class KratosFluid(Component):
         self.volume = part.GetSubModelPart("FluidParts_FluidPart")
         self.interface_nodes = node_coordinates(self.interface, 2)
         self.KM = KM
-        self.displacement = np.zeros((len(self.interface_nodes), 2))
+        self.input = np.zeros((len(self.interface_nodes), 2))   # the interface displacement
 
     def _solve_step(self) -> bool:
         """The ALE solver's step, judged by the fluid's Newton alone.
@@ -161,27 +162,11 @@ class KratosFluid(Component):
     def meshes(self) -> dict[str, np.ndarray]:
         return {"interface": self.interface_nodes}
 
-    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
-        check_inputs(self, values, {"displacement": self.displacement.shape})
-        if "displacement" in values:
-            self.displacement = np.array(values["displacement"], dtype=np.float64)
+    def input_variable(self) -> Any:
+        return self.KM.MESH_DISPLACEMENT
 
-    def do_step(self, t: float, dt: float) -> None:
-        set_nodal_vector(self.interface, self.KM.MESH_DISPLACEMENT, self.displacement)
-        if not self.stepped.solve(t, dt):
-            message = (f"Kratos's fluid solve did not converge in {self.settings['max_iterations']} iterations "
-                       f"(window starting at t = {t:g} s)")
-            if self.settings["on_unconverged"] == "fail":
-                raise ComponentError(self.name, message)
-            self.warn(message)
-
-    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
-        known = {"force": lambda: -nodal_vector(self.interface, self.KM.REACTION, 2),
-                 "displacement": lambda: self.displacement.copy()}
-        unknown = [n for n in names if n not in known]
-        if unknown:
-            raise ComponentError(self.name, f"unknown variable(s) {', '.join(unknown)}")
-        return {name: known[name]() for name in names}
+    def readers(self) -> dict[str, Callable[[], np.ndarray]]:
+        return {"force": lambda: -nodal_vector(self.interface, self.KM.REACTION, 2)}
 
     def terminate(self) -> dict[str, np.ndarray]:
         """The last window for the run's picture: deformed nodes, triangles, velocity and pressure."""
@@ -196,11 +181,3 @@ class KratosFluid(Component):
         }
         self.close()
         return final
-
-    def close(self) -> None:
-        """Finalise Kratos; the stage goes before the model (Kratos crashes at exit otherwise)."""
-        if getattr(self, "stepped", None) is not None:
-            self.stepped.finalize()
-            self.stepped = None
-            self.model = None
-            self._workdir.cleanup()

@@ -14,14 +14,14 @@ from __future__ import annotations
 import json
 import tempfile
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from cosim.component import Component, Variable, check_inputs
+from cosim.component import Variable
 from cosim.errors import ComponentError
-from cosim.kratos_stage import (SteppedStage, kratos_parameters, nodal_vector, node_coordinates, quiet,
-                                set_nodal_vector, set_threads)
+from cosim.kratos_stage import (KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates,
+                                quiet, set_threads)
 from cosim.schema import Positive, Required, Value, validate
 
 LINEAR_SOLVERS = {
@@ -44,11 +44,12 @@ SOLID_SCHEMA = {
 }
 
 
-class KratosSolid(Component):
+class KratosSolid(KratosComponent):
     """Kratos StructuralMechanicsAnalysis, one Newton solve per coupling iteration."""
 
     name = "solid"
-    repeats_steps = True
+    input_name = "force"
+    solve_label = "Newton solve"
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, SOLID_SCHEMA)
@@ -82,7 +83,7 @@ class KratosSolid(Component):
         self.quads = np.array([[n.Id for n in e.GetNodes()] for e in part.Elements], dtype=np.int64)
         self._node_index = {node.Id: i for i, node in enumerate(self.all_nodes)}
         self.KM, self.SMA = KM, SMA
-        self.force = np.zeros((len(self.interface_nodes), 2))
+        self.input = np.zeros((len(self.interface_nodes), 2))   # the interface force
 
     @staticmethod
     def _materials(prm: dict) -> dict:
@@ -131,28 +132,12 @@ class KratosSolid(Component):
     def meshes(self) -> dict[str, np.ndarray]:
         return {"interface": self.interface_nodes, "solid": self.field_nodes}
 
-    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
-        check_inputs(self, values, {"force": self.force.shape})
-        if "force" in values:
-            self.force = np.array(values["force"], dtype=np.float64)
+    def input_variable(self) -> Any:
+        return self.SMA.POINT_LOAD
 
-    def do_step(self, t: float, dt: float) -> None:
-        set_nodal_vector(self.interface, self.SMA.POINT_LOAD, self.force)
-        if not self.stepped.solve(t, dt):
-            message = (f"Kratos's Newton solve did not converge in {self.settings['max_iterations']} iterations "
-                       f"(window starting at t = {t:g} s)")
-            if self.settings["on_unconverged"] == "fail":
-                raise ComponentError(self.name, message)
-            self.warn(message)
-
-    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
-        known = {"displacement": lambda: nodal_vector(self.interface, self.KM.DISPLACEMENT, 2),
-                 "displacement_field": lambda: nodal_vector(self.all_nodes, self.KM.DISPLACEMENT, 2),
-                 "force": lambda: self.force.copy()}
-        unknown = [n for n in names if n not in known]
-        if unknown:
-            raise ComponentError(self.name, f"unknown variable(s) {', '.join(unknown)}")
-        return {name: known[name]() for name in names}
+    def readers(self) -> dict[str, Callable[[], np.ndarray]]:
+        return {"displacement": lambda: nodal_vector(self.interface, self.KM.DISPLACEMENT, 2),
+                "displacement_field": lambda: nodal_vector(self.all_nodes, self.KM.DISPLACEMENT, 2)}
 
     def reactions(self) -> np.ndarray:
         """Reactions at the clamped base, (n_base, 2) N (for the equilibrium check)."""
@@ -164,11 +149,3 @@ class KratosSolid(Component):
                  "newton_unconverged": np.array(self.stepped.unconverged)}
         self.close()
         return final
-
-    def close(self) -> None:
-        """Finalise Kratos; the stage goes before the model (Kratos crashes at exit otherwise)."""
-        if getattr(self, "stepped", None) is not None:
-            self.stepped.finalize()
-            self.stepped = None
-            self.model = None
-            self._workdir.cleanup()
