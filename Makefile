@@ -10,7 +10,7 @@ BIN := $(VENV)/bin
 $(BIN)/cosim: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[test,rom,fmu,kratos]'
+	$(BIN)/pip install --quiet -e '.[test,rom,fmu,kratos,sweep]'
 	touch $@
 
 demo: $(BIN)/cosim

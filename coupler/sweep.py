@@ -1,0 +1,231 @@
+"""Sweeps: many independent co-simulations of scene variants, run on Dask.
+
+A sweep is a list of runs, each a list of ``--set`` overrides of one scene: the Cartesian
+product of ``--grid key=v1,v2,...`` options, or one run per line of a file. Every run is an
+ordinary ``cosim run`` in ``DIR/runs/<name>/`` with its own component processes; Dask
+(``dask.distributed``) places one run per worker process at a time, on a local cluster or
+on an existing scheduler given by address, so a sweep spans as many machines as have workers.
+
+``DIR/sweep.csv`` gets one row per finished run as it finishes (its settings, windows
+converged, mean and max coupling iterations, the failure class and message, wall time); a
+rerun of the same sweep skips the runs that have a row. Run names are derived from the
+overrides, so the same run keeps its name across reruns and machines.
+
+Only references to this module's function and plain strings cross Dask's wire; results come
+back as plain dicts of numbers and strings.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import itertools
+import shlex
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from cosim.errors import SceneError
+
+COLUMNS = ["name", "windows_converged", "windows_total", "mean_iterations", "max_iterations", "failure",
+           "failure_message", "wall_seconds"]
+TABLE = "sweep.csv"
+
+
+@dataclass(frozen=True)
+class SweepRun:
+    """One run of a sweep: its overrides (``key=value``) and a stable name derived from them."""
+
+    overrides: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        digest = hashlib.sha256("\n".join(self.overrides).encode()).hexdigest()[:10]
+        return f"run-{digest}"
+
+    def settings(self) -> dict[str, str]:
+        return dict(item.split("=", 1) for item in self.overrides)
+
+
+def grid_runs(grids: list[str], common: list[str] = ()) -> list[SweepRun]:
+    """The Cartesian product of ``key=v1,v2,...`` grids, each run with the ``common`` overrides first."""
+    axes = []
+    for text in grids:
+        key, sep, values = text.partition("=")
+        if not sep or not key.strip() or not values.strip():
+            raise SceneError(f"--grid '{text}' is not of the form key=v1,v2,...")
+        axes.append([f"{key.strip()}={value.strip()}" for value in _split_values(values)])
+    return [SweepRun((*common, *combination)) for combination in itertools.product(*axes)]
+
+
+def _split_values(values: str) -> list[str]:
+    """Comma-separated values; commas inside brackets, braces or quotes (TOML arrays, tables) do not split."""
+    parts, depth, quote, current = [], 0, "", ""
+    for char in values:
+        if quote:
+            quote = "" if char == quote else quote
+        elif char in "\"'":
+            quote = char
+        elif char in "[{":
+            depth += 1
+        elif char in "]}":
+            depth -= 1
+        elif char == "," and depth == 0:
+            parts.append(current)
+            current = ""
+            continue
+        current += char
+    parts.append(current)
+    return [p for p in (p.strip() for p in parts) if p]
+
+
+def file_runs(path: str | Path, common: list[str] = ()) -> list[SweepRun]:
+    """One run per non-empty, non-comment line of ``path``: ``key=value`` items separated by spaces."""
+    try:
+        lines = Path(path).read_text().splitlines()
+    except OSError as exc:
+        raise SceneError(f"cannot read the run list '{path}': {exc.strerror}") from None
+    runs = []
+    for number, line in enumerate(lines, 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        items = shlex.split(line)
+        bad = [item for item in items if "=" not in item]
+        if bad:
+            raise SceneError(f"{path}:{number}: '{bad[0]}' is not of the form key=value")
+        runs.append(SweepRun((*common, *items)))
+    return runs
+
+
+def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
+    """Every variant must load and name known plug-ins before anything runs (errors name the run)."""
+    from coupler.plugins import resolve_plugins
+    from cosim.scene import load_scene
+    if not runs:
+        raise SceneError("the sweep has no runs")
+    names = [run.name for run in runs]
+    if len(set(names)) != len(names):
+        raise SceneError("the sweep lists the same run twice")
+    for run in runs:
+        try:
+            resolve_plugins(load_scene(scene_path, list(run.overrides)))
+        except SceneError as exc:
+            raise SceneError(f"run {run.name} ({' '.join(run.overrides)}): {exc}") from None
+
+
+def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, Any]:
+    """Run one variant (on a Dask worker); a row of the sweep table, whatever happened."""
+    from coupler.run import run_scene
+    from cosim.errors import (ComponentError, ConvergenceError, CosimError, DivergenceError, NonFiniteOutput)
+    from cosim.results import RunResults
+    from cosim.scene import load_scene
+
+    started = time.perf_counter()
+    failure, message = "", ""
+    try:
+        run_scene(load_scene(scene_path, overrides), out_dir, progress=False, overwrite=True)
+    except NonFiniteOutput as exc:
+        failure, message = "non-finite", str(exc)
+    except DivergenceError as exc:
+        failure, message = "diverged", str(exc)
+    except ConvergenceError as exc:
+        failure, message = "max-iterations", str(exc)
+    except ComponentError as exc:
+        failure, message = "component-error", str(exc)
+    except CosimError as exc:
+        failure, message = "error", str(exc)
+    row = {"windows_converged": 0, "windows_total": 0, "mean_iterations": float("nan"), "max_iterations": 0}
+    results = Path(out_dir) / "results.h5"
+    if results.is_file():
+        with RunResults(results) as run:
+            windows = run.windows
+            iterations = windows.iterations
+            total = int(run.attributes.get("windows_completed", len(windows)))
+            row.update(windows_converged=int(windows.converged.sum()), windows_total=total,
+                       mean_iterations=float(iterations.mean()) if len(iterations) else float("nan"),
+                       max_iterations=int(iterations.max()) if len(iterations) else 0)
+    row.update(failure=failure, failure_message=message.replace("\n", " "),
+               wall_seconds=time.perf_counter() - started)
+    return row
+
+
+class SweepTable:
+    """``DIR/sweep.csv``: one row per finished run, appended and flushed as runs finish."""
+
+    def __init__(self, path: Path, setting_keys: list[str]):
+        self.path = path
+        self.columns = [*COLUMNS[:1], *setting_keys, *COLUMNS[1:]]
+        self.done: dict[str, dict[str, str]] = {}
+        if path.is_file():
+            with open(path, newline="") as stream:
+                reader = csv.DictReader(stream)
+                if reader.fieldnames != self.columns:
+                    raise SceneError(f"'{path}' belongs to a sweep with other settings "
+                                     f"({', '.join(reader.fieldnames or [])}); use another --out")
+                self.done = {row["name"]: row for row in reader}
+        else:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with open(path, "w", newline="") as stream:
+                csv.writer(stream).writerow(self.columns)
+
+    def add(self, run: SweepRun, row: dict[str, Any]) -> None:
+        values = {"name": run.name, **run.settings(), **row}
+        with open(self.path, "a", newline="") as stream:
+            csv.DictWriter(stream, self.columns, extrasaction="ignore").writerow(values)
+        self.done[run.name] = {k: str(v) for k, v in values.items()}
+
+
+def setting_keys(runs: list[SweepRun]) -> list[str]:
+    """The keys that vary between runs (or all keys if none varies), in first-seen order."""
+    keys: dict[str, set[str]] = {}
+    for run in runs:
+        for key, value in run.settings().items():
+            keys.setdefault(key, set()).add(value)
+    varying = [k for k, values in keys.items() if len(values) > 1]
+    return varying or list(keys)
+
+
+def run_sweep(scene_path: str, runs: list[SweepRun], out: str | Path, workers: int = 2,
+              scheduler: str | None = None, progress: bool = True,
+              on_row: Callable[[SweepRun, dict], None] | None = None) -> Path:
+    """Run every run not yet in ``out/sweep.csv`` on Dask; returns the table's path."""
+    out = Path(out)
+    check_runs(scene_path, runs)
+    table = SweepTable(out / TABLE, setting_keys(runs))
+    pending = [run for run in runs if run.name not in table.done]
+    if not pending:
+        return table.path
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                  host="127.0.0.1", dashboard_address=None)
+    bar = _progress(len(runs), len(runs) - len(pending), progress)
+    try:
+        with Client(scheduler or cluster) as client:
+            futures = {client.submit(run_one, str(Path(scene_path).resolve()), list(run.overrides),
+                                     str((out / "runs" / run.name).resolve()), key=f"cosim-{run.name}", pure=False): run
+                       for run in pending}
+            for future in as_completed(futures):
+                run = futures[future]
+                row = future.result()
+                table.add(run, row)
+                if on_row is not None:
+                    on_row(run, row)
+                if bar is not None:
+                    bar.update(1)
+                    bar.set_postfix_str(f"{run.name}: {row['failure'] or 'converged'}", refresh=False)
+    finally:
+        if bar is not None:
+            bar.close()
+        if cluster is not None:
+            cluster.close()
+    return table.path
+
+
+def _progress(total: int, done: int, enabled: bool):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, initial=done, unit="run", dynamic_ncols=True)

@@ -1,0 +1,107 @@
+"""Sweeps on Dask: run lists, the table, resuming, failure classes, a scheduler and workers as processes."""
+
+import csv
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+from coupler.sweep import SweepRun, file_runs, grid_runs, run_sweep
+from cosim.cli import main
+from cosim.errors import SceneError
+
+from tests.conftest import ROOT, TUBE_SCENE, wait_for
+
+SHORT = ["time.end=0.5"]
+
+
+def rows(directory):
+    with open(directory / "sweep.csv", newline="") as stream:
+        return {row["name"]: row for row in csv.DictReader(stream)}
+
+
+def test_grid_runs_are_the_cartesian_product_with_stable_names(tmp_path):
+    runs = grid_runs(["inlet.h=4,6", 'coupling.acceleration={type="aitken", data=["section"]},{type="none"}'],
+                     ["time.end=1"])
+    assert [r.overrides for r in runs] == [
+        ("time.end=1", "inlet.h=4", 'coupling.acceleration={type="aitken", data=["section"]}'),
+        ("time.end=1", "inlet.h=4", 'coupling.acceleration={type="none"}'),
+        ("time.end=1", "inlet.h=6", 'coupling.acceleration={type="aitken", data=["section"]}'),
+        ("time.end=1", "inlet.h=6", 'coupling.acceleration={type="none"}')]
+    assert runs[0].name == SweepRun(runs[0].overrides).name != runs[1].name
+    listing = tmp_path / "runs.txt"
+    listing.write_text("# two runs\ninlet.h=4 inlet.f=2\n\ninlet.h=6 'inlet.table=a b.csv'\n")
+    assert [r.overrides for r in file_runs(listing)] == [("inlet.h=4", "inlet.f=2"), ("inlet.h=6", "inlet.table=a b.csv")]
+    with pytest.raises(SceneError, match="--grid 'inlet.h' is not of the form key=v1,v2"):
+        grid_runs(["inlet.h"])
+    listing.write_text("inlet.h=4 oops\n")
+    with pytest.raises(SceneError, match=r"runs.txt:1: 'oops' is not of the form key=value"):
+        file_runs(listing)
+
+
+def test_bad_variants_stop_the_sweep_before_anything_runs(tmp_path, capsys):
+    code = main(["sweep", str(TUBE_SCENE), "--grid", 'coupling.acceleration={type="aitken"},{type="magic"}',
+                 "--out", str(tmp_path)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "(coupling.acceleration={type=\"magic\"}): " in err and "'coupling.acceleration.type' is 'magic'" in err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "sweep.csv").exists()
+
+
+def test_a_local_sweep_fills_its_table_classifies_failures_and_resumes(tmp_path):
+    grid = ["coupling.max_iterations=2,90", "inlet.h=4,6"]
+    seen = []
+    run_sweep(str(TUBE_SCENE), grid_runs(grid, SHORT), tmp_path, workers=2, progress=False,
+              on_row=lambda run, row: seen.append(run.name))
+    table = rows(tmp_path)
+    assert len(table) == 4 == len(seen)
+    for row in table.values():
+        if row["coupling.max_iterations"] == "90":
+            assert row["failure"] == "" and row["windows_converged"] == row["windows_total"] == "5"
+            assert 1.0 < float(row["mean_iterations"]) <= int(row["max_iterations"]) < 90
+        else:
+            assert row["failure"] == "max-iterations" and "did not converge in 2 iterations" in row["failure_message"]
+            assert row["windows_converged"] == "0"
+        assert (tmp_path / "runs" / row["name"] / "results.h5").is_file()
+    # a rerun with more values skips the four finished runs and runs only the new two
+    seen.clear()
+    run_sweep(str(TUBE_SCENE), grid_runs(["coupling.max_iterations=2,90", "inlet.h=4,6,8"], SHORT), tmp_path,
+              workers=2, progress=False, on_row=lambda run, row: seen.append(run.name))
+    assert len(seen) == 2 and len(rows(tmp_path)) == 6
+    assert all(table[name] == rows(tmp_path)[name] for name in table)
+
+
+def test_a_sweep_on_a_scheduler_and_workers_started_by_hand_gives_the_local_table(tmp_path):
+    runs = grid_runs(["inlet.h=4,6"], SHORT)
+    run_sweep(str(TUBE_SCENE), runs, tmp_path / "local", workers=2, progress=False)
+    scheduler_file = tmp_path / "scheduler.json"
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    processes = [subprocess.Popen([*dask, "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                   "--scheduler-file", str(scheduler_file)],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)]
+    try:
+        wait_for(scheduler_file.exists, "the scheduler file", timeout=60)
+        for _ in range(2):
+            processes.append(subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_worker", "--nthreads", "1", "--no-dashboard",
+                 "--host", "127.0.0.1", "--scheduler-file", str(scheduler_file)],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT,
+                env={**os.environ, "PYTHONPATH": str(ROOT)}))
+        import json
+        address = json.loads(scheduler_file.read_text())["address"]
+        assert address.startswith("tcp://127.0.0.1:")
+        run_sweep(str(TUBE_SCENE), runs, tmp_path / "remote", scheduler=address, progress=False)
+    finally:
+        for process in processes[::-1]:
+            process.terminate()
+        deadline = time.monotonic() + 20
+        for process in processes:
+            process.wait(timeout=max(1.0, deadline - time.monotonic()))
+    local, remote = rows(tmp_path / "local"), rows(tmp_path / "remote")
+    assert local.keys() == remote.keys()
+    for name in local:
+        for column in ("windows_converged", "windows_total", "mean_iterations", "max_iterations", "failure"):
+            assert local[name][column] == remote[name][column]
