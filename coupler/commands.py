@@ -57,5 +57,65 @@ def _sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def _numbers(text: str, option: str) -> list[float]:
+    from cosim.errors import SceneError
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise SceneError(f"{option} '{text}' is not a comma-separated list of numbers") from None
+    if not values or any(not v > 0 for v in values):
+        raise SceneError(f"{option} '{text}': every value must be a number > 0")
+    return values
+
+
+def _stability_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scene", help="the tube scene (TOML)")
+    parser.add_argument("--out", required=True, help="directory: sweep.csv, spectral.csv, stability.png, runs/")
+    parser.add_argument("--factors", default="0.1,0.3,1,10,100", help="stiffness factors (default 0.1,0.3,1,10,100)")
+    parser.add_argument("--dts", default="0.1,0.01,0.001", help="time steps (default 0.1,0.01,0.001)")
+    parser.add_argument("--methods", default="none,aitken,iqn-ils,iqn-ils-reuse0,iqn-imvj",
+                        help="accelerations (default: all five)")
+    parser.add_argument("--wall-law", default="linear", choices=["linear", "piecewise"])
+    parser.add_argument("--windows", type=int, default=20, help="windows per run (default 20)")
+    parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value in every run")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--scheduler", metavar="ADDRESS")
+    parser.add_argument("--quiet", action="store_true")
+
+
+def _stability(args: argparse.Namespace) -> int:
+    import csv
+    from pathlib import Path
+
+    from coupler.stability import MATRIX_KEYS, METHODS, matrix_runs, plot_matrix, spectral_table
+    from coupler.sweep import run_sweep
+    from cosim.errors import SceneError
+
+    factors, dts = _numbers(args.factors, "--factors"), _numbers(args.dts, "--dts")
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        raise SceneError(f"--methods names {', '.join(unknown)}; known: {', '.join(METHODS)}")
+    if args.windows < 1:
+        raise SceneError(f"--windows is {args.windows}; allowed: an integer >= 1")
+    out = Path(args.out)
+    common = args.set or []
+    spectra = spectral_table(args.scene, factors, dts, args.wall_law, common)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "spectral.csv", "w", newline="") as stream:
+        writer = csv.DictWriter(stream, ["stiffness_factor", "dt", "spectral_radius", "theory"])
+        writer.writeheader()
+        writer.writerows(spectra)
+    table = run_sweep(args.scene, matrix_runs(factors, dts, methods, args.windows, args.wall_law, common), out,
+                      args.workers, args.scheduler, progress=not args.quiet, keys=MATRIX_KEYS)
+    with open(table, newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    plot_matrix(rows, spectra, methods, factors, dts, out / "stability.png")
+    print(f"{len(rows)} runs; {table}, {out / 'spectral.csv'}, {out / 'stability.png'}")
+    return 0
+
+
 run = Command("run a scene", _arguments, _run)
+stability = Command("the tube's stability matrix: stiffness x time step per method, against theory",
+                    _stability_arguments, _stability)
 sweep = Command("run many variants of a scene on Dask (a local cluster or a scheduler)", _sweep_arguments, _sweep)

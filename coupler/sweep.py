@@ -189,11 +189,14 @@ def setting_keys(runs: list[SweepRun]) -> list[str]:
 
 def run_sweep(scene_path: str, runs: list[SweepRun], out: str | Path, workers: int = 2,
               scheduler: str | None = None, progress: bool = True,
-              on_row: Callable[[SweepRun, dict], None] | None = None) -> Path:
-    """Run every run not yet in ``out/sweep.csv`` on Dask; returns the table's path."""
+              on_row: Callable[[SweepRun, dict], None] | None = None, keys: list[str] | None = None) -> Path:
+    """Run every run not yet in ``out/sweep.csv`` on Dask; returns the table's path.
+
+    ``keys`` are the settings the table shows (default: those that vary between runs).
+    """
     out = Path(out)
     check_runs(scene_path, runs)
-    table = SweepTable(out / TABLE, setting_keys(runs))
+    table = SweepTable(out / TABLE, keys or setting_keys(runs))
     pending = [run for run in runs if run.name not in table.done]
     if not pending:
         return table.path

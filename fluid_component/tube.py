@@ -24,7 +24,9 @@ from cosim.errors import ComponentError
 from cosim.schema import Positive, Value, validate
 from fluid_component.inlet import DUFFING_DEFAULTS, make_inlet
 
-TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0)}
+TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0),
+               "stiffness_factor": Positive(1.0),   # scales the wall law (the solid's)
+               "wall_law": "piecewise"}             # or "linear": sigma = E_small eps at every strain
 FLUID_SCHEMA = {
     "tube": TUBE_SCHEMA,
     "inlet": {"f": 2.0, "h": 6.0, "table": "", **DUFFING_DEFAULTS},

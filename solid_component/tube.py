@@ -2,7 +2,8 @@
 
 eps = (r - r0) / r0 and a piecewise-linear law sigma = k eps + s, with
 (k, s) = (E_small, 0) for |eps| < eps0, (E_large, +s0) for eps >= eps0 and
-(E_large, -s0) for eps <= -eps0. On each branch the equilibrium is linear in r,
+(E_large, -s0) for eps <= -eps0; ``tube.wall_law = "linear"`` keeps (E_small, 0) at every
+strain (the law the stability theory covers), and ``tube.stiffness_factor`` scales the law. On each branch the equilibrium is linear in r,
 so the root is exact: r = r0 (k - s) / (k - p r0). All nodes are solved at once
 by computing the three candidate roots and keeping the one inside its branch.
 """
@@ -20,7 +21,9 @@ from cosim.schema import Positive, Value, validate
 
 
 # the [tube] section, read by fluid and solid alike (each component package stands alone)
-TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0)}
+TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0),
+               "stiffness_factor": Positive(1.0),   # scales the wall law (the solid's)
+               "wall_law": "piecewise"}             # or "linear": sigma = E_small eps at every strain
 
 SOLID_SCHEMA = {
     "tube": TUBE_SCHEMA,
@@ -42,8 +45,13 @@ class TubeSolid(Component):
         self.n = tube["cells"] + 1
         self.length = tube["length"]
         self.r0 = math.sqrt(tube["a0"] / math.pi)
-        self.E_small, self.E_large = prm["E_small"], prm["E_large"]
-        self.s0, self.eps0 = prm["s0"], prm["eps0"]
+        if tube["wall_law"] not in ("piecewise", "linear"):
+            raise ComponentError(self.name, f"'tube.wall_law' is {tube['wall_law']!r}; allowed: piecewise, linear")
+        factor = tube["stiffness_factor"]
+        self.E_small, self.E_large = factor * prm["E_small"], factor * prm["E_large"]
+        self.s0, self.eps0 = factor * prm["s0"], prm["eps0"]
+        if tube["wall_law"] == "linear":    # one branch: E_small at every strain
+            self.E_large, self.s0, self.eps0 = self.E_small, 0.0, math.inf
         if abs(self.E_small * self.eps0 - (self.E_large * self.eps0 + self.s0)) > 1e-9 * self.E_small * self.eps0:
             raise ComponentError(self.name, "the stress-strain law is discontinuous at eps0: "
                                             "E_small * eps0 must equal E_large * eps0 + s0")

@@ -1,0 +1,213 @@
+"""Stability of plain Gauss-Seidel coupling, computed from the components themselves.
+
+Serial-implicit coupling without acceleration iterates x -> H(x) on the data the second
+participant sends back (for the tube: the section); it converges where the spectral radius
+of the Jacobian dH/dx is below 1, and its error shrinks by that factor per iteration. The
+Jacobian is built column by column by finite differences of the real components, in this
+process, around the scene's initial state: each column restores the first participant's
+state, perturbs one value, and runs both participants through one window.
+
+For the linearised tube the continuum theory gives the eigenvalues
+lambda_m = -[1 / ((m - 1/2) pi kappa tau)]^2 with kappa = c_MK / v0, tau = v0 dt / L and
+c_MK^2 = E_t / (2 rho r0) (``tube_eigenvalue``); Gauss-Seidel diverges when kappa tau < 2 / pi.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from cosim.scene import Scene
+from cosim.server import load_entry
+
+
+@dataclass
+class Spectrum:
+    """The Gauss-Seidel iteration's Jacobian around a state, and its spectral radius."""
+
+    jacobian: np.ndarray
+    eigenvalues: np.ndarray
+
+    @property
+    def radius(self) -> float:
+        return float(np.abs(self.eigenvalues).max())
+
+
+def gauss_seidel_spectrum(scene: Scene, relative_step: float = 1e-7) -> Spectrum:
+    """dH/dx of one window of serial-implicit coupling at the scene's start, by finite differences."""
+    from coupler.mapping import make_mapping
+
+    coupling = scene["coupling"]
+    time = scene["time"]
+    components = {}
+    for name in coupling["participants"]:
+        component = load_entry(scene["components"][name]["entry"])()
+        component.instantiate(scene.component_parameters(name))
+        component.enter_initialization_mode(time["start"], time["end"])
+        component.exit_initialization_mode()
+        components[name] = component
+    first, second = (components[name] for name in coupling["participants"])
+    variables = {name: {v.name: v for v in c.variables()} for name, c in components.items()}
+    meshes = {name: c.meshes() for name, c in components.items()}
+
+    def mapping(exchange: dict) -> Any:
+        source, target, data = exchange["from"], exchange["to"], exchange["data"]
+        out_var, in_var = variables[source][data], variables[target][data]
+        mapping_settings = exchange["mapping"] if isinstance(exchange["mapping"], dict) else {"type": exchange["mapping"]}
+        return make_mapping(mapping_settings, meshes[source].get(out_var.mesh, np.zeros((0, 1))),
+                            meshes[target].get(in_var.mesh, np.zeros((0, 1))), out_var.shape, in_var.shape, data)
+
+    names = coupling["participants"]
+    forward = [(e["data"], mapping(e)) for e in scene["exchange"] if e["from"] == names[0]]
+    feedback = [(e["data"], mapping(e)) for e in scene["exchange"] if e["from"] == names[1]]
+    t, dt = time["start"], time["dt"]
+    x0 = {data: np.asarray(second.get_values([data])[data], dtype=float) for data, _ in feedback}
+    first_state = first.save_state() if first.can_get_and_set_state else None
+    second_state = second.save_state() if second.can_get_and_set_state else None
+
+    def H(x: dict[str, np.ndarray]) -> np.ndarray:
+        if first_state is not None:
+            first.restore_state(first_state)
+        if second_state is not None:
+            second.restore_state(second_state)
+        out_first = first.step(t, dt, {data: m(x[data]) for data, m in feedback})
+        out_second = second.step(t, dt, {data: m(out_first[data]) for data, m in forward})
+        return np.concatenate([np.ravel(out_second[data]) for data, _ in feedback])
+
+    base = np.concatenate([x0[data].ravel() for data, _ in feedback])
+    shapes = [(data, x0[data].shape, x0[data].size) for data, _ in feedback]
+
+    def unstack(vector: np.ndarray) -> dict[str, np.ndarray]:
+        out, start = {}, 0
+        for data, shape, size in shapes:
+            out[data] = vector[start:start + size].reshape(shape)
+            start += size
+        return out
+
+    h0 = H(unstack(base))
+    steps = relative_step * np.maximum(np.abs(base), 1e-3 * max(float(np.abs(base).max()), 1e-12))
+    jacobian = np.empty((base.size, base.size))
+    for j in range(base.size):   # one column per black-box evaluation
+        x = base.copy()
+        x[j] += steps[j]
+        jacobian[:, j] = (H(unstack(x)) - h0) / steps[j]
+    return Spectrum(jacobian, np.linalg.eigvals(jacobian))
+
+
+def tube_eigenvalue(m: int, tangent_modulus: float, rho: float, r0: float, v0: float, dt: float,
+                    length: float) -> float:
+    """The continuum theory's Gauss-Seidel eigenvalue of error mode m for the linearised tube."""
+    kappa = math.sqrt(tangent_modulus / (2.0 * rho * r0)) / v0
+    tau = v0 * dt / length
+    return -(1.0 / ((m - 0.5) * math.pi * kappa * tau)) ** 2
+
+
+def tube_critical_stiffness(tangent_modulus: float, rho: float, r0: float, v0: float, dt: float,
+                            length: float) -> float:
+    """The factor on ``tangent_modulus`` below which the continuum theory predicts divergence (kappa tau = 2 / pi).
+
+    |lambda_1| scales as 1 / modulus, so the critical factor is |lambda_1| at the given modulus.
+    """
+    return abs(tube_eigenvalue(1, tangent_modulus, rho, r0, v0, dt, length))
+
+
+# --- the stability matrix: a sweep over stiffness and time step for several methods --------------
+
+METHODS = {
+    "none": '{type="none"}',
+    "aitken": '{type="aitken", data=["section"], initial_relaxation=0.01}',
+    "iqn-ils": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=8}',
+    "iqn-ils-reuse0": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=0}',
+    "iqn-imvj": '{type="iqn-imvj", data=["section"], initial_relaxation=0.01}',
+}
+MATRIX_KEYS = ["coupling.acceleration", "tube.stiffness_factor", "time.dt"]
+MATRIX_SETTINGS = ['coupling.convergence=[{data="section", type="relative", limit=1e-8}]',
+                   "coupling.max_iterations=200"]
+
+
+def matrix_runs(factors: list[float], dts: list[float], methods: list[str], windows: int, wall_law: str,
+                common: list[str] = ()) -> list:
+    """The sweep of the stability matrix: every (method, stiffness factor, dt), ``windows`` windows each."""
+    from coupler.sweep import SweepRun
+    runs = []
+    for method in methods:
+        for factor in factors:
+            for dt in dts:
+                runs.append(SweepRun((*MATRIX_SETTINGS, f'tube.wall_law="{wall_law}"', *common,
+                                      f"coupling.acceleration={METHODS[method]}", f"tube.stiffness_factor={factor!r}",
+                                      f"time.dt={dt!r}", f"time.end={windows * dt!r}")))
+    return runs
+
+
+def spectral_table(scene_path: str, factors: list[float], dts: list[float], wall_law: str,
+                   common: list[str] = ()) -> list[dict[str, float]]:
+    """Computed and theoretical Gauss-Seidel spectral radius at every (stiffness factor, dt)."""
+    from coupler.plugins import resolve_plugins
+    from cosim.scene import load_scene
+    rows = []
+    for factor in factors:
+        for dt in dts:
+            scene = load_scene(scene_path, [f'tube.wall_law="{wall_law}"', *common, f"tube.stiffness_factor={factor!r}",
+                                            f"time.dt={dt!r}", f"time.end={dt!r}"])
+            resolve_plugins(scene)
+            tube, solid = scene["tube"], scene.component_parameters("solid")
+            fluid = scene.component_parameters("fluid")
+            theory = abs(tube_eigenvalue(1, factor * solid.get("E_small", 12500.0), fluid.get("rho", 1.0),
+                                         math.sqrt(tube.get("a0", 1.0) / math.pi), fluid.get("v_ref", 6.0), dt,
+                                         tube.get("length", 10.0)))
+            rows.append({"stiffness_factor": factor, "dt": dt, "spectral_radius": gauss_seidel_spectrum(scene).radius,
+                         "theory": theory})
+    return rows
+
+
+def plot_matrix(table: list[dict[str, str]], spectra: list[dict[str, float]], methods: list[str],
+                factors: list[float], dts: list[float], png) -> None:
+    """Heat maps of mean iterations per method, failures marked, both stability boundaries drawn."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    columns = min(len(methods), 3)
+    rows = math.ceil(len(methods) / columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(4.6 * columns, 3.9 * rows), squeeze=False,
+                                constrained_layout=True)
+    norm = LogNorm(vmin=1, vmax=200)
+    letters = {"diverged": "D", "max-iterations": "M", "non-finite": "N", "component-error": "C", "error": "E"}
+    x_of, y_of = {dt: i for i, dt in enumerate(sorted(dts, reverse=True))}, {f: j for j, f in enumerate(sorted(factors))}
+    spectrum = {(s["stiffness_factor"], s["dt"]): s for s in spectra}
+    for axis, method in zip(axes.flat, methods):
+        grid = np.full((len(factors), len(dts)), np.nan)
+        for row in table:
+            if row["coupling.acceleration"] != METHODS[method]:
+                continue
+            factor, dt = float(row["tube.stiffness_factor"]), float(row["time.dt"])
+            i, j = y_of[factor], x_of[dt]
+            if row["failure"]:
+                axis.text(j, i, letters.get(row["failure"], "?"), ha="center", va="center", color="red",
+                          fontsize=13, fontweight="bold")
+            else:
+                grid[i, j] = float(row["mean_iterations"])
+                axis.text(j, i, f"{grid[i, j]:.1f}", ha="center", va="center", fontsize=8, color="white")
+        image = axis.imshow(grid, origin="lower", cmap="viridis", norm=norm, aspect="auto")
+        # the boundaries: rho = 1 between grid rows (rho scales as 1 / stiffness)
+        for key, style, label in (("spectral_radius", "w-", "computed rho = 1"), ("theory", "w--", "theory rho = 1")):
+            critical = [spectrum[(factors[0], dt)][key] * factors[0] for dt in sorted(dts, reverse=True)]
+            logs = np.log10(sorted(factors))
+            y = np.interp(np.log10(critical), logs, np.arange(len(factors)), left=-0.5, right=len(factors) - 0.5)
+            axis.plot(np.arange(len(dts)), y, style, lw=1.5, label=label)
+        axis.set_xticks(range(len(dts)), [f"{dt:g}" for dt in sorted(dts, reverse=True)])
+        axis.set_yticks(range(len(factors)), [f"{f:g}" for f in sorted(factors)])
+        axis.set_xlabel("time step dt [s]")
+        axis.set_ylabel("stiffness factor [-]")
+        axis.set_title(method)
+        axis.legend(loc="lower left", fontsize=7, facecolor="0.3", labelcolor="white")
+    for axis in list(axes.flat)[len(methods):]:
+        axis.set_visible(False)
+    figure.colorbar(image, ax=axes, label="mean coupling iterations per window [count]", shrink=0.8)
+    figure.suptitle("tube stability matrix (D diverged, M max iterations, N non-finite, C component error)")
+    figure.savefig(png, dpi=110)
+    plt.close(figure)

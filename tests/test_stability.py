@@ -1,0 +1,58 @@
+"""Stability of the tube's coupling: the Gauss-Seidel spectral radius from the components, against
+theory, and the stability matrix through `cosim stability`."""
+
+import csv
+import math
+
+import pytest
+
+from coupler.plugins import resolve_plugins
+from coupler.stability import gauss_seidel_spectrum, tube_critical_stiffness, tube_eigenvalue
+from cosim.cli import main
+from cosim.scene import load_scene
+
+from tests.conftest import TUBE_SCENE
+
+R0 = math.sqrt(1.0 / math.pi)
+
+
+def spectral_radius(*overrides):
+    scene = load_scene(TUBE_SCENE, ['tube.wall_law="linear"', *overrides])
+    resolve_plugins(scene)
+    return gauss_seidel_spectrum(scene).radius
+
+
+@pytest.mark.parametrize("dt, measured", [(0.1, 0.318), (0.01, 23.0), (0.001, 1955.0)])
+def test_spectral_radius_scales_as_one_over_stiffness_and_matches_the_measured_critical_stiffness(dt, measured):
+    """Plain Gauss-Seidel on the linear-wall tube diverged below stiffness factors 0.318, 23.0 and 1955 (measured)."""
+    rho = spectral_radius(f"time.dt={dt}", f"time.end={dt}")
+    assert rho == pytest.approx(measured, rel=2e-3)     # the critical factor is rho at factor 1
+    assert spectral_radius(f"time.dt={dt}", f"time.end={dt}", "tube.stiffness_factor=10") == pytest.approx(rho / 10, rel=1e-3)
+
+
+def test_spectral_radius_tends_to_the_continuum_theory_as_the_mesh_is_refined():
+    theory = abs(tube_eigenvalue(1, 12500.0, 1.0, R0, 6.0, 0.1, 10.0))
+    assert theory == pytest.approx(0.3659, rel=1e-3)
+    assert tube_critical_stiffness(12500.0, 1.0, R0, 6.0, 0.1, 10.0) == pytest.approx(theory)
+    errors = [abs(spectral_radius("time.dt=0.1", "time.end=0.1", f"tube.cells={cells}") / theory - 1.0)
+              for cells in (100, 400, 1600)]
+    assert errors[0] > errors[1] > errors[2] and errors[2] < 0.05
+
+
+def test_the_stability_matrix_gauss_seidel_converges_exactly_where_the_spectral_radius_is_below_one(tmp_path, capsys):
+    code = main(["stability", str(TUBE_SCENE), "--out", str(tmp_path), "--factors", "0.1,1,10", "--dts", "0.1",
+                 "--methods", "none,iqn-ils", "--windows", "5", "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    with open(tmp_path / "spectral.csv", newline="") as stream:
+        radius = {float(r["stiffness_factor"]): float(r["spectral_radius"]) for r in csv.DictReader(stream)}
+    with open(tmp_path / "sweep.csv", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    assert len(rows) == 6
+    for row in rows:
+        factor = float(row["tube.stiffness_factor"])
+        converged = row["failure"] == ""
+        if '"none"' in row["coupling.acceleration"]:
+            assert converged == (radius[factor] < 1.0), (factor, radius[factor], row["failure"])
+        else:
+            assert converged, row
+    assert (tmp_path / "stability.png").stat().st_size > 20_000
