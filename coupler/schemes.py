@@ -19,7 +19,7 @@ from coupler.convergence import ConvergenceMeasure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
-from cosim.errors import ConvergenceError, DivergenceError, SceneError
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, ConvergenceError, DivergenceError, SceneError
 from cosim.proxy import ComponentProxy
 from cosim.registry import Registry
 
@@ -226,6 +226,21 @@ class CouplingScheme:
         return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message)
 
     def advance(self, t: float, dt: float) -> WindowResult:
+        """One time window; a component that fails on inputs of a growing coupling residual is divergence."""
+        try:
+            return self._advance(t, dt)
+        except (ComponentDied, ComponentTimeout):
+            raise
+        except ComponentError as exc:
+            growth = self._residuals
+            if len(growth) >= 2 and all(b > a for a, b in zip(growth, growth[1:])) and growth[-1] > 2.0 * growth[0]:
+                error = DivergenceError(f"diverged: the coupling residual grew from {growth[0]:.3e} to {growth[-1]:.3e} "
+                                        f"in {len(growth)} iterations, then {exc}")
+                error.where = self.position()
+                raise error from exc
+            raise
+
+    def _advance(self, t: float, dt: float) -> WindowResult:
         raise NotImplementedError
 
 
@@ -235,7 +250,7 @@ class SerialExplicit(CouplingScheme):
 
     implicit = False
 
-    def advance(self, t: float, dt: float) -> WindowResult:
+    def _advance(self, t: float, dt: float) -> WindowResult:
         self._begin(t, dt)
         self.iteration = 1
         for proxy in (self.first, self.second):
@@ -253,7 +268,7 @@ class SerialImplicit(CouplingScheme):
     def default_accelerated(self) -> list[str]:
         return self.sent_by(self.second)
 
-    def advance(self, t: float, dt: float) -> WindowResult:
+    def _advance(self, t: float, dt: float) -> WindowResult:
         self._begin(t, dt)
         forward, feedback = self.sent_by(self.first), self.sent_by(self.second)
         accelerated = self.accelerated
@@ -287,7 +302,7 @@ class ParallelImplicit(CouplingScheme):
     def default_accelerated(self) -> list[str]:
         return [e.data for e in self.exchanges]
 
-    def advance(self, t: float, dt: float) -> WindowResult:
+    def _advance(self, t: float, dt: float) -> WindowResult:
         self._begin(t, dt)
         names = [e.data for e in self.exchanges]
         accelerated = self.accelerated

@@ -76,8 +76,9 @@ def test_a_finished_run_is_never_overwritten_without_overwrite(tmp_path, capsys)
 @pytest.mark.parametrize("overwrite", [False, True])
 def test_a_run_in_progress_is_never_touched(tmp_path, overwrite):
     out = tmp_path / "busy"
+    # long enough (6000 windows) to be still running whatever the load; it is terminated below
     first = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet",
-                              "--set", "time.end=60"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              "--set", "time.end=600"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                              text=True)
     try:
         wait_for(lambda: windows_done(out) >= 3, "the first run's third window")
