@@ -104,14 +104,21 @@ class IQNILS(Acceleration):
     (and at the number of unknowns) by deleting the oldest columns for good. Before each solve
     a column whose part orthogonal to the newer ones is at round-off is dropped, then the
     filter (QR1: |R_ii| < limit ||R||_F, QR1-absolute: |R_ii| < limit, QR2: |R_ii| < limit ||v_i||)
-    removes nearly dependent columns one at a time, never the only one.
+    removes nearly dependent columns one at a time, never the only one. Reused columns that go
+    stale (the map changed, as when the tube's wall switches branch) are dropped: when a window's
+    first update built on them is longer than ``stale_step_ratio`` residuals (it is then not
+    taken), or when an update makes the residual worse.
     """
 
     ROUNDOFF = 1e3 * np.finfo(float).eps
 
     SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50),
                 "reused_time_windows": Value(0, low=0), "filter": "qr2",
-                "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True)}
+                "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
+                # reused columns go stale (the map changed): they are dropped when a window's first update,
+                # built on them, is longer than this many residuals, or when an update makes the residual
+                # worse (0: never)
+                "stale_step_ratio": Value(2.0, low=0.0)}
 
     @staticmethod
     def check_settings(settings: dict, where: str, source: str) -> None:
@@ -120,7 +127,8 @@ class IQNILS(Acceleration):
                              f"allowed: {', '.join(FILTERS)}")
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
-                 filter: str = "qr2", filter_limit: float = 1e-3, block_sizes: list[int] | None = None) -> None:
+                 filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
+                 block_sizes: list[int] | None = None) -> None:
         super().__init__()
         if filter not in FILTERS:
             raise ValueError(f"filter {filter!r} not in {FILTERS}")
@@ -137,6 +145,9 @@ class IQNILS(Acceleration):
         self._weights: np.ndarray | None = None
         self.columns_used = 0
         self.columns_filtered = 0
+        self.stale_step_ratio = stale_step_ratio
+        self.stale_windows = 0
+        self._last_norm = 0.0
 
     def start_window(self) -> None:
         super().start_window()
@@ -150,6 +161,10 @@ class IQNILS(Acceleration):
         r = x_tilde - x
         if self._weights is None:
             self._weights = self._block_weights(x_tilde)
+        norm = float(np.linalg.norm(r))
+        if self.iteration > 1 and self.stale_step_ratio > 0 and norm > self._last_norm:
+            self._forget_old_windows()   # an update built on reused columns made the residual worse
+        self._last_norm = norm
         if self._r_previous is not None:
             V, W = self._windows[0]
             V.insert(0, r - self._r_previous)
@@ -214,11 +229,33 @@ class IQNILS(Acceleration):
             c = solve_triangular(R, rhs, check_finite=False)
             self.columns_used = len(V)
             proposal = self.x_tilde + np.stack(W, axis=1) @ c
+            if self._stale(proposal, r):
+                self._forget_old_windows()
+                proposal = None
         if self._drop_previous:
             while len(self._windows) > 1:
                 self._windows.pop()
             self._drop_previous = False
         return proposal
+
+    def _forget_old_windows(self) -> None:
+        """The columns of earlier windows describe another regime (the wall switched branch, say): drop them."""
+        if len(self._windows) > 1 and any(V for V, _ in list(self._windows)[1:]):
+            self.stale_windows += 1
+        while len(self._windows) > 1:
+            self._windows.pop()
+
+    def _stale(self, proposal: np.ndarray, r: np.ndarray) -> bool:
+        """The first update of a window, built on reused columns, that jumps far beyond the residual.
+
+        Columns of earlier windows that no longer describe the map (the wall switched branch of its
+        law, say) show as a step many times the residual; the step is then not taken.
+        """
+        if self.stale_step_ratio <= 0 or self.iteration != 1 or len(self._windows) < 2:
+            return False
+        if not any(V for V, _ in list(self._windows)[1:]):
+            return False
+        return float(np.linalg.norm(proposal - self.x_tilde)) > self.stale_step_ratio * float(np.linalg.norm(r))
 
     def _filtered_column(self, R: np.ndarray, Vm: np.ndarray) -> int | None:
         """Index of the first column to remove: at round-off, or (with others left) caught by the filter."""
@@ -266,7 +303,7 @@ class IQNIMVJ(IQNILS):
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, filter: str = "qr2",
                  filter_limit: float = 1e-3, block_sizes: list[int] | None = None) -> None:
-        super().__init__(initial_relaxation, max_used_iterations, 1, filter, filter_limit, None)
+        super().__init__(initial_relaxation, max_used_iterations, 1, filter, filter_limit, 0.0, None)
         self.jacobian: np.ndarray | None = None
 
     def _columns(self) -> tuple[list[np.ndarray], list[np.ndarray], list[tuple[int, int]]]:

@@ -284,3 +284,31 @@ def test_a_scheme_with_the_acceleration_predictor_starts_from_the_next_update():
     scheme._predict_next_window(converged=True)
     np.testing.assert_allclose(scheme._predicted()["f"], [2.0, 3.0])   # x + 0.5 (x_tilde - x)
     np.testing.assert_allclose(scheme._predicted()["f"], [1.0, 1.0])   # used once; then the last values
+
+
+def test_iqn_ils_drops_reused_columns_when_the_map_changes():
+    """x = A x + b: after five windows A jumps (a wall switching branch); the old columns are dropped, not trusted."""
+    rng = np.random.default_rng(3)
+    n = 12
+    Q = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    stiff, soft = Q @ np.diag(np.linspace(-0.5, -2.0, n)) @ Q.T, Q @ np.diag(np.linspace(-5.0, -40.0, n)) @ Q.T
+    results = {}
+    for ratio in (2.0, 0.0):
+        iqn = IQNILS(0.01, reused_time_windows=8, stale_step_ratio=ratio)
+        x, worst = np.zeros(n), []
+        for window in range(10):
+            A = stiff if window < 5 else soft
+            b = rng.standard_normal(n) * (1.0 + window)
+            iqn.start_window()
+            for k in range(1, 200):
+                x_tilde = A @ x + b
+                iqn.observe(x, x_tilde)
+                if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
+                    break
+                x = iqn.next_iterate()
+            iqn.end_window()
+            worst.append(k)
+        results[ratio] = (iqn.stale_windows, worst)
+    stale, iterations = results[2.0]
+    assert stale >= 1 and max(iterations) < 199
+    assert results[0.0][0] == 0      # with the check off nothing is dropped
