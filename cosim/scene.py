@@ -35,6 +35,8 @@ COMPONENT = {
         "model": "",
         "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
         "arithmetic": "reproducible",  # bit-identical to the exported FMU; "fast": BLAS products
+        "on_out_of_range": "warn",     # a call outside the training range: "warn", "fail", or "fallback"
+        "range_margin": Value(0.05, low=0.0),   # (the full-order solid, kept running, takes such calls)
     },
     "fmu": {                # any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)
         "entry": "solid_component.fmu:FmuSolid",

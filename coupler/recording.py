@@ -1,4 +1,9 @@
-"""Recording of every call of a marked component: the ROM's training set."""
+"""Recording of every call of a marked component: the ROM's training set.
+
+Every call gives a row for every variable any of the component's backends declares: a
+variable the serving backend does not return (a local only the ROM reports, say) is
+recorded as NaN, so that all datasets of a component keep one row per call.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +15,9 @@ import numpy as np
 class CallRecorder:
     """Buffers one window of calls (inputs, outputs, window, iteration, converged)."""
 
-    def __init__(self) -> None:
+    def __init__(self, shapes: Mapping[str, Mapping[str, tuple[int, ...]]] | None = None) -> None:
+        """``shapes``: {"inputs": {name: shape}, "outputs": {name: shape}} of every variable to record."""
+        self.shapes = {kind: dict((shapes or {}).get(kind, {})) for kind in ("inputs", "outputs")}
         self.clear()
 
     def clear(self) -> None:
@@ -21,6 +28,9 @@ class CallRecorder:
         for kind, arrays in (("inputs", inputs), ("outputs", outputs)):
             for name, value in arrays.items():
                 self.calls[kind].setdefault(name, []).append(np.array(value, dtype=np.float64))
+            for name, shape in self.shapes[kind].items():
+                if name not in arrays:
+                    self.calls[kind].setdefault(name, []).append(np.full(shape, np.nan))
         self.calls["window"].append(window)
         self.calls["iteration"].append(iteration)
         self.calls["converged"].append(False)

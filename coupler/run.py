@@ -71,7 +71,8 @@ def plan_backends(scene: Scene) -> list[Backend]:
             continue
         table = spec[spec["backend"]]
         switch = table["switch_time"]
-        if switch > start + 1e-9 * max(1.0, abs(start)):
+        fallback = table.get("on_out_of_range") == "fallback"
+        if switch > start + 1e-9 * max(1.0, abs(start)) or fallback:
             backends.append(fom)
         parameters = {k: v for k, v in table.items() if k not in ("entry", "switch_time")}
         if spec["backend"] == "fmu":
@@ -98,6 +99,16 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) ->
             backend.proxy.pid = int(backend.proxy.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
 
 
+def recorded_shapes(backends: list[Backend]) -> dict[str, dict[str, tuple[int, ...]]]:
+    """Shapes of every input and output (locals included) any backend of one participant declares."""
+    shapes: dict[str, dict[str, tuple[int, ...]]] = {"inputs": {}, "outputs": {}}
+    for backend in backends:
+        for variable in backend.proxy.variables.values():
+            if variable.causality in ("input", "output", "local"):
+                shapes["inputs" if variable.causality == "input" else "outputs"].setdefault(variable.name, variable.shape)
+    return shapes
+
+
 def component_environment(spec: dict) -> dict[str, str]:
     """Environment of a component's process: its thread count (default one) and any extra variables."""
     threads = str(spec["threads"])
@@ -111,8 +122,15 @@ def participants_of(backends: list[Backend]) -> dict[str, ComponentProxy | Backe
     grouped: dict[str, list[Backend]] = {}
     for backend in backends:
         grouped.setdefault(backend.participant, []).append(backend)
-    return {name: group[0].proxy if len(group) == 1 else
-            BackendSchedule(name, [(b.start_time, b.proxy) for b in group]) for name, group in grouped.items()}
+    participants = {}
+    for name, group in grouped.items():
+        if len(group) == 1:
+            participants[name] = group[0].proxy
+            continue
+        fallback = next((b.proxy for b in group if b.kind == "fom"), None) \
+            if any(b.parameters.get("on_out_of_range") == "fallback" for b in group) else None
+        participants[name] = BackendSchedule(name, [(b.start_time, b.proxy) for b in group], fallback)
+    return participants
 
 
 def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedule],
@@ -188,6 +206,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     directory.status("starting", force=True, windows_total=n_windows, windows_completed=0)
     backends = plan_backends(scene)
     scheme = None
+    participants = None
     phase = "start-up"   # where an error that is not inside a window happened
     try:
         with Launcher(out_dir / "logs") as launcher:
@@ -202,8 +221,10 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                                             b.proxy.meshes)
                     b.proxy.enter_initialization_mode(start, start + n_windows * dt)
                     b.proxy.exit_initialization_mode()
-                recorders = {n: CallRecorder() for n, s in scene["components"].items() if s["record"]}
-                scheme = build_scheme(scene, participants_of(backends), recorders)
+                recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
+                             for n, s in scene["components"].items() if s["record"]}
+                participants = participants_of(backends)
+                scheme = build_scheme(scene, participants, recorders)
                 store.write_initial(scheme.values)
                 bar = _progress(n_windows, progress)
                 phase = ""
@@ -255,8 +276,10 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 _shutdown([b.proxy for b in backends if b.proxy is not None])
     finally:
         wall = time.perf_counter() - wall_start
+        fallback = sum(len(p.fallback_windows) for p in (participants or {}).values()
+                       if isinstance(p, BackendSchedule))
         store.set_attributes(wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged,
-                             component_warnings=warned)
+                             component_warnings=warned, rom_fallback_windows=fallback)
         store.close()
         if state == "finished":
             directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,

@@ -1,5 +1,10 @@
 """A participant served by different backends over time: the full-order solver until a
-switch time, then its ROM. Only stateless (quasi-static) backends can be switched."""
+switch time, then its ROM. Only stateless (quasi-static) backends can be switched.
+
+With a ``fallback`` (the full-order backend, kept running), a call the ROM flags as out of its
+training range (local ``rom_out_of_range``) is computed again by the full-order backend,
+whose outputs are used, and the full-order backend serves the rest of that window; the
+windows where that happened are counted."""
 
 from __future__ import annotations
 
@@ -14,8 +19,12 @@ from cosim.proxy import ComponentProxy
 class BackendSchedule:
     """Looks like one component proxy to the coupling scheme; picks the backend by window time."""
 
-    def __init__(self, name: str, stages: Sequence[tuple[float, ComponentProxy]]):
+    def __init__(self, name: str, stages: Sequence[tuple[float, ComponentProxy]],
+                 fallback: ComponentProxy | None = None):
         self.name = name
+        self.fallback = fallback
+        self.fallback_windows: set[float] = set()
+        self._sent_inputs: tuple[float, float, Mapping[str, np.ndarray]] | None = None
         self.stages = sorted(stages, key=lambda stage: stage[0])
         first = self.stages[0][1]
         for _, proxy in self.stages[1:]:
@@ -60,11 +69,19 @@ class BackendSchedule:
         return self.stages[0][1].get_values(names)
 
     def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> None:
-        self._sent = self.active(t)
+        # once a window has fallen back, the full-order backend serves the rest of it (one map per window)
+        self._sent = self.fallback if self.fallback is not None and t in self.fallback_windows else self.active(t)
+        self._sent_inputs = (t, dt, inputs)
         self._sent.send_step(t, dt, inputs, restore)
 
     def receive_step(self) -> dict[str, np.ndarray]:
-        return self._sent.receive_step()
+        outputs = self._sent.receive_step()
+        flag = outputs.get("rom_out_of_range")
+        if self.fallback is not None and self._sent is not self.fallback and flag is not None and flag[0] > 0:
+            t, dt, inputs = self._sent_inputs
+            self.fallback_windows.add(t)
+            outputs = {**outputs, **self.fallback.step(t, dt, inputs)}   # the ROM's trust stays on record
+        return outputs
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> dict[str, np.ndarray]:
         self.send_step(t, dt, inputs, restore)

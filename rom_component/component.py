@@ -14,10 +14,13 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
 from cosim.errors import ComponentError
-from cosim.schema import Required, validate
+from cosim.schema import Required, Value, validate
 from rom_component.persistence import ModelFileError, load
 
-ROM_SCHEMA = {"model": Required(str), "arithmetic": "reproducible"}
+ROM_SCHEMA = {"model": Required(str), "arithmetic": "reproducible",
+              "on_out_of_range": "warn",     # "warn", "fail", or "fallback" (the full-order solid takes the call)
+              "range_margin": Value(0.05, low=0.0)}   # beyond a mode's training range by this fraction of it
+TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
 
 
 class RomSolid(Component):
@@ -33,6 +36,11 @@ class RomSolid(Component):
             self.rom = load(prm["model"], prm["arithmetic"])
         except ModelFileError as exc:
             raise ComponentError(self.name, str(exc)) from None
+        if prm["on_out_of_range"] not in ("warn", "fail", "fallback"):
+            raise ComponentError(self.name, f"'on_out_of_range' is {prm['on_out_of_range']!r}; "
+                                            "allowed: warn, fail, fallback")
+        self.on_out_of_range, self.range_margin = prm["on_out_of_range"], prm["range_margin"]
+        self.trust_values = np.array([0.0, 0.0, 0.0])   # excess, distance, out of range (0 or 1)
         meta = self.rom.metadata
         self.input_name = meta.get("input_variable", "pressure")
         self.output_name = meta.get("output_variable", "section")
@@ -54,7 +62,8 @@ class RomSolid(Component):
     def variables(self) -> list[Variable]:
         (in_mesh, in_k), (out_mesh, out_k) = self.placement[self.input_name], self.placement[self.output_name]
         return [Variable(self.input_name, "input", self.rom.n_inputs, mesh=in_mesh, components=in_k),
-                Variable(self.output_name, "output", self.rom.n_outputs, mesh=out_mesh, components=out_k)]
+                Variable(self.output_name, "output", self.rom.n_outputs, mesh=out_mesh, components=out_k),
+                *[Variable(name, "local", 1) for name in TRUST_LOCALS]]
 
     def meshes(self) -> dict[str, np.ndarray]:
         return self.mesh_nodes
@@ -66,7 +75,8 @@ class RomSolid(Component):
 
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         known = {self.output_name: self.displacement.reshape(self.output_shape),
-                 self.input_name: self.force.reshape(self.input_shape)}
+                 self.input_name: self.force.reshape(self.input_shape),
+                 **{name: self.trust_values[i:i + 1] for i, name in enumerate(TRUST_LOCALS)}}
         return {name: np.array(known[name]) for name in names}
 
     def do_step(self, t: float, dt: float) -> None:
@@ -75,12 +85,28 @@ class RomSolid(Component):
         self._window_time = t
         self.displacement = self.rom(self.force)
         self._last_reduced = self.rom.reduced
+        self._check_range(t)
         self._dt = dt
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         self.set_values(inputs)
         self.do_step(t, dt)
-        return {self.output_name: self.displacement.reshape(self.output_shape)}
+        return {self.output_name: self.displacement.reshape(self.output_shape),
+                **{name: self.trust_values[i:i + 1].copy() for i, name in enumerate(TRUST_LOCALS)}}
+
+    def _check_range(self, t: float) -> None:
+        """Trust of this call; out of range: a warning, an error, or (fallback) a flag the coupler acts on."""
+        excess, distance = self.rom.trust()
+        out = bool(excess > self.range_margin)
+        self.trust_values[:] = excess, distance, float(out)
+        if not out:
+            return
+        message = (f"input outside the training range (a reduced force mode beyond the training data by more than "
+                   f"{self.range_margin:g} of its range)")
+        if self.on_out_of_range == "fail":
+            raise ComponentError(self.name, message)
+        if self.on_out_of_range == "warn":
+            self.warn(message)
 
     def _keep_converged(self) -> None:
         self._times.append(self._window_time + self._dt)

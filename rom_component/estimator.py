@@ -15,6 +15,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from rom_component.envelope import fit_envelope
 from rom_component.manifold import fit_quadratic_manifold, quadratic_terms
 from rom_component.online import OnlineRom
 from rom_component.pod import centred_pod
@@ -83,7 +84,9 @@ class SolidRom(RegressorMixin, BaseEstimator):
             self.u_mean_ = self.u_mean_ + offset  # the decoder's reference point
         Zf = (F - self.f_mean_) @ self.Phi_f_
         self.scaling_ = Scaling(self.input_scaling).fit(Zf)
-        self.regression_ = make_regression(self.regressor, self.rbf_smoothing).fit(self.scaling_(Zf), Zu)
+        X = self.scaling_(Zf)
+        self.regression_ = make_regression(self.regressor, self.rbf_smoothing).fit(X, Zu)
+        self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
 
     def encode(self, F: np.ndarray) -> np.ndarray:
@@ -123,6 +126,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
             arrays["B"] = np.ascontiguousarray(self.Phi_bar_[K])
             arrays["Phi_bar"] = self.Phi_bar_
         arrays.update(self.regression_.online_arrays())
+        arrays.update(self.envelope_)
         return arrays
 
     def to_online(self, interface_index: np.ndarray | None = None) -> OnlineRom:

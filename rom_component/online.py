@@ -13,14 +13,20 @@ rebuilt only on request (``full_field``).
 
 from __future__ import annotations
 
+import math
+
 from typing import Any, Mapping
 
 import numpy as np
 
+from rom_component.envelope import trust
 from rom_component.portable_log import thin_plate_terms
 
 TINY = 1e-300
 REQUIRED = {"E", "e", "H", "A", "base", "u_mean", "Phi_u"}
+
+
+ENVELOPE_KEYS = {"envelope_low", "envelope_high", "envelope_mean", "envelope_precision", "envelope_max_distance"}
 
 
 class OnlineRom:
@@ -48,6 +54,7 @@ class OnlineRom:
         self.E, self.e, self.H, self.A, self.base = a["E"], a["e"], a["H"], a["A"], a["base"]
         self.regressor = self.metadata["regressor"]
         self.quadratic_decoder = "B" in a
+        self.envelope = {k: a[k] for k in ENVELOPE_KEYS} if ENVELOPE_KEYS <= set(a) else None
         self.n_inputs, self.n_outputs = self.E.shape[1], self.A.shape[0]
         r_f, r_u = self.E.shape[0], self.A.shape[1]
         reproducible = arithmetic == "reproducible"
@@ -135,6 +142,12 @@ class OnlineRom:
             q = reduced[self.ui] * reduced[self.uj]
             u += np.multiply(self._B_t, q[:, None], out=self._B_products).sum(axis=0)
         return u
+
+    def trust(self) -> tuple[float, float]:
+        """(excess, distance) of the last call's reduced force against the training envelope (NaN if none)."""
+        if self.envelope is None:
+            return math.nan, math.nan
+        return trust(np.array(self._x_slot), self.envelope)
 
     def predict(self, F: np.ndarray) -> np.ndarray:
         """Interface displacements for force rows ``F`` (m, N): one call per row."""

@@ -185,3 +185,50 @@ def persistence_save(path, estimator):
     from rom_component import persistence
     return persistence.save(path, estimator.online_arrays(), {"regressor": "rbf", "input_variable": "pressure",
                                                               "output_variable": "section"})
+
+
+def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, tmp_path, capsys):
+    """Inlet amplitude x4 against a ROM trained on the paper's amplitude: warnings, or the FOM takes those windows."""
+    x4 = ["inlet.g=0.0666666667", "time.end=10"]
+    run_scene(load_scene(TUBE_SCENE, x4), tmp_path / "fom_x4", progress=False)
+    capsys.readouterr()
+    from cosim.cli import main
+    rom = ["--set", "components.solid.backend=rom", "--set", f"components.solid.rom.model={model}",
+           "--set", "components.solid.rom.switch_time=0.1"]
+    runs = {}
+    for mode in ("warn", "fallback"):
+        code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / mode), "--quiet", *sum((["--set", s] for s in x4), []),
+                     *rom, "--set", f"components.solid.rom.on_out_of_range={mode}"])
+        assert code == 0
+        runs[mode] = capsys.readouterr().err
+    assert "input outside the training range" in runs["warn"] and "outside" not in runs["fallback"]
+    with RunResults(tmp_path / "fom_x4") as reference, RunResults(tmp_path / "warn") as warned, \
+            RunResults(tmp_path / "fallback") as fell_back:
+        after = reference.windows.time > 0.1
+        expected = reference.fields()["pressure"][after, 0]
+
+        def error(run):
+            return np.linalg.norm(run.fields()["pressure"][after, 0] - expected) / np.linalg.norm(expected)
+
+        assert error(warned) > 0.02 and warned.attributes["component_warnings"] > 0
+        assert error(fell_back) < 0.01
+        assert 0 < fell_back.attributes["rom_fallback_windows"] < len(fell_back.windows)
+        assert warned.attributes["rom_fallback_windows"] == 0
+        calls = fell_back.calls("solid")          # the ROM's trust is on record with every call it served
+        excess = calls.outputs["rom_excess"][:, 0]
+        assert len(excess) == len(calls.window) and np.nanmax(excess) > 0.05 and np.isnan(excess).any()
+
+
+def test_the_trust_value_inside_and_outside_a_known_envelope():
+    from rom_component.envelope import fit_envelope, trust
+    grid = np.stack(np.meshgrid(np.linspace(0, 1, 11), np.linspace(-2, 2, 11)), -1).reshape(-1, 2)
+    envelope = fit_envelope(grid)
+    np.testing.assert_allclose(envelope["envelope_low"], [0, -2]) and np.testing.assert_allclose(envelope["envelope_high"], [1, 2])
+    excess, distance = trust(np.array([0.5, 0.0]), envelope)
+    assert excess == 0.0 and distance == pytest.approx(0.0, abs=1e-12)
+    excess, distance = trust(np.array([1.25, 0.0]), envelope)    # a quarter of the first mode's range beyond it
+    assert excess == pytest.approx(0.25) and distance > 1.0
+    excess, _ = trust(np.array([0.5, -3.0]), envelope)           # a quarter of the second mode's range (4) below it
+    assert excess == pytest.approx(0.25)
+    corner = trust(np.array([1.0, 2.0]), envelope)[1]
+    assert corner == pytest.approx(1.0)                           # the farthest training point defines distance 1
