@@ -2,7 +2,7 @@
 
 Layout (see DESIGN.md; ``Layout`` below is its only spelling): root attributes ``scene``,
 ``scene_resolved`` and ``versions``; ``/windows/{time,iterations,converged,wall_seconds}``;
-``/fields/<data>``; ``/initial/<data>``; ``/components/<name>`` with ``compute_seconds`` and
+``/fields/<data>``; ``/initial/<data>``; ``/residuals/{window,norm}`` (one row per coupling iteration); ``/components/<name>`` with ``compute_seconds`` and
 ``roundtrip_seconds`` per call, ``final/`` arrays, ``meshes/<mesh>`` node coordinates and a
 ``variables`` attribute (JSON: name, causality, size, mesh, components of each variable); ``/snapshots/<name>/{inputs,outputs}/<var>``
 with ``window``, ``iteration`` and ``converged`` per call. The writer appends and flushes every
@@ -19,7 +19,7 @@ import threading
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any, Iterator, Mapping, Sequence
 
 import h5py
 import numpy as np
@@ -66,6 +66,10 @@ class Layout:
     def calls(name: str) -> str:
         return f"snapshots/{name}"
 
+    @staticmethod
+    def residual(column: str) -> str:
+        return f"residuals/{column}"
+
 
 def versions() -> dict[str, str]:
     import msgpack
@@ -93,6 +97,7 @@ class ResultsStore:
         self.file.attrs["host"] = socket.gethostname()
         self.file.attrs["windows_completed"] = 0
         self._columns: dict[str, _GrowingDataset] = {}
+        self._windows_written = 0
         for name, dtype in WINDOW_COLUMNS.items():  # present (empty) even if no window finishes
             self._append(Layout.window(name), np.zeros(0, dtype=dtype))
         self.file.flush()
@@ -115,20 +120,24 @@ class ResultsStore:
     def append_window(self, time: float, iterations: int, converged: bool, wall_seconds: float,
                       fields: Mapping[str, np.ndarray],
                       timings: Mapping[str, tuple[list[float], list[float]]],
-                      snapshots: Mapping[str, Mapping[str, Any]]) -> None:
-        """One window: its summary, converged fields, per-call timings and recorded calls.
+                      snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float] = ()) -> None:
+        """One window: its summary, converged fields, per-call timings, recorded calls and residual norms.
 
         Ctrl-C and SIGTERM are held back until the window is written, so every dataset
         holds the same windows whenever the run stops.
         """
         with _signals_deferred():
-            self._append_window(time, iterations, converged, wall_seconds, fields, timings, snapshots)
+            self._append_window(time, iterations, converged, wall_seconds, fields, timings, snapshots, residuals)
 
     def _append_window(self, time: float, iterations: int, converged: bool, wall_seconds: float,
                        fields: Mapping[str, np.ndarray],
                        timings: Mapping[str, tuple[list[float], list[float]]],
-                       snapshots: Mapping[str, Mapping[str, Any]]) -> None:
+                       snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float] = ()) -> None:
+        self._windows_written += 1
         self._append(Layout.window("time"), np.array([time]))
+        if len(residuals):
+            self._append(Layout.residual("window"), np.full(len(residuals), self._windows_written, dtype=np.int32))
+            self._append(Layout.residual("norm"), np.asarray(residuals, dtype=np.float64))
         self._append(Layout.window("iterations"), np.array([iterations], dtype=np.int32))
         self._append(Layout.window("converged"), np.array([converged]))
         self._append(Layout.window("wall_seconds"), np.array([wall_seconds]))
@@ -287,6 +296,12 @@ class RunResults:
     def recorded(self) -> list[str]:
         """Components whose calls were recorded."""
         return list(self.file.get(Layout.snapshots, {}))
+
+    def residuals(self) -> tuple[np.ndarray, np.ndarray]:
+        """(window, norm) per coupling iteration: ||H(x) - x|| of the accelerated data (empty if none)."""
+        if Layout.residual("norm") not in self.file:
+            return np.zeros(0, dtype=np.int32), np.zeros(0)
+        return self.file[Layout.residual("window")][:], self.file[Layout.residual("norm")][:]
 
     def calls(self, name: str, converged_only: bool = False) -> Calls:
         """Recorded calls of ``name`` (only each window's converged one if ``converged_only``)."""

@@ -70,7 +70,8 @@ def _numbers(text: str, option: str) -> list[float]:
 
 def _stability_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scene", help="the tube scene (TOML)")
-    parser.add_argument("--out", required=True, help="directory: sweep.csv, spectral.csv, stability.png, runs/")
+    parser.add_argument("--out", required=True,
+                        help="directory: sweep.csv, spectral.csv, stability.png, contraction.png, runs/")
     parser.add_argument("--factors", default="0.1,0.3,1,10,100", help="stiffness factors (default 0.1,0.3,1,10,100)")
     parser.add_argument("--dts", default="0.1,0.01,0.001", help="time steps (default 0.1,0.01,0.001)")
     parser.add_argument("--methods", default="none,aitken,iqn-ils,iqn-ils-reuse0,iqn-imvj",
@@ -87,7 +88,7 @@ def _stability(args: argparse.Namespace) -> int:
     import csv
     from pathlib import Path
 
-    from coupler.stability import MATRIX_KEYS, METHODS, matrix_runs, plot_matrix, spectral_table
+    from coupler.stability import MATRIX_KEYS, METHODS, matrix_runs, plot_contraction, plot_matrix, spectral_table
     from coupler.sweep import run_sweep
     from cosim.errors import SceneError
 
@@ -111,7 +112,8 @@ def _stability(args: argparse.Namespace) -> int:
     with open(table, newline="") as stream:
         rows = list(csv.DictReader(stream))
     plot_matrix(rows, spectra, methods, factors, dts, out / "stability.png")
-    print(f"{len(rows)} runs; {table}, {out / 'spectral.csv'}, {out / 'stability.png'}")
+    plot_contraction(rows, spectra, out / "contraction.png")
+    print(f"{len(rows)} runs; {table}, {out / 'spectral.csv'}, {out / 'stability.png'}, {out / 'contraction.png'}")
     return 0
 
 

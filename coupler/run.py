@@ -236,7 +236,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         store.append_window(
                             result.time, result.iterations, result.converged, time.perf_counter() - window_start,
                             scheme.values, {b.name: _take_timings(b.proxy) for b in backends},
-                            {n: r.take() for n, r in recorders.items()})
+                            {n: r.take() for n, r in recorders.items()}, result.residuals)
                         windows += 1
                         iterations += result.iterations
                         for b in backends:

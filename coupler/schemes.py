@@ -43,6 +43,7 @@ class WindowResult:
     converged: bool
     measures: dict[str, float] = field(default_factory=dict)
     message: str = ""   # why an accepted window did not converge
+    residuals: list[float] = field(default_factory=list)   # ||H(x) - x|| of the accelerated data, per iteration
 
 
 class CouplingScheme:
@@ -220,10 +221,12 @@ class CouplingScheme:
                 message = f"{where} did not converge in {iterations} iterations: {measures}"
             if error is not None:
                 error.where = where
+                error.residuals = list(self._residuals)
                 raise error
         if self.accelerated:
             self._extrapolation.store(self._stack(self.values, self.accelerated))
-        return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message)
+        return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message,
+                            list(self._residuals))
 
     def advance(self, t: float, dt: float) -> WindowResult:
         """One time window; a component that fails on inputs of a growing coupling residual is divergence."""
@@ -237,6 +240,7 @@ class CouplingScheme:
                 error = DivergenceError(f"diverged: the coupling residual grew from {growth[0]:.3e} to {growth[-1]:.3e} "
                                         f"in {len(growth)} iterations, then {exc}")
                 error.where = self.position()
+                error.residuals = list(growth)
                 raise error from exc
             raise
 

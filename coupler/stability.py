@@ -211,3 +211,36 @@ def plot_matrix(table: list[dict[str, str]], spectra: list[dict[str, float]], me
     figure.suptitle("tube stability matrix (D diverged, M max iterations, N non-finite, C component error)")
     figure.savefig(png, dpi=110)
     plt.close(figure)
+
+
+def plot_contraction(table: list[dict[str, str]], spectra: list[dict[str, float]], png) -> None:
+    """Plain Gauss-Seidel: measured contraction per iteration against the computed spectral radius."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    spectrum = {(s["stiffness_factor"], s["dt"]): s for s in spectra}
+    points = []
+    for row in table:
+        if row["coupling.acceleration"] != METHODS["none"] or row["contraction"] in ("", "nan"):
+            continue
+        s = spectrum[(float(row["tube.stiffness_factor"]), float(row["time.dt"]))]
+        points.append((s["spectral_radius"], s["theory"], float(row["contraction"]), row["failure"]))
+    figure, axis = plt.subplots(figsize=(6, 5), constrained_layout=True)
+    if points:
+        rho, theory, measured, failure = zip(*points)
+        span = [min(*rho, *measured) / 2, max(*rho, *measured) * 2]
+        axis.plot(span, span, "k--", lw=0.8, label="measured = computed")
+        for converged, marker, label in ((True, "o", "converged"), (False, "x", "diverged")):
+            chosen = [i for i, f in enumerate(failure) if (f == "") == converged]
+            axis.scatter([rho[i] for i in chosen], [measured[i] for i in chosen], marker=marker, label=label)
+        axis.scatter(theory, measured, marker=".", color="0.6", label="against the continuum theory")
+        axis.axvline(1.0, color="r", lw=0.6)
+    axis.set_xscale("log")
+    axis.set_yscale("log")
+    axis.set_xlabel("spectral radius of plain Gauss-Seidel, computed [-]")
+    axis.set_ylabel("measured residual contraction per iteration [-]")
+    axis.legend(fontsize=8)
+    axis.grid(alpha=0.3, which="both")
+    figure.savefig(png, dpi=110)
+    plt.close(figure)

@@ -26,10 +26,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+import numpy as np
+
 from cosim.errors import SceneError
 
-COLUMNS = ["name", "windows_converged", "windows_total", "mean_iterations", "max_iterations", "failure",
-           "failure_message", "wall_seconds"]
+COLUMNS = ["name", "windows_converged", "windows_total", "mean_iterations", "max_iterations", "contraction",
+           "failure", "failure_message", "wall_seconds"]
 TABLE = "sweep.csv"
 
 
@@ -123,20 +125,21 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
     from cosim.scene import load_scene
 
     started = time.perf_counter()
-    failure, message = "", ""
+    failure, message, failed_residuals = "", "", []
     try:
         run_scene(load_scene(scene_path, overrides), out_dir, progress=False, overwrite=True)
     except NonFiniteOutput as exc:
         failure, message = "non-finite", str(exc)
     except DivergenceError as exc:
-        failure, message = "diverged", str(exc)
+        failure, message, failed_residuals = "diverged", str(exc), getattr(exc, "residuals", [])
     except ConvergenceError as exc:
-        failure, message = "max-iterations", str(exc)
+        failure, message, failed_residuals = "max-iterations", str(exc), getattr(exc, "residuals", [])
     except ComponentError as exc:
         failure, message = "component-error", str(exc)
     except CosimError as exc:
         failure, message = "error", str(exc)
-    row = {"windows_converged": 0, "windows_total": 0, "mean_iterations": float("nan"), "max_iterations": 0}
+    row = {"windows_converged": 0, "windows_total": 0, "mean_iterations": float("nan"), "max_iterations": 0,
+           "contraction": contraction([failed_residuals])}
     results = Path(out_dir) / "results.h5"
     if results.is_file():
         with RunResults(results) as run:
@@ -146,9 +149,20 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
             row.update(windows_converged=int(windows.converged.sum()), windows_total=total,
                        mean_iterations=float(iterations.mean()) if len(iterations) else float("nan"),
                        max_iterations=int(iterations.max()) if len(iterations) else 0)
+            window, norm = run.residuals()
+            per_window = [norm[window == w] for w in np.unique(window)]
+            per_window.append(np.asarray(failed_residuals))
+            row["contraction"] = contraction(per_window)
     row.update(failure=failure, failure_message=message.replace("\n", " "),
                wall_seconds=time.perf_counter() - started)
     return row
+
+
+def contraction(per_window: list) -> float:
+    """Measured contraction per iteration: the median over windows (two iterations or more) of
+    (r_last / r_first)^(1 / (k - 1)), r the coupling residual norms of a window's k iterations."""
+    rates = [(r[-1] / r[0]) ** (1.0 / (len(r) - 1)) for r in map(np.asarray, per_window) if len(r) >= 2 and r[0] > 0]
+    return float(np.median(rates)) if rates else float("nan")
 
 
 class SweepTable:

@@ -39,7 +39,8 @@ def tube_scene_path() -> Path:
 
 
 def children_of(pid: int) -> list[int]:
-    """Pids of processes whose parent is ``pid`` (Linux /proc)."""
+    """Pids of processes whose parent is ``pid`` (Linux /proc), leaving out Python's own multiprocessing
+    resource tracker (started by Dask's local cluster in the sweep tests; it exits with its parent)."""
     found = []
     for entry in os.listdir("/proc"):
         if entry.isdigit():
@@ -48,7 +49,7 @@ def children_of(pid: int) -> list[int]:
                     fields = f.read().rsplit(")", 1)[1].split()
             except OSError:
                 continue
-            if int(fields[1]) == pid and fields[0] != "Z":
+            if int(fields[1]) == pid and fields[0] != "Z" and "resource_tracker" not in cmdline(int(entry)):
                 found.append(int(entry))
     return found
 

@@ -55,6 +55,8 @@ def test_the_stability_matrix_gauss_seidel_converges_exactly_where_the_spectral_
             assert converged == (radius[factor] < 1.0), (factor, radius[factor], row["failure"])
             if not converged:   # named as divergence even where a component gave up first
                 assert row["failure"] == "diverged" and "the coupling residual grew" in row["failure_message"]
+            else:               # the residual shrinks per iteration by the computed spectral radius
+                assert float(row["contraction"]) == pytest.approx(radius[factor], rel=0.1)
         else:
             assert converged, row
-    assert (tmp_path / "stability.png").stat().st_size > 20_000
+    assert (tmp_path / "stability.png").stat().st_size > 20_000 and (tmp_path / "contraction.png").stat().st_size > 10_000
