@@ -84,3 +84,8 @@ class ConvergenceError(CosimError):
 
 class DivergenceError(ConvergenceError):
     """The coupling residual of a time window grew by orders of magnitude."""
+
+
+class StalledError(ConvergenceError):
+    """The coupling residual stopped decreasing before the limits were met: the limits ask for more
+    precision than the exchanged data carry (a solver's own tolerance, round-off)."""

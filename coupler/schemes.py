@@ -19,11 +19,20 @@ from coupler.convergence import ConvergenceMeasure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
-from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, ConvergenceError, DivergenceError, SceneError
+from cosim.errors import (ComponentDied, ComponentError, ComponentTimeout, ConvergenceError, DivergenceError,
+                          SceneError, StalledError)
 from cosim.proxy import ComponentProxy
 from cosim.registry import Registry
 
 SCHEMES = Registry("coupling scheme")
+
+
+def stalled(residuals: Sequence[float], last: int = 10) -> bool:
+    """The residual has not decreased over the last ``last`` iterations (by a factor 2) after falling by 1e3."""
+    if len(residuals) < 2 * last:
+        return False
+    before, recent = min(residuals[:-last]), min(residuals[-last:])
+    return recent > 0.5 * before and before < 1e-3 * residuals[0]
 
 
 @dataclass
@@ -214,6 +223,12 @@ class CouplingScheme:
             if last > self.divergence_factor * first:
                 error = DivergenceError(f"diverged: the coupling residual grew from {first:.3e} to {last:.3e} "
                                         f"in {iterations} iterations ({measures})")
+            elif self.on_max_iterations == "fail" and stalled(self._residuals):
+                floor = min(self._residuals)
+                error = StalledError(f"stalled: the coupling residual stopped decreasing at {floor:.3e} "
+                                     f"({floor / max(first, 1e-300):.1e} of the first) and did not meet the limits in "
+                                     f"{iterations} iterations; the limits ask for more precision than the data carry "
+                                     f"(a residual-relative measure suits such cases): {measures}")
             elif self.on_max_iterations == "fail":
                 error = ConvergenceError(f"did not converge in {iterations} iterations: {measures}")
             else:

@@ -176,7 +176,8 @@ def plot_matrix(table: list[dict[str, str]], spectra: list[dict[str, float]], me
     figure, axes = plt.subplots(rows, columns, figsize=(4.6 * columns, 3.9 * rows), squeeze=False,
                                 constrained_layout=True)
     norm = LogNorm(vmin=1, vmax=200)
-    letters = {"diverged": "D", "max-iterations": "M", "non-finite": "N", "component-error": "C", "error": "E"}
+    letters = {"diverged": "D", "stalled": "S", "max-iterations": "M", "non-finite": "N", "component-error": "C",
+               "error": "E"}
     x_of, y_of = {dt: i for i, dt in enumerate(sorted(dts, reverse=True))}, {f: j for j, f in enumerate(sorted(factors))}
     spectrum = {(s["stiffness_factor"], s["dt"]): s for s in spectra}
     for axis, method in zip(axes.flat, methods):
@@ -208,7 +209,7 @@ def plot_matrix(table: list[dict[str, str]], spectra: list[dict[str, float]], me
     for axis in list(axes.flat)[len(methods):]:
         axis.set_visible(False)
     figure.colorbar(image, ax=axes, label="mean coupling iterations per window [count]", shrink=0.8)
-    figure.suptitle("tube stability matrix (D diverged, M max iterations, N non-finite, C component error)")
+    figure.suptitle("tube stability matrix (D diverged, S stalled, M max iterations, N non-finite, C component error)")
     figure.savefig(png, dpi=110)
     plt.close(figure)
 

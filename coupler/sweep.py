@@ -7,7 +7,8 @@ ordinary ``cosim run`` in ``DIR/runs/<name>/`` with its own component processes;
 on an existing scheduler given by address, so a sweep spans as many machines as have workers.
 
 ``DIR/sweep.csv`` gets one row per finished run as it finishes (its settings, windows
-converged, mean and max coupling iterations, the failure class and message, wall time); a
+converged, mean and max coupling iterations, measured contraction per iteration, the failure
+class (diverged, stalled, max-iterations, non-finite, component-error) and message, wall time); a
 rerun of the same sweep skips the runs that have a row. Run names are derived from the
 overrides, so the same run keeps its name across reruns and machines.
 
@@ -120,7 +121,8 @@ def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
 def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, Any]:
     """Run one variant (on a Dask worker); a row of the sweep table, whatever happened."""
     from coupler.run import run_scene
-    from cosim.errors import (ComponentError, ConvergenceError, CosimError, DivergenceError, NonFiniteOutput)
+    from cosim.errors import (ComponentError, ConvergenceError, CosimError, DivergenceError, NonFiniteOutput,
+                              StalledError)
     from cosim.results import RunResults
     from cosim.scene import load_scene
 
@@ -132,6 +134,8 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
         failure, message = "non-finite", str(exc)
     except DivergenceError as exc:
         failure, message, failed_residuals = "diverged", str(exc), getattr(exc, "residuals", [])
+    except StalledError as exc:
+        failure, message, failed_residuals = "stalled", str(exc), getattr(exc, "residuals", [])
     except ConvergenceError as exc:
         failure, message, failed_residuals = "max-iterations", str(exc), getattr(exc, "residuals", [])
     except ComponentError as exc:
