@@ -109,6 +109,8 @@ class RomSolid(Component):
             self.warn(message)
 
     def _keep_converged(self) -> None:
+        if self.on_out_of_range == "fallback" and self.trust_values[2] > 0:
+            return   # the solid FOM took this window over: the ROM's state is not the window's
         self._times.append(self._window_time + self._dt)
         self._reduced.append(self._last_reduced)
 

@@ -41,6 +41,8 @@ class Run:
     switch_time: float | None = None
     full_field: tuple[np.ndarray, np.ndarray] | None = None   # (time, rows) rebuilt by the ROM
     initial: dict[str, np.ndarray] = field(default_factory=dict)  # data values before the first window
+    fallback_windows: int = 0            # windows the solid FOM took over from a ROM out of its range
+    trust: np.ndarray | None = None      # per window: the converged ROM call's excess beyond its training range
     model: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
@@ -55,7 +57,12 @@ class Run:
             windows = results.windows
             run = cls(results.path, directory.name if directory.is_dir() else results.path.parent.name, results.scene,
                       windows.time, windows.iterations, float(results.attributes.get("wall_seconds", np.nan)),
-                      results.fields(), components, initial=results.initial())
+                      results.fields(), components, initial=results.initial(),
+                      fallback_windows=int(results.attributes.get("rom_fallback_windows", 0)))
+            for name in results.recorded():
+                calls = results.calls(name, converged_only=True)
+                if "rom_excess" in calls.outputs and len(calls.window) == len(windows):
+                    run.trust = calls.outputs["rom_excess"][:, 0]
         for name, info in components.items():
             if info.get("kind") in ("rom", "fmu"):
                 run.rom_backend, run.switch_time = name, float(info["start_time"])
@@ -159,6 +166,7 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
         "iterations": int(run.iterations.sum()), "reference_iterations": int(reference.iterations.sum()),
         "wall_seconds": run.wall, "reference_wall_seconds": reference.wall,
         "model": run.model.get("params", {}),
+        "rom_fallback_windows": run.fallback_windows,
     }
     result["iterations_ratio"] = result["iterations"] / result["reference_iterations"]
     result["predicted_iterations_ratio"] = float(run.iterations[predicted].sum() / reference.iterations[predicted].sum())

@@ -146,9 +146,30 @@ def scene_plots(run, reference, out: Path) -> list[Path]:
     return paths
 
 
+def error_vs_trust(run, row: dict[str, Any], out: Path) -> Path | None:
+    """Per window: the ROM's displacement error against how far its input lay beyond the training range."""
+    if run.trust is None or "_e" not in row:
+        return None
+    plt = _pyplot()
+    served = np.isfinite(run.trust)
+    fig, ax = plt.subplots(figsize=(6, 4.5), constrained_layout=True)
+    ax.scatter(np.maximum(run.trust[served], 1e-4), np.maximum(row["_e"][served], 1e-16), s=8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("ROM input beyond its training range [range widths] (1e-4 = inside)")
+    ax.set_ylabel("displacement error e(t) [-]")
+    ax.set_title(f"{run.label}: error against trust ({row.get('rom_fallback_windows', 0)} windows fell back)")
+    ax.grid(alpha=0.3, which="both")
+    path = out / f"error_vs_trust_{run.label}.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def write_plots(pairs, rows, out: Path) -> list[Path]:
     """Every PNG of the report."""
     paths = [monitor(run, reference, row, out) for (run, reference), row in zip(pairs, rows)]
+    paths += [p for p in (error_vs_trust(run, row, out) for (run, _), row in zip(pairs, rows)) if p is not None]
     paths += error_and_iterations(pairs, rows, out)
     paths.append(error_vs_cost(pairs, rows, out))
     for run, reference in pairs:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import os
 import subprocess
 import sys
@@ -217,6 +218,13 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
         calls = fell_back.calls("solid")          # the ROM's trust is on record with every call it served
         excess = calls.outputs["rom_excess"][:, 0]
         assert len(excess) == len(calls.window) and np.nanmax(excess) > 0.05 and np.isnan(excess).any()
+    done = cosim("report", f"{tmp_path / 'fallback'}={tmp_path / 'fom_x4'}", f"{tmp_path / 'warn'}={tmp_path / 'fom_x4'}",
+                 "--out", str(tmp_path / "report"))
+    assert done.returncode == 0, done.stderr
+    rows = {Path(r["run"]).name: r for r in json.loads((tmp_path / "report" / "report.json").read_text())["runs"]}
+    assert rows["fallback"]["rom_fallback_windows"] > 0 and rows["warn"]["rom_fallback_windows"] == 0
+    assert rows["fallback"]["displacement_error"]["mean"] < 0.01 < rows["warn"]["displacement_error"]["mean"]
+    assert (tmp_path / "report" / "error_vs_trust_warn.png").stat().st_size > 10_000
 
 
 def test_the_trust_value_inside_and_outside_a_known_envelope():
