@@ -34,7 +34,9 @@ class Variable:
     """An array-valued variable: ``size`` values of one physical quantity.
 
     ``mesh`` names the mesh it lives on ("" for none); ``components`` is the number of
-    values per node, so ``size`` = nodes x components.
+    values per node, so ``size`` = nodes x components. ``precision`` is the relative precision
+    an output carries (a solver's own tolerance; 0: not declared): coupling limits below it
+    cannot be met, and the coupler says so at start.
     """
 
     name: str
@@ -43,6 +45,7 @@ class Variable:
     unit: str = ""
     mesh: str = ""
     components: int = 1
+    precision: float = 0.0
 
     def __post_init__(self) -> None:
         if self.causality not in CAUSALITIES:

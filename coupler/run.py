@@ -154,6 +154,7 @@ def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedu
         exchanges.append(Exchange(data, source, target, mapping))
     participants = [proxies[name] for name in coupling["participants"]]
     measures = [make_measure(m) for m in coupling["convergence"]]
+    check_precision(coupling["convergence"], {e.data: e.source.variables[e.data].precision for e in exchanges})
     scheme_class = SCHEMES.classes[coupling["scheme"]]
     scheme = scheme_class(participants, exchanges, measures, None, coupling["acceleration"]["data"],
                           coupling["max_iterations"], coupling["on_max_iterations"],
@@ -162,6 +163,23 @@ def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedu
     scheme.initialize()
     scheme.acceleration = make_acceleration(coupling["acceleration"], scheme.block_sizes(scheme.accelerated))
     return scheme
+
+
+def check_precision(measures: list[dict], precision: dict[str, float]) -> None:
+    """Flag, at start, relative limits tighter than the precision the producer declares for the data."""
+    def relative_limits(measure: dict, where: str):
+        if measure["type"] == "relative":
+            yield measure["limit"], where
+        for i, member in enumerate(measure.get("measures", [])):
+            if measure["type"] == "all-of" or len(measure["measures"]) == 1:
+                yield from relative_limits(member, f"{where}.measures.{i}")
+    for i, measure in enumerate(measures):
+        carried = precision.get(measure["data"], 0.0)
+        for limit, where in relative_limits(measure, f"coupling.convergence.{i}"):
+            if 0.0 < limit < carried:
+                print(f"warning: '{where}' asks for a relative change below {limit:g}, but '{measure['data']}' is "
+                      f"computed to {carried:g} only: the window may stall; a residual-relative measure suits "
+                      "such data", file=sys.stderr)
 
 
 def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:

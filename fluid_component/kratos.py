@@ -157,7 +157,8 @@ class KratosFluid(KratosComponent):
     def variables(self) -> list[Variable]:
         n = 2 * len(self.interface_nodes)
         return [Variable("displacement", "input", n, "m", mesh="interface", components=2),
-                Variable("force", "output", n, "N", mesh="interface", components=2)]
+                Variable("force", "output", n, "N", mesh="interface", components=2,
+                         precision=self.settings["tolerance"])]
 
     def meshes(self) -> dict[str, np.ndarray]:
         return {"interface": self.interface_nodes}

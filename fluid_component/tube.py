@@ -60,7 +60,8 @@ class TubeFluid(Component):
         self._build_pattern()
 
     def variables(self) -> list[Variable]:
-        return [Variable("section", "input", self.n, mesh="axis"), Variable("pressure", "output", self.n, mesh="axis")]
+        return [Variable("section", "input", self.n, mesh="axis"), Variable("pressure", "output", self.n, mesh="axis",
+                                                                            precision=self.tolerance)]
 
     def meshes(self) -> dict[str, np.ndarray]:
         return {"axis": np.linspace(0.0, self.length, self.n)[:, None]}

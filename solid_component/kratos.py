@@ -126,7 +126,8 @@ class KratosSolid(KratosComponent):
     def variables(self) -> list[Variable]:
         n, m = len(self.interface_nodes), len(self.field_nodes)
         return [Variable("force", "input", 2 * n, "N", mesh="interface", components=2),
-                Variable("displacement", "output", 2 * n, "m", mesh="interface", components=2),
+                Variable("displacement", "output", 2 * n, "m", mesh="interface", components=2,
+                         precision=self.settings["tolerance"]),
                 Variable("displacement_field", "local", 2 * m, "m", mesh="solid", components=2)]
 
     def meshes(self) -> dict[str, np.ndarray]:

@@ -131,3 +131,15 @@ def test_component_warnings_reach_the_run_output_with_their_window(tmp_path, cap
         assert results.attributes["component_warnings"] == calls > 1
     assert lines == [f"warning: component 'solid' in window 2 (t = 0.1 to 0.2): "
                      f"Newton hit its iteration cap (25) ({calls} calls)"]
+
+
+def test_a_limit_below_the_datas_precision_is_flagged_at_start(tmp_path, capsys):
+    """The tube's fluid solves to 1e-10 (relative): a relative limit of 1e-12 on its pressure is flagged before window 1."""
+    code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "tight"), "--quiet", "--set", "time.end=0.2",
+                 "--set", "coupling.convergence.0.limit=1e-12"])
+    err = capsys.readouterr().err
+    assert code == 0
+    assert ("warning: 'coupling.convergence.0' asks for a relative change below 1e-12, but 'pressure' is computed "
+            "to 1e-10 only") in err
+    code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "fine"), "--quiet", "--set", "time.end=0.2"])
+    assert code == 0 and "asks for a relative change" not in capsys.readouterr().err

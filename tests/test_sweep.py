@@ -105,3 +105,25 @@ def test_a_sweep_on_a_scheduler_and_workers_started_by_hand_gives_the_local_tabl
     for name in local:
         for column in ("windows_converged", "windows_total", "mean_iterations", "max_iterations", "failure"):
             assert local[name][column] == remote[name][column]
+
+
+def test_an_interrupted_sweep_resumes_without_redoing_finished_runs(tmp_path):
+    """Kill `cosim sweep` once a run has finished; the rerun adds only the missing rows and leaves finished runs alone."""
+    import signal
+    out = tmp_path / "sweep"
+    command = [sys.executable, "-m", "cosim", "sweep", str(TUBE_SCENE), "--grid", "inlet.h=4,5,6,7", "--set", "time.end=8",
+               "--workers", "1", "--out", str(out), "--quiet"]
+    first = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             start_new_session=True)
+    try:
+        wait_for(lambda: (out / "sweep.csv").exists() and len(rows(out)) >= 1, "a finished run in the table", timeout=120)
+    finally:
+        os.killpg(first.pid, signal.SIGKILL)   # the sweep, its Dask cluster and the run in flight
+        first.wait(timeout=30)
+    done = rows(out)
+    assert 1 <= len(done) < 4
+    stamps = {name: (out / "runs" / name / "results.h5").stat().st_mtime_ns for name in done}
+    assert subprocess.run(command, cwd=ROOT, capture_output=True, timeout=300).returncode == 0
+    after = rows(out)
+    assert len(after) == 4 and all(after[name] == done[name] for name in done)
+    assert all((out / "runs" / name / "results.h5").stat().st_mtime_ns == stamps[name] for name in done)
