@@ -107,7 +107,9 @@ class IQNILS(Acceleration):
     removes nearly dependent columns one at a time, never the only one. Reused columns that go
     stale (the map changed, as when the tube's wall switches branch) are dropped: when a window's
     first update built on them is longer than ``stale_step_ratio`` residuals (it is then not
-    taken), or when an update makes the residual worse.
+    taken), or when an update makes the residual worse. (A looser test of the residual, a
+    doubling, lets the tube's amplitude x4 stall in some windows; this one costs iterations where
+    residuals jump without the map changing, as in the stiffest corner of the stability matrix.)
     """
 
     ROUNDOFF = 1e3 * np.finfo(float).eps
