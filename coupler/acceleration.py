@@ -298,15 +298,20 @@ class IQNIMVJ(IQNILS):
     matrix across windows: within a window J = J_prev + (W - J_prev V) V^+ with the window's
     own columns (filtered as in IQN-ILS), the update is x_tilde - J r, and at the end of the
     window J becomes J_prev. In the first window it is IQN-ILS without reuse.
+    ``restart_windows = k > 0`` starts the Jacobian afresh every k windows (preCICE's RS-ZERO
+    restart), for maps that drift.
     """
 
     SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50), "filter": "qr2",
-                "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True)}
+                "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
+                "restart_windows": Value(0, low=0)}
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, filter: str = "qr2",
-                 filter_limit: float = 1e-3, block_sizes: list[int] | None = None) -> None:
+                 filter_limit: float = 1e-3, restart_windows: int = 0, block_sizes: list[int] | None = None) -> None:
         super().__init__(initial_relaxation, max_used_iterations, 1, filter, filter_limit, 0.0, None)
         self.jacobian: np.ndarray | None = None
+        self.restart_windows = restart_windows
+        self.windows_since_restart = 0
 
     def _columns(self) -> tuple[list[np.ndarray], list[np.ndarray], list[tuple[int, int]]]:
         V, W = self._windows[0]
@@ -349,3 +354,6 @@ class IQNIMVJ(IQNILS):
                 previous = self.jacobian if self.jacobian is not None else np.zeros((Wm.shape[0], Vm.shape[0]))
                 self.jacobian = previous + (Wm - previous @ Vm) @ pinv
         self._windows.clear()
+        self.windows_since_restart += 1
+        if self.restart_windows and self.windows_since_restart >= self.restart_windows:
+            self.jacobian, self.windows_since_restart = None, 0

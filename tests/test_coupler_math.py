@@ -269,6 +269,19 @@ def test_iqn_imvj_learns_the_jacobian_of_a_linear_problem_across_windows():
     assert counts["imvj"][0] == counts["ils"][0] > 10          # the first window: the same method
     assert counts["imvj"][1:] == [2] * 5                      # then one exact quasi-Newton step and the check
     assert max(counts["ils"][1:]) > 10
+    restarting, iterations = IQNIMVJ(0.1, restart_windows=3), []   # RS-ZERO every third window: learns again
+    x = np.zeros(n)
+    for b in loads:
+        restarting.start_window()
+        for k in range(1, 100):
+            x_tilde = A @ x + b
+            restarting.observe(x, x_tilde)
+            if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
+                break
+            x = restarting.next_iterate()
+        restarting.end_window()
+        iterations.append(k)
+    assert iterations[1:3] == [2, 2] and iterations[3] > 10 and iterations[4:] == [2, 2]
 
 
 def test_a_scheme_with_the_acceleration_predictor_starts_from_the_next_update():
