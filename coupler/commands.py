@@ -74,8 +74,8 @@ def _stability_arguments(parser: argparse.ArgumentParser) -> None:
                         help="directory: sweep.csv, spectral.csv, stability.png, contraction.png, runs/")
     parser.add_argument("--factors", default="0.1,0.3,1,10,100", help="stiffness factors (default 0.1,0.3,1,10,100)")
     parser.add_argument("--dts", default="0.1,0.01,0.001", help="time steps (default 0.1,0.01,0.001)")
-    parser.add_argument("--methods", default="none,aitken,iqn-ils,iqn-ils-reuse0,iqn-imvj",
-                        help="accelerations (default: all five)")
+    parser.add_argument("--methods", default="none,constant,aitken,iqn-ils,iqn-ils-reuse0,iqn-imvj",
+                        help="accelerations (default: all six)")
     parser.add_argument("--wall-law", default="linear", choices=["linear", "piecewise"])
     parser.add_argument("--windows", type=int, default=20, help="windows per run (default 20)")
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value in every run")

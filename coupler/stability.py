@@ -118,6 +118,7 @@ def tube_critical_stiffness(tangent_modulus: float, rho: float, r0: float, v0: f
 
 METHODS = {
     "none": '{type="none"}',
+    "constant": '{type="constant", data=["section"], relaxation=0.1}',
     "aitken": '{type="aitken", data=["section"], initial_relaxation=0.01}',
     "iqn-ils": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=8}',
     "iqn-ils-reuse0": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=0}',
