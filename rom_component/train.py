@@ -26,6 +26,9 @@ from rom_component.selection import energy_choice, holdout_table
 
 CONFIG = {
     "snapshots": {"component": "solid", "input": "pressure", "output": "section",
+                  # a recorded local holding the whole displacement field (the double flap's displacement_field):
+                  # the decoder learns it and the ROM's output is its part on the output's nodes
+                  "field": "",
                   "t_min": 0.0, "t_max": 1e300, "converged_only": False},
     "model": {"n_force_modes": 3, "n_disp_modes": 9, "decoder": "linear", "regressor": "rbf",
               "input_scaling": "global", "manifold_regularization": 1e-6, "rbf_smoothing": 0.0},
@@ -59,14 +62,15 @@ def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarra
     with RunResults(results) as run:
         calls = run.calls(spec["component"], converged_only=spec["converged_only"])
         window_time = run.windows.time
-    for kind, var, arrays in (("inputs", spec["input"], calls.inputs), ("outputs", spec["output"], calls.outputs)):
+    learned = spec["field"] or spec["output"]
+    for kind, var, arrays in (("inputs", spec["input"], calls.inputs), ("outputs", learned, calls.outputs)):
         if var not in arrays:
             raise SceneError(f"'{results}': the recorded {kind} of '{spec['component']}' have no '{var}' "
                              f"(has: {', '.join(arrays)})")
     finished = calls.window <= len(window_time)            # calls of the window in flight at a crash are left out
     times = window_time[np.minimum(calls.window, len(window_time)) - 1]
     keep = finished & (times >= spec["t_min"] - 1e-9) & (times <= spec["t_max"] + 1e-9)
-    F, U = calls.inputs[spec["input"]][keep], calls.outputs[spec["output"]][keep]
+    F, U = calls.inputs[spec["input"]][keep], calls.outputs[learned][keep]
     F, U = F.reshape(len(F), -1), U.reshape(len(U), -1)   # one row per call, node-major (x, y of node 0, ...)
     if len(F) < 3:
         raise SceneError(f"'{results}': only {len(F)} snapshots of '{spec['component']}' fall in "
@@ -86,6 +90,29 @@ def read_interface(results: str | Path, spec: dict[str, Any]) -> tuple[list[dict
                  for name in (spec["input"], spec["output"]) if name in declared]
     meshes = {v["mesh"]: record.meshes[v["mesh"]] for v in variables if v["mesh"] in record.meshes}
     return variables, meshes
+
+
+def interface_index(results: str | Path, spec: dict[str, Any]) -> np.ndarray:
+    """K: the positions, in the flattened field (node-major), of the output variable's values."""
+    with RunResults(results) as run:
+        record = run.component(spec["component"])
+    declared = {v["name"]: v for v in record.variables}
+    for name in (spec["output"], spec["field"]):
+        if name not in declared or declared[name]["mesh"] not in record.meshes:
+            raise SceneError(f"'{results}': component '{spec['component']}' declares no mesh for '{name}'")
+    output, field = declared[spec["output"]], declared[spec["field"]]
+    if output["components"] != field["components"]:
+        raise SceneError(f"'{results}': '{spec['output']}' and '{spec['field']}' have "
+                         f"{output['components']} and {field['components']} components per node")
+    from scipy.spatial import cKDTree
+    nodes, field_nodes = record.meshes[output["mesh"]], record.meshes[field["mesh"]]
+    distance, index = cKDTree(field_nodes).query(nodes)
+    scale = float(np.ptp(field_nodes, axis=0).max()) or 1.0
+    if distance.max() > 1e-9 * scale:
+        raise SceneError(f"'{results}': {int((distance > 1e-9 * scale).sum())} nodes of '{spec['output']}' are not "
+                         f"nodes of '{spec['field']}' (largest gap {distance.max():.3g})")
+    k = output["components"]
+    return (index[:, None] * k + np.arange(k)).ravel()
 
 
 def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=print) -> dict[str, Any]:
@@ -112,6 +139,7 @@ def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=pri
     params["n_force_modes"], params["n_disp_modes"] = model.modes   # as used (capped by the data)
     U_fit = model.predict(F)
     training_error = float(np.linalg.norm(U_fit - U, axis=1).mean())
+    K = interface_index(results, config["snapshots"]) if config["snapshots"]["field"] else None
     metadata = {
         "regressor": params["regressor"], "params": params,
         "input_variable": config["snapshots"]["input"], "output_variable": config["snapshots"]["output"],
@@ -125,7 +153,9 @@ def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=pri
         metadata["selection"] = {"force_modes": table.force_modes, "disp_modes": table.disp_modes,
                                  "errors": table.errors.tolist(), "best": list(table.best),
                                  "energy_choice": list(table.energy_choice)}
-    persistence.save(out, {**model.online_arrays(), **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
+    if K is not None:
+        metadata["field_variable"] = config["snapshots"]["field"]
+    persistence.save(out, {**model.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
     echo(f"fitted r_f = {params['n_force_modes']}, r_u = {params['n_disp_modes']}, {params['regressor']} regression, "
          f"{params['decoder']} decoder in {fit_seconds:.3f} s (training time); mean training error {training_error:.3e}")
     echo(f"saved {out}")

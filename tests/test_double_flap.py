@@ -160,3 +160,31 @@ def test_three_windows_through_real_processes(tmp_path):
         assert run.fields()["displacement"].shape == (3, 265, 2)
     for png in ("run.png", "tips.png", "last_window.png"):
         assert (out / png).stat().st_size > 10_000
+
+
+def test_a_rom_learns_the_full_field_and_serves_its_interface_part(tmp_path):
+    """Trained on the recorded displacement field (1805 x 2), the ROM's interface path u_G = K u_mean + A u~ (+ B q(u~))
+    equals the full reconstruction restricted to the 265 interface nodes."""
+    from rom_component import persistence
+    from rom_component.train import interface_index, load_config, train
+    out = tmp_path / "flap"
+    run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}"]), out, progress=False)
+    config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
+                                "snapshots.field=displacement_field", "model.n_force_modes=3", "model.n_disp_modes=3",
+                                "model.decoder=quadratic", "selection.table=false"])
+    train(out / "results.h5", tmp_path / "model.npz", config, echo=lambda *a: None)
+    rom = persistence.load(tmp_path / "model.npz")
+    K = interface_index(out / "results.h5", config["snapshots"])
+    assert K.shape == (530,) and rom.n_inputs == 530 and rom.n_outputs == 530
+    with RunResults(out) as run:
+        calls = run.calls("solid")
+        forces, fields = calls.inputs["force"].reshape(len(calls.window), -1), calls.outputs["displacement_field"]
+        interface = calls.outputs["displacement"].reshape(len(calls.window), -1)
+    np.testing.assert_array_equal(fields.reshape(len(fields), -1)[:, K], interface)   # K picks the interface values
+    for f in forces:
+        u_G = rom(f)
+        np.testing.assert_allclose(u_G, rom.full_field(rom.reduced[None])[0][K], rtol=0, atol=1e-13)
+    metadata = persistence.load_arrays(tmp_path / "model.npz")[1]
+    assert metadata["field_variable"] == "displacement_field"
+    assert [(v["name"], v["mesh"], v["components"]) for v in metadata["variables"]] == \
+        [("force", "interface", 2), ("displacement", "interface", 2)]
