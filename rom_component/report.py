@@ -95,15 +95,30 @@ class Run:
                 return exchange["data"]
         raise SceneError(f"{self.path}: component '{participant}' sends no data")
 
-    def displacement_field(self, participant: str) -> np.ndarray:
-        """Per-window full displacement field: the FOM's output, the ROM's rebuilt field after the switch."""
-        U = self.fields[self.output_of(participant)].copy()
+    def displacement_field(self, participant: str, field: str = "") -> np.ndarray:
+        """Per-window displacement field, one flat row per window: the FOM's output (or, with ``field``, the
+        recorded local holding the whole field, from each window's converged call), and the ROM's rebuilt
+        field where the ROM served."""
+        if field:
+            with RunResults(self.path) as results:
+                calls = results.calls(participant, converged_only=True)
+                if field not in calls.outputs:
+                    raise SceneError(f"'{self.path}': the recorded calls of '{participant}' have no '{field}'")
+                U = calls.outputs[field].reshape(len(calls.window), -1).copy()
+        else:
+            values = self.fields[self.output_of(participant)]
+            U = values.reshape(len(values), -1).copy()
         if self.full_field is not None:
             times, rows = self.full_field
             index = np.searchsorted(self.time, times - 1e-9)
             if rows.shape[1] == U.shape[1]:
                 U[index] = rows
         return U
+
+
+def _flat(values: np.ndarray) -> np.ndarray:
+    """One row per window, node-major (the plot index counts values, as in the run plot)."""
+    return values.reshape(len(values), -1)
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> float:
@@ -162,7 +177,8 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
         "run": str(run.path.parent), "reference": str(reference.path.parent),
         "switch_time": run.switch_time, "predicted_windows": int(predicted.sum()),
         "monitor": f"{monitor}[{index}]",
-        "monitor_error": _relative(run.fields[monitor][predicted, index], reference.fields[monitor][predicted, index]),
+        "monitor_error": _relative(_flat(run.fields[monitor])[predicted, index],
+                                   _flat(reference.fields[monitor])[predicted, index]),
         "iterations": int(run.iterations.sum()), "reference_iterations": int(reference.iterations.sum()),
         "wall_seconds": run.wall, "reference_wall_seconds": reference.wall,
         "model": run.model.get("params", {}),
@@ -172,13 +188,16 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
     result["predicted_iterations_ratio"] = float(run.iterations[predicted].sum() / reference.iterations[predicted].sum())
     result["field_errors"] = {}
     for name, values in run.fields.items():
-        per_window = np.linalg.norm(values - reference.fields[name], axis=1) / np.linalg.norm(reference.fields[name], axis=1)
+        mine, theirs = values.reshape(len(values), -1), reference.fields[name].reshape(len(values), -1)
+        per_window = np.linalg.norm(mine - theirs, axis=1) / np.linalg.norm(theirs, axis=1)
         result["field_errors"][name] = {"mean": float(per_window[predicted].mean()), "max": float(per_window[predicted].max())}
     participant = run.participant
     if participant:
-        U_ref = reference.displacement_field(participant)
-        U_run = run.displacement_field(participant)
-        rest = reference.initial.get(reference.output_of(participant), np.zeros(U_ref.shape[1]))
+        field = run.model.get("field_variable", "")     # the whole field the ROM learnt, if it learnt one
+        U_ref = reference.displacement_field(participant, field)
+        U_run = run.displacement_field(participant, field)
+        rest = np.zeros(U_ref.shape[1]) if field else \
+            np.ravel(reference.initial.get(reference.output_of(participant), np.zeros(U_ref.shape[1])))
         # e(t) = ||U - U_rom|| / mean_t ||U - U_rest||: displacements from the rest state (the tube: a - a0)
         e = np.linalg.norm(U_run - U_ref, axis=1) / np.linalg.norm(U_ref - rest, axis=1).mean()
         result["displacement_error"] = {"mean": float(e[predicted].mean()), "max": float(e[predicted].max())}

@@ -49,7 +49,7 @@ def monitor(run, reference, row: dict[str, Any], out: Path) -> Path:
     """The monitored value of both runs, and their difference below."""
     plt = _pyplot()
     name, index = row["monitor"].split("[")[0], int(row["monitor"].split("[")[1][:-1])
-    ours, theirs = run.fields[name][:, index], reference.fields[name][:, index]
+    ours, theirs = (f.reshape(len(f), -1)[:, index] for f in (run.fields[name], reference.fields[name]))
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True, constrained_layout=True,
                                       gridspec_kw={"height_ratios": [2, 1]})
     top.plot(reference.time, theirs, color="0.55", lw=2.2, label=f"FOM-FOM ({reference.label})")

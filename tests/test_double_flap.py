@@ -188,3 +188,27 @@ def test_a_rom_learns_the_full_field_and_serves_its_interface_part(tmp_path):
     assert metadata["field_variable"] == "displacement_field"
     assert [(v["name"], v["mesh"], v["components"]) for v in metadata["variables"]] == \
         [("force", "interface", 2), ("displacement", "interface", 2)]
+
+
+def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
+    """FOM-FOM for six windows; a ROM trained on the first three serves the last three; e(t) on the 1805 x 2 field."""
+    from rom_component.report import Run, compare
+    from rom_component.train import load_config, train
+    fom = tmp_path / "fom"
+    run_scene(load_scene(SCENE, [f"time.end={6 * DT!r}"]), fom, progress=False)
+    config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
+                                "snapshots.field=displacement_field", f"snapshots.t_max={3 * DT!r}",
+                                "model.n_force_modes=4", "model.n_disp_modes=4", "selection.table=false"])
+    train(fom / "results.h5", tmp_path / "model.npz", config, echo=lambda *a: None)
+    rom = tmp_path / "rom"
+    run_scene(load_scene(SCENE, [f"time.end={6 * DT!r}", "components.solid.backend=rom",
+                                 f"components.solid.rom.model={tmp_path / 'model.npz'}",
+                                 f"components.solid.rom.switch_time={3 * DT!r}"]), rom, progress=False)
+    run, reference = Run.read(rom), Run.read(fom)
+    field = reference.displacement_field("solid", "displacement_field")
+    assert field.shape == (6, 3610) and np.isfinite(field).all()
+    served = run.displacement_field("solid", "displacement_field")
+    assert served.shape == (6, 3610) and np.isfinite(served).all()     # FOM windows recorded, ROM windows rebuilt
+    np.testing.assert_array_equal(served[:3], field[:3])                # the same FOM solves before the switch
+    row = compare(run, reference)
+    assert row["predicted_windows"] == 3 and 0.0 < row["displacement_error"]["mean"] < 0.5
