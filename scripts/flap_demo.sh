@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The short double-flap protocol (make demo-flap): Re = 250, FOM-FOM over [0, 1.504] s (188 windows of 8 ms; 1.5 s is no multiple of them), train the solid ROM
+# The short double-flap protocol of issue 10 (not yet a make target): Re = 250, FOM-FOM over [0, 1.504] s (188 windows of 8 ms; 1.5 s is no multiple of them), train the solid ROM
 # on t <= 1.0 s (hold-out over r_f, r_u = 9, quadratic manifold, sparse quadratic regression), ROM-FOM
 # from 1.0 to 1.504 s, report. Everything goes to runs/flap_demo/.
 # Work in progress (issue 10): the ROM trained on t <= 1.0 s is out of its training range from its first
