@@ -100,7 +100,7 @@ def table(runs: dict[str, dict], theirs: dict, linear_solver: str) -> list[str]:
         peer_tip = np.array(theirs[f"tip_{side}"])
         row(f"{side} tip x-displacement at t = {n * DT:g} s, mm", [f"{r[f'tip_{side}'][-1] * 1e3:.4f}" for r in everyone])
         amplitude = np.abs(peer_tip).max()
-        row(f"  max over windows |ours - peer| / peer amplitude",
+        row("  max over windows |ours - peer| / peer amplitude",
             [f"{np.abs(np.array(r[f'tip_{side}']) - peer_tip).max() / amplitude * 100:.3f} %" for r in runs.values()] + [""])
     return lines
 

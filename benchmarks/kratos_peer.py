@@ -26,7 +26,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import numpy as np  # noqa: E402
 
 from fluid_component.kratos import KratosFluid  # noqa: E402
 from solid_component.kratos import LINEAR_SOLVERS, KratosSolid  # noqa: E402

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import json
 import os
+import tempfile
+from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -104,6 +106,22 @@ class KratosComponent(Component):
     repeats_steps = True
     input_name = ""
     solve_label = "solve"
+
+    def prepare(self, settings: dict[str, Any], materials: dict[str, Any]) -> tuple[Path, Path]:
+        """Checks shared by the Kratos components, Kratos's logging and threads, and a private folder
+        holding the materials file; returns the mesh (without .mdpa) and the materials file."""
+        if settings["on_unconverged"] not in ("warn", "fail"):
+            raise ComponentError(self.name, f"'on_unconverged' is {settings['on_unconverged']!r}; allowed: warn, fail")
+        mesh = Path(settings["mesh"]).with_suffix("")
+        if not mesh.with_suffix(".mdpa").is_file():
+            raise ComponentError(self.name, f"mesh '{mesh.with_suffix('.mdpa')}' does not exist")
+        self.settings = settings
+        quiet()
+        set_threads()   # OMP_NUM_THREADS, which the launcher sets from the scene (default 1)
+        self._workdir = tempfile.TemporaryDirectory(prefix=f"cosim-kratos-{self.name}-")
+        path = Path(self._workdir.name) / "materials.json"
+        path.write_text(json.dumps(materials))
+        return mesh, path
 
     def input_variable(self) -> Any:
         raise NotImplementedError

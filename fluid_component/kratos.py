@@ -12,17 +12,13 @@ Kratos is imported only here, in the component's own process.
 
 from __future__ import annotations
 
-import json
-import tempfile
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from cosim.component import Variable
-from cosim.errors import ComponentError
-from cosim.kratos_stage import (KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates,
-                                quiet, set_threads)
+from cosim.kratos_stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 from cosim.schema import Positive, Required, validate
 
 FLUID_SCHEMA = {
@@ -49,20 +45,10 @@ class KratosFluid(KratosComponent):
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, FLUID_SCHEMA)
-        if prm["on_unconverged"] not in ("warn", "fail"):
-            raise ComponentError(self.name, f"'on_unconverged' is {prm['on_unconverged']!r}; allowed: warn, fail")
-        mesh = Path(prm["mesh"]).with_suffix("")
-        if not mesh.with_suffix(".mdpa").is_file():
-            raise ComponentError(self.name, f"mesh '{mesh.with_suffix('.mdpa')}' does not exist")
-        self.settings = prm
+        mesh, materials = self.prepare(prm, self._materials(prm["flow"]))
         import KratosMultiphysics as KM
         import KratosMultiphysics.MeshMovingApplication  # noqa: F401  (registers the mesh-motion solvers)
         from KratosMultiphysics.FluidDynamicsApplication.fluid_dynamics_analysis import FluidDynamicsAnalysis
-        quiet()
-        set_threads()   # OMP_NUM_THREADS, which the launcher sets from the scene (default 1)
-        self._workdir = tempfile.TemporaryDirectory(prefix="cosim-kratos-fluid-")
-        materials = Path(self._workdir.name) / "materials.json"
-        materials.write_text(json.dumps(self._materials(prm["flow"])))
         self.model = KM.Model()
         stage = FluidDynamicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
         self.stepped = SteppedStage(self.name, stage, self._solve_step)

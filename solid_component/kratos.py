@@ -11,8 +11,6 @@ Kratos is imported only here, in the component's own process.
 
 from __future__ import annotations
 
-import json
-import tempfile
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -20,8 +18,7 @@ import numpy as np
 
 from cosim.component import Variable
 from cosim.errors import ComponentError
-from cosim.kratos_stage import (KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates,
-                                quiet, set_threads)
+from cosim.kratos_stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 from cosim.schema import Positive, Required, Value, validate
 
 LINEAR_SOLVERS = {
@@ -56,21 +53,11 @@ class KratosSolid(KratosComponent):
         if prm["linear_solver"] not in LINEAR_SOLVERS:
             raise ComponentError(self.name, f"'linear_solver' is {prm['linear_solver']!r}; "
                                             f"allowed: {', '.join(LINEAR_SOLVERS)}")
-        if prm["on_unconverged"] not in ("warn", "fail"):
-            raise ComponentError(self.name, f"'on_unconverged' is {prm['on_unconverged']!r}; allowed: warn, fail")
-        mesh = Path(prm["mesh"]).with_suffix("")
-        if not mesh.with_suffix(".mdpa").is_file():
-            raise ComponentError(self.name, f"mesh '{mesh.with_suffix('.mdpa')}' does not exist")
-        self.settings = prm
+        mesh, materials = self.prepare(prm, self._materials(prm))
         import KratosMultiphysics as KM
         import KratosMultiphysics.StructuralMechanicsApplication as SMA
         from KratosMultiphysics.StructuralMechanicsApplication.structural_mechanics_analysis import \
             StructuralMechanicsAnalysis
-        quiet()
-        set_threads()   # OMP_NUM_THREADS, which the launcher sets from the scene (default 1)
-        self._workdir = tempfile.TemporaryDirectory(prefix="cosim-kratos-solid-")
-        materials = Path(self._workdir.name) / "materials.json"
-        materials.write_text(json.dumps(self._materials(prm)))
         self.model = KM.Model()
         stage = StructuralMechanicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
         self.stepped = SteppedStage(self.name, stage)

@@ -26,6 +26,24 @@ def iterate(acceleration, H, x0, tol=1e-10, max_iterations=200):
     return x, None
 
 
+def windows(acceleration, problems, limit=100):
+    """Time windows of x = A x + b, one (A, b) each, starting from the last window's x; the iterations of each
+    and the final x of each (every window ends, converged or not)."""
+    x, iterations, solutions = np.zeros(len(problems[0][1])), [], []
+    for A, b in problems:
+        acceleration.start_window()
+        for k in range(1, limit):
+            x_tilde = A @ x + b
+            acceleration.observe(x, x_tilde)
+            if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
+                break
+            x = acceleration.next_iterate()
+        acceleration.end_window()
+        iterations.append(k)
+        solutions.append(x.copy())
+    return iterations, solutions
+
+
 @pytest.mark.parametrize("n", [5, 20, 60])
 def test_iqn_ils_solves_a_linear_problem_in_at_most_n_plus_1_iterations(n):
     rng = np.random.default_rng(n)
@@ -253,34 +271,13 @@ def test_iqn_imvj_learns_the_jacobian_of_a_linear_problem_across_windows():
     loads = rng.standard_normal((6, n))
     counts = {}
     for name, acceleration in (("ils", IQNILS(0.1, reused_time_windows=0)), ("imvj", IQNIMVJ(0.1))):
-        x, iterations = np.zeros(n), []
-        for b in loads:
-            acceleration.start_window()
-            for k in range(1, 100):
-                x_tilde = A @ x + b
-                acceleration.observe(x, x_tilde)
-                if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
-                    break
-                x = acceleration.next_iterate()
-            acceleration.end_window()
+        counts[name], solutions = windows(acceleration, [(A, b) for b in loads])
+        for x, b in zip(solutions, loads):
             np.testing.assert_allclose(x, np.linalg.solve(np.eye(n) - A, b), rtol=1e-8, atol=1e-9)
-            iterations.append(k)
-        counts[name] = iterations
     assert counts["imvj"][0] == counts["ils"][0] > 10          # the first window: the same method
     assert counts["imvj"][1:] == [2] * 5                      # then one exact quasi-Newton step and the check
     assert max(counts["ils"][1:]) > 10
-    restarting, iterations = IQNIMVJ(0.1, restart_windows=3), []   # RS-ZERO every third window: learns again
-    x = np.zeros(n)
-    for b in loads:
-        restarting.start_window()
-        for k in range(1, 100):
-            x_tilde = A @ x + b
-            restarting.observe(x, x_tilde)
-            if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
-                break
-            x = restarting.next_iterate()
-        restarting.end_window()
-        iterations.append(k)
+    iterations, _ = windows(IQNIMVJ(0.1, restart_windows=3), [(A, b) for b in loads])  # RS-ZERO every 3rd window
     assert iterations[1:3] == [2, 2] and iterations[3] > 10 and iterations[4:] == [2, 2]
 
 
@@ -308,20 +305,9 @@ def test_iqn_ils_drops_reused_columns_when_the_map_changes():
     results = {}
     for ratio in (2.0, 0.0):
         iqn = IQNILS(0.01, reused_time_windows=8, stale_step_ratio=ratio)
-        x, worst = np.zeros(n), []
-        for window in range(10):
-            A = stiff if window < 5 else soft
-            b = rng.standard_normal(n) * (1.0 + window)
-            iqn.start_window()
-            for k in range(1, 200):
-                x_tilde = A @ x + b
-                iqn.observe(x, x_tilde)
-                if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
-                    break
-                x = iqn.next_iterate()
-            iqn.end_window()
-            worst.append(k)
-        results[ratio] = (iqn.stale_windows, worst)
+        problems = [(stiff if window < 5 else soft, rng.standard_normal(n) * (1.0 + window)) for window in range(10)]
+        iterations = windows(iqn, problems, limit=200)[0]
+        results[ratio] = (iqn.stale_windows, iterations)
     stale, iterations = results[2.0]
     assert stale >= 1 and max(iterations) < 199
     assert results[0.0][0] == 0      # with the check off nothing is dropped
