@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> dict:
                   progress=False)
         results = out / "fom_train" / "results.h5"
     config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={train_end:g}"])
-    F, U, _ = read_snapshots(results, config["snapshots"])
+    F, U, _, _ = read_snapshots(results, config["snapshots"])
     params = config["model"]
 
     started = time.perf_counter()

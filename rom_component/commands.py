@@ -11,7 +11,7 @@ from cosim.errors import SceneError
 
 
 def _train_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("results", help="results.h5 of a run that recorded the solid")
+    parser.add_argument("results", nargs="+", help="results.h5 of one or more runs that recorded the solid")
     parser.add_argument("--out", required=True, help="model file to write (.npz)")
     parser.add_argument("--config", help="ROM configuration (TOML), e.g. scenes/tube_rom.toml")
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a configuration value")
@@ -55,6 +55,24 @@ def _export_fmu(args: argparse.Namespace) -> int:
     return 0
 
 
+def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("campaign", help="campaign file (TOML), e.g. scenes/double_flap_campaign.toml")
+    parser.add_argument("--out", required=True, help="campaign directory: fom/, models/, rom/, report/")
+    parser.add_argument("--workers", type=int, default=2, help="local Dask workers, one run each at a time (default 2)")
+    parser.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:port) instead")
+
+
+def _campaign(args: argparse.Namespace) -> int:
+    from rom_component.campaign import run_campaign
+    if args.workers < 1:
+        raise SceneError(f"--workers is {args.workers}; it must be at least 1")
+    report = run_campaign(args.campaign, args.out, args.workers, args.scheduler)
+    print(f"report written to {report}")
+    return 0
+
+
 train = Command("train a solid ROM from the snapshots of a run", _train_arguments, _train)
 report = Command("compare ROM-FOM runs with FOM-FOM references", _report_arguments, _report)
+campaign = Command("run a ROM evaluation campaign (FOM runs, training, ROM-FOM runs, report) on Dask",
+                   _campaign_arguments, _campaign)
 export_fmu = Command("export a trained ROM as an FMI 2.0 Co-Simulation FMU", _export_arguments, _export_fmu)

@@ -33,8 +33,10 @@ def save(path: str | Path, arrays: Mapping[str, np.ndarray], metadata: Mapping[s
     document = json.dumps({"format": FORMAT, **metadata}, sort_keys=True)
     payload = {name: np.asarray(value) for name, value in arrays.items()}
     payload["metadata_json"] = np.frombuffer(document.encode(), dtype=np.uint8)
-    with open(path, "wb") as f:
+    partial = path.with_name(path.name + ".partial")
+    with open(partial, "wb") as f:
         np.savez(f, **payload)
+    partial.replace(path)        # a model file is complete or absent, never half written
     return path
 
 

@@ -36,6 +36,7 @@ class Run:
     iterations: np.ndarray
     wall: float
     fields: dict[str, np.ndarray]
+    window_wall: np.ndarray
     components: dict[str, dict[str, Any]]
     rom_backend: str | None = None
     switch_time: float | None = None
@@ -57,7 +58,7 @@ class Run:
             windows = results.windows
             run = cls(results.path, directory.name if directory.is_dir() else results.path.parent.name, results.scene,
                       windows.time, windows.iterations, float(results.attributes.get("wall_seconds", np.nan)),
-                      results.fields(), components, initial=results.initial(),
+                      results.fields(), windows.wall_seconds, components, initial=results.initial(),
                       fallback_windows=int(results.attributes.get("rom_fallback_windows", 0)))
             for name in results.recorded():
                 calls = results.calls(name, converged_only=True)
@@ -219,10 +220,40 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
             "fom_roundtrip_per_call_s": float(fom["roundtrip_seconds"].mean()),
             "rom_roundtrip_per_call_s": float(rom["roundtrip_seconds"].mean()),
             "speedup_compute": float(sigma), "speedup_roundtrip": float(sigma_rt)}
+        # the bound for this run's schedule: the ROM replaces the solid FOM in the predicted windows only
+        solid_predicted = float(fom["compute_seconds"][predicted[_call_windows(reference)]].sum()) \
+            if len(fom["compute_seconds"]) == reference.iterations.sum() else solid_total
         result["total_speedup"] = reference.wall / run.wall
-        result["total_speedup_bound"] = float((others + solid_total) / (others + solid_total / sigma))
+        result["total_speedup_bound"] = float((others + solid_total) /
+                                              (others + solid_total - solid_predicted + solid_predicted / sigma))
         result["reference_fluid_compute_s"], result["reference_solid_compute_s"] = float(others), float(solid_total)
+        # the same over the predicted windows alone (window wall times; fluid and solid compute of those windows)
+        fluid_calls = [c["compute_seconds"] for n, c in reference.components.items()
+                       if n != participant and len(c["compute_seconds"]) == reference.iterations.sum()]
+        if fluid_calls and solid_predicted > 0:
+            in_predicted = predicted[_call_windows(reference)]
+            fluid_predicted = float(sum(c[in_predicted].sum() for c in fluid_calls))
+            result["predicted_range"] = {
+                "speedup": float(reference.window_wall[predicted].sum() / run.window_wall[predicted].sum()),
+                "bound": float((fluid_predicted + solid_predicted) / (fluid_predicted + solid_predicted / sigma)),
+                "fluid_compute_s": fluid_predicted, "solid_compute_s": solid_predicted}
+    result.update(scene_metrics(run, reference))
     return result
+
+
+def _call_windows(run: Run) -> np.ndarray:
+    """The window (0-based) of each call of a component called once per coupling iteration."""
+    return np.repeat(np.arange(len(run.iterations)), run.iterations)
+
+
+def scene_metrics(run: Run, reference: Run) -> dict[str, Any]:
+    """Figures a scene's component package adds (entry points ``cosim.report_metrics``: ``f(run, reference)``
+    returns a dict, empty for a scene that is not its own)."""
+    from importlib.metadata import entry_points
+    found: dict[str, Any] = {}
+    for point in sorted(entry_points(group="cosim.report_metrics"), key=lambda p: p.name):
+        found.update(point.load()(run, reference))
+    return found
 
 
 def write_report(pairs: list[tuple[Run, Run]], out: str | Path, echo=print) -> dict[str, Any]:

@@ -5,8 +5,9 @@ Generic plots know nothing of a scene's physics:
   with their difference in a panel of its own and the switch time marked;
 - ``error_and_iterations_<reference>.png``: per reference, e(t) and the accumulated
   coupling iterations over the reference's, one panel per reference;
-- ``error_vs_cost.png``: the monitored error against the solid cost in solid-FOM-call
-  equivalents (calls weighted by median compute times), the FOM-FOM references marked.
+- ``error_vs_cost.png``: per FOM-FOM reference, the error of every ROM-FOM variant (mean e(t), or
+  the monitored value's error) against its solid cost in solid-FOM-call equivalents (calls
+  weighted by median compute times), the reference itself at error 0.
 A scene's own plots come from functions registered under the entry-point group
 ``cosim.report_plots``; each is called as ``plot(run, reference, out_dir)`` and returns the
 PNGs it wrote (none for a scene that is not its own). ``run`` and ``reference`` offer
@@ -111,27 +112,41 @@ def solid_cost(row: dict[str, Any]) -> float | None:
     return row["fom_solid_calls"] + row["rom_solid_calls"] * ratio
 
 
+def _error_of(row: dict[str, Any]) -> tuple[float, str]:
+    """The run's error: e(t) averaged over the predicted windows where the report has it, else the monitor's."""
+    if "displacement_error" in row:
+        return row["displacement_error"]["mean"], "mean e(t) over the predicted windows"
+    return row["monitor_error"], f"relative L2 error of {row['monitor']}"
+
+
 def error_vs_cost(pairs, rows, out: Path) -> Path:
-    """Monitored error against solid cost; each FOM-FOM reference is a vertical line (error 0 by definition)."""
+    """Error against solid cost, one panel per FOM-FOM reference: the reference itself at error 0 and every
+    ROM-FOM variant run against it (labelled with its modes, regressor and decoder)."""
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(8, 5.5), constrained_layout=True)
-    references = {}
+    by_reference: dict[str, list] = defaultdict(list)
     for (run, reference), row in zip(pairs, rows):
-        cost = solid_cost(row)
-        if cost is None:
-            continue
-        ax.loglog(cost, row["monitor_error"], "o")
-        ax.annotate(f"{run.label} (vs {reference.label})", (cost, row["monitor_error"]), fontsize=8,
-                    xytext=(4, 2), textcoords="offset points")
-        references[reference.label] = row["reference_solid_calls"]
-    for label, calls in references.items():
-        ax.axvline(calls, color="0.5", ls="--", lw=1.0)
-        ax.annotate(f"FOM-FOM '{label}': {calls} solid calls, error 0", (calls, 0.5), xycoords=("data", "axes fraction"),
-                    rotation=90, fontsize=8, xytext=(-10, 0), textcoords="offset points", va="center")
-    ax.set_xlabel("solid cost of the run [solid-FOM-call equivalents: calls x median compute / FOM median]")
-    ax.set_ylabel(f"relative L2 error of {rows[0]['monitor'] if rows else ''} [dimensionless]")
-    ax.set_title("Accuracy against solid cost: ROM-FOM runs and their FOM-FOM references")
-    ax.grid(alpha=0.3, which="both")
+        if solid_cost(row) is not None:
+            by_reference[reference.label].append((run, row))
+    n = max(len(by_reference), 1)
+    fig, axes = plt.subplots(1, n, figsize=(6.5 * n, 5), constrained_layout=True, squeeze=False)
+    for ax, (label, items) in zip(axes[0], by_reference.items()):
+        calls = items[0][1]["reference_solid_calls"]
+        ax.plot([calls], [0.0], "ks", ms=8, label=f"FOM-FOM '{label}': {calls} solid calls, error 0")
+        for run, row in items:
+            error, kind = _error_of(row)
+            model = row.get("model", {})
+            variant = (f"r_f={model.get('n_force_modes')}, {model.get('regressor')}, {model.get('decoder')}"
+                       if model else "")
+            ax.plot([solid_cost(row)], [100 * error], "o", label=f"{run.label}: {variant}")
+        ax.set_xscale("log")
+        ax.set_yscale("symlog", linthresh=1e-2)
+        ax.set_ylim(bottom=-1e-3)
+        ax.set_xlabel("solid cost [solid-FOM-call equivalents: calls x median compute / FOM median]")
+        ax.set_ylabel(f"{kind} [%]")
+        ax.set_title(f"reference '{label}'", fontsize=10)
+        ax.legend(fontsize=7, loc="upper right")
+        ax.grid(alpha=0.3, which="both")
+    fig.suptitle("Accuracy against solid cost: ROM-FOM variants and their FOM-FOM reference")
     path = out / "error_vs_cost.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)

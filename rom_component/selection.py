@@ -12,7 +12,7 @@ from typing import Sequence
 
 import numpy as np
 from sklearn.base import clone
-from sklearn.model_selection import train_test_split
+from sklearn.model_selection import GroupShuffleSplit, train_test_split
 
 from rom_component.pod import centred_pod, energy_rank
 
@@ -27,6 +27,7 @@ class SelectionTable:
     energy_choice: tuple[int, int]
     n_train: int
     n_test: int
+    split: str = "snapshots"
 
     def error_at(self, r_f: int, r_u: int) -> float:
         return float(self.errors[self.disp_modes.index(r_u), self.force_modes.index(r_f)])
@@ -34,7 +35,7 @@ class SelectionTable:
     def format(self) -> str:
         head = "r_u \\ r_f" + "".join(f"{r:>10d}" for r in self.force_modes)
         lines = [f"hold-out error eps = mean ||U - ROM(F)||_2 over {self.n_test} test snapshots "
-                 f"({self.n_train} for training); relative to the mean centred norm in brackets", head]
+                 f"({self.n_train} for training), split by {self.split}", head]
         for i, r_u in enumerate(self.disp_modes):
             lines.append(f"{r_u:>9d}" + "".join(f"{e:>10.2e}" for e in self.errors[i]))
         r_f, r_u = self.best
@@ -56,9 +57,18 @@ def energy_choice(F: np.ndarray, U: np.ndarray, energy: float = 0.9999) -> tuple
 
 def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence[int],
                   disp_modes: Sequence[int], test_fraction: float = 0.2, seed: int = 0,
-                  energy: float = 0.9999) -> SelectionTable:
-    """Hold-out error of ``estimator`` for every (r_f, r_u) of the grid."""
-    F_train, F_test, U_train, U_test = train_test_split(F, U, test_size=test_fraction, random_state=seed)
+                  energy: float = 0.9999, groups: np.ndarray | None = None) -> SelectionTable:
+    """Hold-out error of ``estimator`` for every (r_f, r_u) of the grid.
+
+    Without ``groups`` the test set is a random ``test_fraction`` of the snapshots; with them (the
+    window of each snapshot) it is a random ``test_fraction`` of whole windows, so that no sub-iteration
+    of a test window, nearly equal to its converged call, is in the training set.
+    """
+    if groups is None:
+        F_train, F_test, U_train, U_test = train_test_split(F, U, test_size=test_fraction, random_state=seed)
+    else:
+        train, test = next(GroupShuffleSplit(1, test_size=test_fraction, random_state=seed).split(F, U, groups))
+        F_train, F_test, U_train, U_test = F[train], F[test], U[train], U[test]
     errors = np.full((len(disp_modes), len(force_modes)), np.nan)
     for j, r_f in enumerate(force_modes):
         for i, r_u in enumerate(disp_modes):
@@ -68,4 +78,4 @@ def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence
     i, j = np.unravel_index(np.nanargmin(errors), errors.shape)
     return SelectionTable(list(force_modes), list(disp_modes), errors, errors / scale,
                           (force_modes[j], disp_modes[i]), energy_choice(F_train, U_train, energy),
-                          len(F_train), len(F_test))
+                          len(F_train), len(F_test), "snapshots" if groups is None else "windows")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -32,8 +32,11 @@ CONFIG = {
                   "t_min": 0.0, "t_max": 1e300, "converged_only": False},
     "model": {"n_force_modes": 3, "n_disp_modes": 9, "decoder": "linear", "regressor": "rbf",
               "input_scaling": "global", "manifold_regularization": 1e-6, "rbf_smoothing": 0.0},
+    "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
+    # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
     "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],
-                  "disp_modes": [1, 3, 5, 7, 9, 11, 13], "test_fraction": 0.2, "seed": 0, "energy": 0.9999},
+                  "disp_modes": [1, 3, 5, 7, 9, 11, 13], "test_fraction": 0.2, "seed": 0, "energy": 0.9999,
+                  "split": "snapshots", "compare_splits": False},
 }
 
 
@@ -54,11 +57,13 @@ def load_config(path: str | Path | None, overrides: list[str] = ()) -> dict[str,
     if config["selection"]["choose"] not in ("fixed", "holdout", "energy"):
         raise SceneError(f"{source}: 'selection.choose' is {config['selection']['choose']!r}; "
                          "allowed: fixed, holdout, energy")
+    if config["selection"]["split"] not in ("snapshots", "windows"):
+        raise SceneError(f"{source}: 'selection.split' is {config['selection']['split']!r}; allowed: snapshots, windows")
     return config
 
 
-def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Force rows, displacement rows and window end times of the selected calls."""
+def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Force rows, displacement rows, window end times and window numbers of the selected calls."""
     with RunResults(results) as run:
         calls = run.calls(spec["component"], converged_only=spec["converged_only"])
         window_time = run.windows.time
@@ -75,7 +80,16 @@ def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarra
     if len(F) < 3:
         raise SceneError(f"'{results}': only {len(F)} snapshots of '{spec['component']}' fall in "
                          f"t in [{spec['t_min']:g}, {spec['t_max']:g}]")
-    return F, U, times[keep]
+    return F, U, times[keep], calls.window[keep]
+
+
+def read_training_set(results: Sequence[str | Path], spec: dict[str, Any]):
+    """The selected calls of several runs stacked: F, U, window end times, and window labels unique across runs."""
+    parts = [read_snapshots(path, spec) for path in results]
+    F, U, times = (np.concatenate([part[i] for part in parts]) for i in range(3))
+    offsets = np.cumsum([0] + [int(part[3].max()) + 1 for part in parts[:-1]])
+    windows = np.concatenate([part[3] + offset for part, offset in zip(parts, offsets)])
+    return F, U, times, windows
 
 
 def read_interface(results: str | Path, spec: dict[str, Any]) -> tuple[list[dict[str, Any]], dict[str, np.ndarray]]:
@@ -115,20 +129,30 @@ def interface_index(results: str | Path, spec: dict[str, Any]) -> np.ndarray:
     return (index[:, None] * k + np.arange(k)).ravel()
 
 
-def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=print) -> dict[str, Any]:
-    """Train, print the selection table, save; returns the metadata written."""
-    F, U, times = read_snapshots(results, config["snapshots"])
-    echo(f"{len(F)} snapshots of '{config['snapshots']['component']}' for t in [{times.min():g}, {times.max():g}]: "
-         f"F {F.shape}, U {U.shape}")
+def train(results: str | Path | Sequence[str | Path], out: str | Path, config: dict[str, Any],
+          echo=print) -> dict[str, Any]:
+    """Train on the calls of one or more runs, print the selection table, save; returns the metadata written."""
+    sources = [results] if isinstance(results, (str, Path)) else list(results)
+    results = sources[0]     # meshes and interface nodes: those of the first run (all runs share them)
+    F, U, times, windows = read_training_set(sources, config["snapshots"])
+    echo(f"{len(F)} snapshots of '{config['snapshots']['component']}' from {len(sources)} run(s), "
+         f"t in [{times.min():g}, {times.max():g}]: F {F.shape}, U {U.shape}")
     params = dict(config["model"])
     selection = config["selection"]
     table = None
     started = time.perf_counter()
+    tables = {}
     if selection["table"] or selection["choose"] == "holdout":
-        table = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
-                              selection["test_fraction"], selection["seed"], selection["energy"])
-        echo(table.format())
-        echo(f"cross-validation time: {time.perf_counter() - started:.2f} s")
+        splits = ["snapshots", "windows"] if selection["compare_splits"] else [selection["split"]]
+        for split in sorted(splits, key=lambda s: s != selection["split"]):   # the one that chooses first
+            split_started = time.perf_counter()
+            tables[split] = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
+                                          selection["test_fraction"], selection["seed"], selection["energy"],
+                                          windows if split == "windows" else None)
+            echo(tables[split].format())
+            echo(f"cross-validation time (split by {split}): {time.perf_counter() - split_started:.2f} s")
+        table = tables[selection["split"]]
+    cv_seconds = time.perf_counter() - started
     if selection["choose"] == "holdout":
         params["n_force_modes"], params["n_disp_modes"] = table.best
     elif selection["choose"] == "energy":
@@ -145,17 +169,31 @@ def train(results: str | Path, out: str | Path, config: dict[str, Any], echo=pri
         "input_variable": config["snapshots"]["input"], "output_variable": config["snapshots"]["output"],
         "component": config["snapshots"]["component"], "results": str(results),
         "t_range": [float(times.min()), float(times.max())], "n_snapshots": int(len(F)),
-        "fit_seconds": fit_seconds, "training_error": training_error,
+        "fit_seconds": fit_seconds, "cv_seconds": cv_seconds, "training_error": training_error,
+        "results_all": [str(path) for path in sources],
     }
     variables, meshes = read_interface(results, config["snapshots"])
     metadata["variables"] = variables   # the meshes the ROM declares, as the full-order solid did
     if table is not None:
         metadata["selection"] = {"force_modes": table.force_modes, "disp_modes": table.disp_modes,
-                                 "errors": table.errors.tolist(), "best": list(table.best),
-                                 "energy_choice": list(table.energy_choice)}
+                                 "errors": table.errors.tolist(), "relative": table.relative.tolist(),
+                                 "best": list(table.best), "split": table.split,
+                                 "energy_choice": list(table.energy_choice),
+                                 "by_split": {split: {"errors": t.errors.tolist(), "relative": t.relative.tolist(),
+                                                      "best": list(t.best)} for split, t in tables.items()}}
     if K is not None:
         metadata["field_variable"] = config["snapshots"]["field"]
+    coefficients = getattr(model.regression_, "coefficients", None)
+    if coefficients is not None:
+        kept = (coefficients != 0).sum(axis=0)
+        metadata["terms_kept"] = {"per_output": kept.tolist(), "of": int(coefficients.shape[0])}
+        echo(f"sparse polynomial: {int(kept.sum())} of {coefficients.size} terms kept "
+             f"({kept.min()}-{kept.max()} of {coefficients.shape[0]} per reduced displacement)")
     persistence.save(out, {**model.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
+    if config["output"]["plots"]:
+        from rom_component.training_plots import write_training_plots
+        written = write_training_plots(out, model, tables)
+        echo(f"plots: {', '.join(str(p) for p in written)}")
     echo(f"fitted r_f = {params['n_force_modes']}, r_u = {params['n_disp_modes']}, {params['regressor']} regression, "
          f"{params['decoder']} decoder in {fit_seconds:.3f} s (training time); mean training error {training_error:.3e}")
     echo(f"saved {out}")

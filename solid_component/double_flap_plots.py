@@ -78,3 +78,78 @@ def run_plots(results: str | Path, out_dir: str | Path) -> list[Path]:
     figure.savefig(written[-1], dpi=130)
     plt.close(figure)
     return written
+
+
+def _tips_of(run) -> dict[str, np.ndarray]:
+    with RunResults(run.path) as results:
+        return tip_displacements(results)
+
+
+def report_plots(run, reference, out: Path) -> list[Path]:
+    """Report hook (``cosim.report_plots``): ``tips_<run>.png``, the left and right tip x-displacement of
+    ROM-FOM against FOM-FOM with their difference, and ``phase_<run>.png``, the phase space (u_L, u_R)
+    over the predicted windows; nothing for other scenes."""
+    if run.scene.get("components", {}).get("fluid", {}).get("entry") != "fluid_component.kratos:KratosFluid":
+        return []
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ours, theirs = _tips_of(run), _tips_of(reference)
+    predicted = run.predicted()
+    fig, axes = plt.subplots(2, 2, figsize=(12, 6), sharex=True, constrained_layout=True,
+                             gridspec_kw={"height_ratios": [2, 1]})
+    for column, side in enumerate(TIPS):
+        top, bottom = axes[0, column], axes[1, column]
+        top.plot(reference.time, theirs[side] * 1e3, color="0.55", lw=2.2, label=f"FOM-FOM ({reference.label})")
+        top.plot(run.time, ours[side] * 1e3, color="tab:blue", lw=0.8, label=f"ROM-FOM ({run.label})")
+        amplitude = np.ptp(theirs[side][predicted]) if predicted.any() else np.nan
+        difference = (ours[side] - theirs[side]) * 1e3
+        worst = np.abs(difference[predicted]).max() / (amplitude * 1e3) if predicted.any() else np.nan
+        top.set_title(f"{side} tip: max |ROM-FOM - FOM-FOM| = {worst:.2%} of the FOM amplitude after the switch",
+                      fontsize=9)
+        top.set_ylabel("tip x-displacement [mm]")
+        bottom.plot(run.time, difference, color="tab:red", lw=0.8)
+        bottom.set_ylabel("ROM-FOM minus FOM-FOM [mm]")
+        bottom.set_xlabel("time [s]")
+        for ax in (top, bottom):
+            if run.switch_time is not None:
+                ax.axvline(run.switch_time, color="k", lw=0.8, ls=":")
+            ax.grid(alpha=0.3)
+        top.legend(fontsize=8, loc="lower right")
+    paths = [out / f"tips_{run.label}.png"]
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(6, 5.5), constrained_layout=True)
+    ax.plot(theirs["left"][predicted] * 1e3, theirs["right"][predicted] * 1e3, color="0.55", lw=2.2,
+            label=f"FOM-FOM ({reference.label})")
+    ax.plot(ours["left"][predicted] * 1e3, ours["right"][predicted] * 1e3, color="tab:blue", lw=0.8,
+            label=f"ROM-FOM ({run.label})")
+    ax.set_xlabel("left tip x-displacement u_L [mm]")
+    ax.set_ylabel("right tip x-displacement u_R [mm]")
+    start = f"t > {run.switch_time:g} s" if run.switch_time is not None else "all windows"
+    ax.set_title(f"phase space of the flap tips, {start}", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    paths.append(out / f"phase_{run.label}.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    return paths
+
+
+def report_metrics(run, reference) -> dict:
+    """Report hook (``cosim.report_metrics``): per flap tip, the largest |ROM-FOM - FOM-FOM| x-displacement over
+    the predicted windows, in mm and over the FOM-FOM amplitude there; nothing for other scenes."""
+    if run.scene.get("components", {}).get("fluid", {}).get("entry") != "fluid_component.kratos:KratosFluid":
+        return {}
+    ours, theirs = _tips_of(run), _tips_of(reference)
+    predicted = run.predicted()
+    tips = {}
+    for side in TIPS:
+        difference = np.abs(ours[side] - theirs[side])[predicted]
+        amplitude = float(np.ptp(theirs[side][predicted]))
+        tips[side] = {"max_difference_mm": float(difference.max() * 1e3),
+                      "max_over_amplitude": float(difference.max() / amplitude) if amplitude > 0 else float("nan"),
+                      "fom_amplitude_mm": amplitude * 1e3}
+    return {"tips": tips}

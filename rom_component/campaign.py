@@ -1,0 +1,216 @@
+"""``cosim campaign``: a ROM evaluation protocol (FOM-FOM runs, ROM training, ROM-FOM runs, report) on Dask.
+
+A campaign file names a scene, a ROM configuration and three tables:
+
+- ``[fom]``: name -> the ``--set`` overrides of one FOM-FOM run;
+- ``[models.<name>]``: the FOM runs it trains on (``runs``) and overrides of the ROM configuration (``set``);
+- ``[[predictions]]``: a ROM-FOM run: ``model``, ``reference`` (the FOM run whose scene it repeats and
+  against which it is reported) and ``switch_time``.
+
+Every run is the sweep's ``run_one`` (``coupler.sweep``) on a Dask worker, with the sweep's tables
+``DIR/fom/sweep.csv`` and ``DIR/rom/sweep.csv`` and run directories named from the overrides, so that
+``cosim sweep`` and ``cosim campaign`` share finished runs. A model trains as soon as its FOM runs have
+finished and a ROM-FOM run starts as soon as its model exists: independent runs share the workers. A
+rerun skips finished runs and models (a model is retrained when its configuration changed); a run that
+was stopped midway starts again from its beginning. The report of every prediction goes to
+``DIR/report/``, the training logs (hold-out tables, timings) to ``DIR/models/<name>.log``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from cosim.errors import SceneError
+from cosim.schema import Required, validate
+from coupler.sweep import TABLE, SweepRun, SweepTable, check_runs, run_one, setting_keys
+
+PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "models": Required(dict),
+        "predictions": Required(list)}
+MODEL = {"runs": Required(list), "set": []}
+PREDICTION = {"model": Required(str), "reference": Required(str), "switch_time": Required(float), "set": []}
+
+
+@dataclass
+class Prediction:
+    name: str
+    model: str
+    reference: str
+    run: SweepRun
+
+
+@dataclass
+class Plan:
+    scene: Path
+    rom_config: Path
+    fom: dict[str, SweepRun]
+    models: dict[str, dict[str, Any]]
+    predictions: list[Prediction]
+
+
+def load_plan(path: str | Path, out: Path) -> Plan:
+    """Read and check a campaign file; model paths are placed in ``out/models``."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except OSError as exc:
+        raise SceneError(f"cannot read campaign '{path}': {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: {exc}") from None
+    plan = validate(raw, PLAN, source=str(path))
+    base = path.parent
+    fom = {name: SweepRun(tuple(overrides)) for name, overrides in plan["fom"].items()}
+    models = {}
+    for name, spec in plan["models"].items():
+        spec = validate(spec, MODEL, source=f"{path}: models.{name}")
+        unknown = [run for run in spec["runs"] if run not in fom]
+        if unknown:
+            raise SceneError(f"{path}: models.{name}.runs names '{unknown[0]}', which is not in [fom]")
+        models[name] = {**spec, "path": (out / "models" / f"{name}.npz").resolve()}
+    predictions = []
+    for i, spec in enumerate(plan["predictions"]):
+        spec = validate(spec, PREDICTION, source=f"{path}: predictions.{i}")
+        if spec["model"] not in models:
+            raise SceneError(f"{path}: predictions.{i}.model is '{spec['model']}', which is not in [models]")
+        if spec["reference"] not in fom:
+            raise SceneError(f"{path}: predictions.{i}.reference is '{spec['reference']}', which is not in [fom]")
+        overrides = (*fom[spec["reference"]].overrides, "components.solid.backend=rom",
+                     f"components.solid.rom.model={models[spec['model']]['path']}",
+                     f"components.solid.rom.switch_time={spec['switch_time']!r}", *spec["set"])
+        name = f"{spec['model']}-{spec['reference']}"
+        predictions.append(Prediction(name, spec["model"], spec["reference"], SweepRun(overrides)))
+    return Plan((base / plan["scene"]).resolve(), (base / plan["rom_config"]).resolve(), fom, models, predictions)
+
+
+def train_model(sources: list[str], config_path: str, overrides: list[str], out: str, *finished: Any) -> dict:
+    """Train one model on a worker (``finished``: the rows of the FOM runs it waits for); writes the model,
+    its log and a stamp of the configuration it was trained with."""
+    from rom_component.train import load_config, train
+    failed = [row for row in finished if row.get("failure")]
+    if failed:
+        raise RuntimeError(f"a FOM run it trains on failed: {failed[0]['failure_message']}")
+    out_path = Path(out)
+    lines: list[str] = []
+    started = time.perf_counter()
+    metadata = train(sources, out_path, load_config(config_path, overrides), echo=lines.append)
+    lines.append(f"training with cross-validation: {time.perf_counter() - started:.1f} s")
+    out_path.with_suffix(".log").write_text("\n".join(lines) + "\n")
+    _stamp(out_path).write_text(json.dumps(_model_key(sources, config_path, overrides)))
+    return {"seconds": time.perf_counter() - started, "cv_seconds": metadata.get("cv_seconds"),
+            "fit_seconds": metadata["fit_seconds"], "modes": metadata["params"]["n_force_modes"]}
+
+
+def run_after(scene: str, overrides: list[str], out_dir: str, *dependencies: Any) -> dict:
+    """``run_one`` once its ``dependencies`` (futures) have finished."""
+    return run_one(scene, overrides, out_dir)
+
+
+def _stamp(model: Path) -> Path:
+    return model.with_suffix(".json")
+
+
+def _model_key(sources: list[str], config_path: str, overrides: list[str]) -> dict:
+    return {"sources": sources, "config": Path(config_path).read_text(), "overrides": list(overrides)}
+
+
+def _model_is_current(model: Path, key: dict) -> bool:
+    try:
+        return model.is_file() and json.loads(_stamp(model).read_text()) == key
+    except (OSError, ValueError):
+        return False
+
+
+def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, scheduler: str | None = None,
+                 echo: Callable[[str], None] = print) -> Path:
+    """Run what is missing of a campaign, then write the report; returns the report directory."""
+    out = Path(out).resolve()
+    plan = load_plan(campaign, out)
+    check_runs(str(plan.scene), [*plan.fom.values(), *(p.run for p in plan.predictions)])
+    fom_table = SweepTable(out / "fom" / TABLE, setting_keys(list(plan.fom.values())))
+    rom_table = SweepTable(out / "rom" / TABLE, ["model", "reference", "switch_time"])
+    fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
+    rom_dir = {p.name: out / "rom" / "runs" / p.run.name for p in plan.predictions}
+    started = time.perf_counter()
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                  host="127.0.0.1", dashboard_address=None)
+    try:
+        with Client(scheduler or cluster) as client:
+            fom: dict[str, Any] = {}
+            jobs: dict[Any, tuple[str, str]] = {}
+            trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
+            for name, run in plan.fom.items():
+                if run.name in fom_table.done:
+                    fom[name] = {"failure": fom_table.done[run.name]["failure"],
+                                 "failure_message": fom_table.done[run.name]["failure_message"]}
+                    continue
+                fom[name] = client.submit(run_one, str(plan.scene), list(run.overrides), str(fom_dir[name]),
+                                          key=f"fom-{name}-{run.name}", pure=False,
+                                          priority=2 if name in trained_on else 0)
+                jobs[fom[name]] = ("fom", name)
+            models: dict[str, Any] = {}
+            for name, spec in plan.models.items():
+                sources = [str(fom_dir[run] / "results.h5") for run in spec["runs"]]
+                key = _model_key(sources, str(plan.rom_config), spec["set"])
+                if _model_is_current(spec["path"], key):
+                    models[name] = None
+                    continue
+                models[name] = client.submit(train_model, sources, str(plan.rom_config), spec["set"],
+                                             str(spec["path"]), *[fom[run] for run in spec["runs"]],
+                                             key=f"train-{name}", pure=False, priority=3)
+                jobs[models[name]] = ("model", name)
+            for p in plan.predictions:
+                if p.run.name in rom_table.done:
+                    continue
+                dependency = [models[p.model]] if models[p.model] is not None else []
+                future = client.submit(run_after, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
+                                       *dependency, key=f"rom-{p.name}-{p.run.name}", pure=False, priority=1)
+                jobs[future] = ("rom", p.name)
+            for future in as_completed(list(jobs)):
+                kind, name = jobs[future]
+                if future.status == "error":
+                    echo(f"{kind} {name}: failed: {future.exception()}")
+                    continue
+                result = future.result()
+                if kind == "fom":
+                    fom_table.add(plan.fom[name], result)
+                elif kind == "rom":
+                    p = next(p for p in plan.predictions if p.name == name)
+                    rom_table.add(p.run, {"model": p.model, "reference": p.reference,
+                                          "switch_time": p.run.settings()["components.solid.rom.switch_time"],
+                                          **result})
+                    result = {**result, "model": p.model}
+                if kind == "model":
+                    echo(f"model {name}: trained in {result['seconds']:.1f} s (cross-validation "
+                         f"{result['cv_seconds']:.1f} s, fit {result['fit_seconds']:.2f} s), r_f = {result['modes']}")
+                else:
+                    echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
+                         f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
+    finally:
+        if cluster is not None:
+            cluster.close()
+    echo(f"campaign runs finished in {time.perf_counter() - started:.0f} s")
+    return write_campaign_report(plan, out, fom_dir, rom_dir, echo)
+
+
+def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_dir: dict[str, Path],
+                          echo: Callable[[str], None] = print) -> Path:
+    """``cosim report`` over every prediction whose run and reference exist."""
+    from rom_component.report import Run, write_report
+    pairs = []
+    for p in plan.predictions:
+        run, reference = rom_dir[p.name] / "results.h5", fom_dir[p.reference] / "results.h5"
+        if run.is_file() and reference.is_file():
+            pairs.append((Run.read(rom_dir[p.name]), Run.read(fom_dir[p.reference])))
+            pairs[-1][0].label = p.name
+        else:
+            echo(f"report: {p.name} left out ({'its run' if not run.is_file() else 'its reference'} has no results)")
+    report = out / "report"
+    if pairs:
+        write_report(pairs, report, echo)
+    return report

@@ -1,0 +1,78 @@
+"""The PNGs of ``cosim train``, written next to the model file (``<model>_<name>.png``).
+
+- ``singular_values``: the normalised singular values of the force and displacement snapshots,
+  the chosen r_f and r_u marked;
+- ``holdout``: the hold-out error against r_f for each split (random snapshots, whole windows);
+- ``terms`` (sparse polynomial only): which of the regression's terms (linear x_i, then the
+  products x_i x_j) survive the Lasso-LARS/BIC selection, per reduced displacement.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def write_training_plots(model_path: str | Path, estimator, tables: dict) -> list[Path]:
+    """Every PNG for a fitted ``SolidRom`` and its hold-out tables (by split name)."""
+    plt = _pyplot()
+    stem = Path(model_path).with_suffix("")
+    paths = []
+    r_f, r_u = estimator.modes
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    for values, chosen, label in ((estimator.force_singular_values_, r_f, "interface force"),
+                                  (estimator.disp_singular_values_, r_u, "displacement field")):
+        s = values / values[0]
+        line, = ax.semilogy(np.arange(1, len(s) + 1), s, lw=1.2, label=f"{label} (r = {chosen})")
+        ax.plot([chosen], [s[chosen - 1]], "o", color=line.get_color())
+    ax.set_xscale("log")
+    ax.set_xlabel("mode number [count]")
+    ax.set_ylabel("singular value / largest [dimensionless]")
+    ax.set_title("Singular values of the training snapshots (centred)", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    paths.append(Path(f"{stem}_singular_values.png"))
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+
+    if tables:
+        fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+        for split, table in tables.items():
+            for i, r in enumerate(table.disp_modes):
+                ax.semilogy(table.force_modes, 100 * table.relative[i], "o-",
+                            label=f"split by {split}, r_u = {r} (best r_f = {table.best[0]})")
+        ax.set_xlabel("force modes r_f [count]")
+        ax.set_ylabel("hold-out error, mean ||U - ROM(F)|| / mean ||U - mean|| [%]")
+        ax.set_title("Hold-out cross-validation of the number of force modes", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3, which="both")
+        paths.append(Path(f"{stem}_holdout.png"))
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+
+    coefficients = getattr(estimator.regression_, "coefficients", None)
+    if coefficients is not None:
+        n = estimator.regression_.n_inputs
+        quadratic = n * (n + 1) // 2
+        order = np.r_[quadratic:quadratic + n, 0:quadratic]      # linear terms first, then the products
+        kept = coefficients[order].T != 0                        # (r_u, terms)
+        fig, ax = plt.subplots(figsize=(11, 3.2), constrained_layout=True)
+        ax.imshow(kept, aspect="auto", interpolation="nearest", cmap="Greys")
+        ax.axvline(n - 0.5, color="tab:red", lw=0.8)
+        ax.set_xlabel(f"polynomial term [index]: {n} linear x_i, then {quadratic} products x_i x_j")
+        ax.set_ylabel("reduced displacement [index]")
+        ax.set_yticks(range(kept.shape[0]))
+        ax.set_title(f"Terms kept by Lasso-LARS with the BIC: {int(kept.sum())} of {kept.size} "
+                     f"({kept.sum(axis=1).min()}-{kept.sum(axis=1).max()} of {kept.shape[1]} per output)", fontsize=10)
+        paths.append(Path(f"{stem}_terms.png"))
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths

@@ -1,0 +1,101 @@
+"""``cosim campaign`` on the tube: FOM runs, training and ROM-FOM runs on a local Dask cluster, resumed."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rom_component.campaign import load_plan
+from cosim.errors import SceneError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CAMPAIGN = """
+scene = "{root}/scenes/tube_fom.toml"
+rom_config = "{root}/scenes/tube_rom.toml"
+
+[fom]
+mu1 = ["time.end=8.0"]
+stiff = ["time.end=8.0", "tube.stiffness_factor=1.2"]
+
+[models]
+a = {{ runs = ["mu1"], set = ["snapshots.t_max=6.0", "selection.table=false"] }}
+ab = {{ runs = ["mu1", "stiff"], set = ["snapshots.t_max=6.0", "selection.choose='holdout'",
+                                       "selection.force_modes=[2, 3]", "selection.disp_modes=[9]",
+                                       "selection.split='windows'", "selection.compare_splits=true"] }}
+
+[[predictions]]
+model = "a"
+reference = "mu1"
+switch_time = 6.0
+
+[[predictions]]
+model = "ab"
+reference = "stiff"
+switch_time = 6.0
+"""
+
+
+def campaign(path: Path, out: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "cosim", "campaign", str(path), "--out", str(out), "--workers", "2"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=600)
+
+
+def rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as stream:
+        return list(csv.DictReader(stream))
+
+
+def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path):
+    plan = tmp_path / "campaign.toml"
+    plan.write_text(CAMPAIGN.format(root=ROOT))
+    out = tmp_path / "out"
+    done = campaign(plan, out)
+    assert done.returncode == 0, done.stderr
+    fom, rom = rows(out / "fom/sweep.csv"), rows(out / "rom/sweep.csv")
+    assert len(fom) == 2 and len(rom) == 2
+    assert all(row["failure"] == "" and row["windows_converged"] == "80" for row in fom + rom)
+    # the model on two runs trained on both: twice the snapshots of one, windows labelled per run
+    a = json.loads((out / "models/a.json").read_text())
+    log = (out / "models/ab.log").read_text()
+    assert "from 2 run(s)" in log and "split by windows" in log and "split by snapshots" in log
+    assert len(a["sources"]) == 1
+    for name in ("ab_singular_values.png", "ab_holdout.png"):
+        assert (out / "models" / name).stat().st_size > 5_000
+    report = json.loads((out / "report/report.json").read_text())["runs"]
+    assert [Path(r["run"]).name for r in report] == [p.run.name for p in load_plan(plan, out).predictions]
+    for row, bound in zip(report, (5e-3, 3e-2)):   # the second model serves two stiffnesses with 2-3 modes
+        assert row["switch_time"] == 6.0 and row["predicted_windows"] == 20
+        assert 0 < row["monitor_error"] < bound
+    # a rerun has nothing left to run: same tables, models untouched
+    stamp = (out / "models/a.npz").stat().st_mtime_ns
+    again = campaign(plan, out)
+    assert again.returncode == 0, again.stderr
+    assert rows(out / "fom/sweep.csv") == fom and rows(out / "rom/sweep.csv") == rom
+    assert (out / "models/a.npz").stat().st_mtime_ns == stamp
+    # a changed model configuration retrains that model and reruns its prediction only
+    plan.write_text(CAMPAIGN.format(root=ROOT).replace('"snapshots.t_max=6.0", "selection.table=false"',
+                                                       '"snapshots.t_max=5.0", "selection.table=false"'))
+    third = campaign(plan, out)
+    assert third.returncode == 0, third.stderr
+    assert (out / "models/a.npz").stat().st_mtime_ns != stamp
+    assert len(rows(out / "fom/sweep.csv")) == 2 and len(rows(out / "rom/sweep.csv")) == 3
+
+
+@pytest.mark.parametrize("text, message", [
+    ('scene = "x.toml"\nrom_config = "y.toml"\n[fom]\na = []\n[models]\nm = { runs = ["b"] }\npredictions = []',
+     "models.m.runs names 'b', which is not in [fom]"),
+    ('scene = "x.toml"\nrom_config = "y.toml"\n[fom]\na = []\n[models]\nm = { runs = ["a"] }\n'
+     '[[predictions]]\nmodel = "n"\nreference = "a"\nswitch_time = 1.0', "predictions.0.model is 'n'"),
+])
+def test_a_campaign_file_naming_unknown_runs_or_models_is_refused(tmp_path, text, message):
+    plan = tmp_path / "c.toml"
+    plan.write_text(text)
+    with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        load_plan(plan, tmp_path)
