@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test bench figures clean
+.PHONY: demo demo-flap campaign test bench figures clean
 
 $(BIN)/cosim: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,6 +15,13 @@ $(BIN)/cosim: pyproject.toml
 
 demo: $(BIN)/cosim
 	COSIM=$(BIN)/cosim bash scripts/tube_demo.sh
+
+# the short double-flap ROM protocol (about ten minutes) and the paper's whole campaign (hours; rerun to resume)
+demo-flap: $(BIN)/cosim
+	$(BIN)/cosim campaign scenes/double_flap_short.toml --out runs/flap_demo
+
+campaign: $(BIN)/cosim
+	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
 
 test: $(BIN)/cosim
 	$(BIN)/python -m pytest -q

@@ -141,29 +141,44 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                                                   host="127.0.0.1", dashboard_address=None)
     try:
         with Client(scheduler or cluster) as client:
-            fom: dict[str, Any] = {}
-            jobs: dict[Any, tuple[str, str]] = {}
+            # submission order is the order idle workers take tasks: models whose runs are done, the FOM runs
+            # models train on, the other models, the ROM-FOM runs, and last the FOM runs only reports need
             trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
+            fom: dict[str, Any] = {}
             for name, run in plan.fom.items():
                 if run.name in fom_table.done:
                     fom[name] = {"failure": fom_table.done[run.name]["failure"],
                                  "failure_message": fom_table.done[run.name]["failure_message"]}
-                    continue
+            jobs: dict[Any, tuple[str, str]] = {}
+
+            def submit_fom(name: str, priority: int) -> None:
+                run = plan.fom[name]
                 fom[name] = client.submit(run_one, str(plan.scene), list(run.overrides), str(fom_dir[name]),
-                                          key=f"fom-{name}-{run.name}", pure=False,
-                                          priority=2 if name in trained_on else 0)
+                                          key=f"fom-{name}-{run.name}", pure=False, priority=priority)
                 jobs[fom[name]] = ("fom", name)
+
             models: dict[str, Any] = {}
-            for name, spec in plan.models.items():
+
+            def submit_model(name: str) -> None:
+                spec = plan.models[name]
                 sources = [str(fom_dir[run] / "results.h5") for run in spec["runs"]]
-                key = _model_key(sources, str(plan.rom_config), spec["set"])
-                if _model_is_current(spec["path"], key):
+                if _model_is_current(spec["path"], _model_key(sources, str(plan.rom_config), spec["set"])):
                     models[name] = None
-                    continue
+                    return
                 models[name] = client.submit(train_model, sources, str(plan.rom_config), spec["set"],
                                              str(spec["path"]), *[fom[run] for run in spec["runs"]],
                                              key=f"train-{name}", pure=False, priority=3)
                 jobs[models[name]] = ("model", name)
+
+            ready = [name for name, spec in plan.models.items() if all(run in fom for run in spec["runs"])]
+            for name in ready:
+                submit_model(name)
+            for name in plan.fom:
+                if name not in fom and name in trained_on:
+                    submit_fom(name, 2)
+            for name in plan.models:
+                if name not in models:
+                    submit_model(name)
             for p in plan.predictions:
                 if p.run.name in rom_table.done:
                     continue
@@ -171,6 +186,9 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                 future = client.submit(run_after, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
                                        *dependency, key=f"rom-{p.name}-{p.run.name}", pure=False, priority=1)
                 jobs[future] = ("rom", p.name)
+            for name in plan.fom:
+                if name not in fom:
+                    submit_fom(name, 0)
             for future in as_completed(list(jobs)):
                 kind, name = jobs[future]
                 if future.status == "error":
@@ -195,22 +213,36 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
         if cluster is not None:
             cluster.close()
     echo(f"campaign runs finished in {time.perf_counter() - started:.0f} s")
-    return write_campaign_report(plan, out, fom_dir, rom_dir, echo)
+    failed = {p.name: rom_table.done[p.run.name]["failure_message"] for p in plan.predictions
+              if rom_table.done.get(p.run.name, {}).get("failure")}
+    failed.update({name: fom_table.done[run.name]["failure_message"] for name, run in plan.fom.items()
+                   if fom_table.done.get(run.name, {}).get("failure")})
+    return write_campaign_report(plan, out, fom_dir, rom_dir, failed, echo)
 
 
 def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_dir: dict[str, Path],
-                          echo: Callable[[str], None] = print) -> Path:
-    """``cosim report`` over every prediction whose run and reference exist."""
+                          failed: dict[str, str], echo: Callable[[str], None] = print) -> Path:
+    """``cosim report`` over every prediction whose run and reference finished; the failed ones are listed
+    in ``report/failed.txt``."""
     from rom_component.report import Run, write_report
-    pairs = []
+    pairs, notes = [], []
     for p in plan.predictions:
         run, reference = rom_dir[p.name] / "results.h5", fom_dir[p.reference] / "results.h5"
+        for name in (p.name, p.reference):
+            if name in failed:
+                notes.append(f"{p.name}: left out, run '{name}' failed: {failed[name]}")
+        if notes and notes[-1].startswith(f"{p.name}:"):
+            continue
         if run.is_file() and reference.is_file():
             pairs.append((Run.read(rom_dir[p.name]), Run.read(fom_dir[p.reference])))
-            pairs[-1][0].label = p.name
+            pairs[-1][0].label, pairs[-1][1].label = p.name, p.reference
         else:
             echo(f"report: {p.name} left out ({'its run' if not run.is_file() else 'its reference'} has no results)")
     report = out / "report"
+    report.mkdir(parents=True, exist_ok=True)
+    for note in notes:
+        echo(note)
+    (report / "failed.txt").write_text("".join(f"{note}\n" for note in notes))
     if pairs:
         write_report(pairs, report, echo)
     return report

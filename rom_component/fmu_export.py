@@ -59,7 +59,7 @@ def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
     for name in names:
         if len(name.encode()) > NAME_BYTES:
             raise CosimError(f"variable name '{name}' is longer than {NAME_BYTES} bytes")
-    header = b"CSROM02\0" + guid.encode().ljust(40, b"\0")[:40] + b"".join(n.encode().ljust(NAME_BYTES, b"\0")
+    header = b"CSROM03\0" + guid.encode().ljust(40, b"\0")[:40] + b"".join(n.encode().ljust(NAME_BYTES, b"\0")
                                                                         for n in names)
     header += struct.pack("<8i", n_in, n_out, r_f, r_u, m, 0 if rbf else 1, 1 if rom.quadratic_decoder else 0,
                           components)
@@ -69,7 +69,7 @@ def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
     if not rbf:
         body += np.ascontiguousarray(a["quad_i"], dtype="<i4").tobytes()
         body += np.ascontiguousarray(a["quad_j"], dtype="<i4").tobytes()
-    tail = [rom.H, rom.A, rom.base] + ([rom.B] if rom.quadratic_decoder else [])
+    tail = [rom.H, rom.A.T, rom.base] + ([rom.B.T] if rom.quadratic_decoder else [])   # decoders transposed
     body += b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in tail)
     return header + body
 
@@ -132,7 +132,7 @@ def compile_binary(sources: Path, target: Path) -> None:
     compiler = os.environ.get("CC", "cc")
     if shutil.which(compiler) is None:
         raise CosimError(f"export-fmu needs a C compiler; '{compiler}' was not found (set CC)")
-    command = [compiler, "-std=c99", "-O2", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
+    command = [compiler, "-std=c99", "-O3", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
                str(sources / SOURCE.name), "-o", str(target)]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:

@@ -176,6 +176,7 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
     monitor, index = output.get("plot_field", "pressure"), int(output.get("plot_index", 0))
     result: dict[str, Any] = {
         "run": str(run.path.parent), "reference": str(reference.path.parent),
+        "label": run.label, "reference_label": reference.label,
         "switch_time": run.switch_time, "predicted_windows": int(predicted.sum()),
         "monitor": f"{monitor}[{index}]",
         "monitor_error": _relative(_flat(run.fields[monitor])[predicted, index],
@@ -281,7 +282,7 @@ def _table(rows: list[dict[str, Any]]) -> str:
         desc = (f"r_f={model.get('n_force_modes')} r_u={model.get('n_disp_modes')} {model.get('regressor')} "
                 f"{model.get('decoder')} s={model.get('rbf_smoothing')}") if model else "-"
         lines.append(
-            f"{Path(r['run']).name:<16}{Path(r['reference']).name:<12}{_num(r['switch_time'], '9.1f')}"
+            f"{r['label']:<16}{r['reference_label']:<12}{_num(r['switch_time'], '9.1f')}"
             f"{r['monitor_error']:>12.2e}{_num(r.get('displacement_error', {}).get('mean'), '11.2e')}"
             f"{(r['iterations_ratio'] - 1) * 100:>+10.2f}%{_num(solid.get('speedup_compute'), '8.1f')}"
             f"{_num(solid.get('speedup_roundtrip'), '9.2f')}{_num(r.get('total_speedup'), '9.2f')}"

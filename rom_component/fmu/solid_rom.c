@@ -9,13 +9,13 @@
  *   u_G = base + A u~ [+ B q(u~)]     interface displacements (linear or quadratic manifold decoder)
  *
  * Every array and size is read at fmi2Instantiate from resources/rom.bin (little-endian):
- *   char magic[8] = "CSROM02"; char guid[40]; char input_name[32], output_name[32];
+ *   char magic[8] = "CSROM03"; char guid[40]; char input_name[32], output_name[32];
  *   int32 n_in, n_out, r_f, r_u, m, regressor (0 rbf, 1 poly), decoder (0 linear, 1 quadratic),
  *         components per node;
  *   float64 E[r_f][n_in], e[r_f];
  *   rbf: float64 centres[m][r_f]   |   poly: int32 qi[m], qj[m];
- *   float64 H[r_u][m + r_f + 1], A[n_out][r_u], base[n_out];
- *   quadratic decoder: float64 B[n_out][r_u (r_u + 1) / 2].
+ *   float64 H[r_u][m + r_f + 1], At[r_u][n_out] (A transposed), base[n_out];
+ *   quadratic decoder: float64 Bt[r_u (r_u + 1) / 2][n_out] (B transposed).
  * Value references: inputs 0 .. n_in-1, outputs n_in .. n_in+n_out-1.
  * Every sum runs in the order of OnlineRom(arithmetic="reproducible") (numpy's pairwise row
  * sums, sequential short sums, the logarithm rom_log below), so results are bit-identical to
@@ -44,14 +44,14 @@
 
 #include "fmi2Functions.h"
 
-#define MAGIC "CSROM02"
+#define MAGIC "CSROM03"
 #define GUID_LENGTH 40
 #define NAME_LENGTH 32
 #define MAX_PATH_LENGTH 4096
 
 typedef struct {
     int32_t n_in, n_out, r_f, r_u, m, regressor, decoder, components;
-    double *E, *e, *centres, *H, *A, *base, *B, *c2;
+    double *E, *e, *centres, *H, *At, *base, *Bt, *c2;
     int32_t *qi, *qj;
     int32_t n_quad;           /* r_u (r_u + 1) / 2 */
     char guid[GUID_LENGTH + 1];
@@ -241,9 +241,9 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
         TAKE(m->qj, int32_t, m->m);
     }
     TAKE(m->H, double, (size_t)m->r_u * (m->m + m->r_f + 1));
-    TAKE(m->A, double, (size_t)m->n_out * m->r_u);
+    TAKE(m->At, double, (size_t)m->r_u * m->n_out);
     TAKE(m->base, double, m->n_out);
-    if (m->decoder == 1) TAKE(m->B, double, (size_t)m->n_out * m->n_quad);
+    if (m->decoder == 1) TAKE(m->Bt, double, (size_t)m->n_quad * m->n_out);
 #undef TAKE
     if (m->regressor == 1) {
         int32_t i;
@@ -289,9 +289,17 @@ static double rom_log(double x) {
     return s * (hfsq + (t2 + t1)) + dk * ln2_lo - hfsq + f + dk * ln2_hi;
 }
 
+/* the hot loops are compiled twice on x86-64 with GCC, for AVX2 and for the baseline, and the loader picks one
+ * for the CPU it runs on; both do the same operations in the same order (no contraction), so the same results */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT __attribute__((target_clones("avx2", "default")))
+#else
+#define HOT
+#endif
+
 /* numpy's pairwise summation (the order of ndarray.sum along a contiguous axis):
  * 8 running sums over blocks of at most 128 values, halving recursively above that */
-static double pairwise_sum(const double *a, int32_t n) {
+HOT static double pairwise_sum(const double *a, int32_t n) {
     if (n < 8) {
         double res = -0.0;
         int32_t i;
@@ -315,14 +323,14 @@ static double pairwise_sum(const double *a, int32_t n) {
 }
 
 /* sum_i row[i] * v[i] in the pairwise order; products go through a scratch row */
-static double pairwise_dot(const double *row, const double *v, int32_t n, double *scratch) {
+HOT static double pairwise_dot(const double *row, const double *v, int32_t n, double *scratch) {
     int32_t i;
     for (i = 0; i < n; i++) scratch[i] = row[i] * v[i];
     return pairwise_sum(scratch, n);
 }
 
 /* the interface path, operation for operation as OnlineRom(arithmetic="reproducible") */
-static void evaluate(Instance *inst) {
+HOT static void evaluate(Instance *inst) {
     const Model *m = &inst->model;
     const int32_t width = m->m + m->r_f + 1;
     int32_t i, k, a, o;
@@ -347,19 +355,27 @@ static void evaluate(Instance *inst) {
         for (a = 0; a < m->r_u; a++)
             for (b = a; b < m->r_u; b++) inst->quad[q++] = inst->reduced[a] * inst->reduced[b];
     }
-    for (o = 0; o < m->n_out; o++) {
-        const double *row = m->A + (size_t)o * m->r_u;
-        double s = row[0] * inst->reduced[0];                 /* sequential over r_u */
-        for (a = 1; a < m->r_u; a++) s = s + row[a] * inst->reduced[a];
-        s = s + m->base[o];
-        if (m->decoder == 1) {
-            const double *brow = m->B + (size_t)o * m->n_quad;
-            double t = brow[0] * inst->quad[0];
-            int32_t q;
-            for (q = 1; q < m->n_quad; q++) t = t + brow[q] * inst->quad[q];
-            s = s + t;
+    /* decoder: the sums of OnlineRom (sequential over r_u, then over the quadratic terms) with the outputs in
+     * the inner loop, so that the compiler vectorises across outputs without changing any sum */
+    {
+        double *s = inst->outputs, *t = inst->scratch;
+        const double *col = m->At;
+        for (o = 0; o < m->n_out; o++) s[o] = col[o] * inst->reduced[0];
+        for (a = 1; a < m->r_u; a++) {
+            const double r = inst->reduced[a];
+            col = m->At + (size_t)a * m->n_out;
+            for (o = 0; o < m->n_out; o++) s[o] = s[o] + col[o] * r;
         }
-        inst->outputs[o] = s;
+        for (o = 0; o < m->n_out; o++) s[o] = s[o] + m->base[o];
+        if (m->decoder == 1) {
+            int32_t q;
+            for (o = 0; o < m->n_out; o++) t[o] = m->Bt[o] * inst->quad[0];
+            for (q = 1; q < m->n_quad; q++) {
+                const double v = inst->quad[q], *bcol = m->Bt + (size_t)q * m->n_out;
+                for (o = 0; o < m->n_out; o++) t[o] = t[o] + bcol[o] * v;
+            }
+            for (o = 0; o < m->n_out; o++) s[o] = s[o] + t[o];
+        }
     }
     inst->dirty = 0;
 }
@@ -454,8 +470,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     inst->z = (double *)allocate(functions, (size_t)(m->m + m->r_f + 1), sizeof(double));
     inst->reduced = (double *)allocate(functions, (size_t)m->r_u, sizeof(double));
     inst->quad = (double *)allocate(functions, (size_t)m->n_quad, sizeof(double));
-    inst->scratch = (double *)allocate(functions, (size_t)(m->n_in > m->m + m->r_f + 1 ? m->n_in : m->m + m->r_f + 1),
-                                       sizeof(double));
+    {
+        size_t width = (size_t)(m->m + m->r_f + 1), most = (size_t)m->n_in;
+        if (width > most) most = width;
+        if ((size_t)m->n_out > most) most = (size_t)m->n_out;
+        inst->scratch = (double *)allocate(functions, most, sizeof(double));
+    }
     if (!inst->inputs || !inst->outputs || !inst->x || !inst->z || !inst->reduced || !inst->quad || !inst->scratch) {
         log_message(functions, instanceName, fmi2Error, "logStatusError", "out of memory");
         fmi2FreeInstance(inst);

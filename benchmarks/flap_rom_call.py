@@ -1,0 +1,163 @@
+"""Benchmark of one solid call of the double flap: the Kratos solid FOM against the ROM (Python and FMU).
+
+Prints per-call times (median and interquartile range of repeated timings, microseconds) measured in this run:
+- the Kratos solid FOM (hyperelastic, Newton) with the authors' linear solver (sparse_qr) and with sparse_lu,
+  one window re-solved per call from a recorded interface force;
+- the ROM's offline path (estimator.predict on one row) as a baseline;
+- the ROM's online interface path (530 forces in, 530 interface displacements out: encoder, sparse
+  quadratic polynomial, quadratic manifold restricted to the interface) in both arithmetics, and the
+  ROM component's step;
+- the exported FMU through the fmu component (raw fmi2 calls) and, as a baseline, through fmpy;
+and the solid speed-up sigma = FOM / ROM for each. The ROM has r_f = 45, r_u = 9, as in the paper.
+
+Usage:
+  python benchmarks/flap_rom_call.py --results A.h5 [B.h5 ...] [--t-max 3.0]   train on recorded double-flap runs
+  python benchmarks/flap_rom_call.py --small      synthetic snapshots of the flap's sizes, 3 FOM calls (tests)
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.common import fresh_directory, machine, per_call  # noqa: E402
+from cosim.component import MESH_PREFIX  # noqa: E402
+from rom_component import persistence  # noqa: E402
+from rom_component.component import RomSolid  # noqa: E402
+from rom_component.estimator import SolidRom  # noqa: E402
+from rom_component.fmu_export import export_fmu  # noqa: E402
+from rom_component.online import OnlineRom  # noqa: E402
+from rom_component.train import interface_index, load_config, read_interface, read_training_set  # noqa: E402
+from solid_component.fmu import FmuSolid  # noqa: E402
+
+PAPER = {"rom_call_us": 2800.0, "fom_call_us": 724_000.0}
+MESHES = ROOT / "scenes" / "double_flap"
+PARAMS = {"n_force_modes": 45, "n_disp_modes": 9, "decoder": "quadratic", "regressor": "poly", "input_scaling": "global"}
+
+
+def synthetic_snapshots(m: int = 400, seed: int = 0):
+    """Snapshots of the flap's sizes (530 forces, 3610 field values, 530 of them on the interface) from a
+    smooth nonlinear map of a few latent loads: enough to fit a ROM of the paper's shape."""
+    rng = np.random.default_rng(seed)
+    latent = rng.standard_normal((m, 6))
+    F = latent @ rng.standard_normal((6, 530)) + 0.05 * (latent ** 2) @ rng.standard_normal((6, 530))
+    F += 1e-2 * rng.standard_normal(F.shape)      # full rank: every one of the 45 modes carries data
+    U = latent @ rng.standard_normal((6, 3610)) * 1e-3 + (latent[:, :3] ** 2) @ rng.standard_normal((3, 3610)) * 1e-4
+    interface = np.sort(rng.choice(1805, 265, replace=False))
+    K = (interface[:, None] * 2 + np.arange(2)).ravel()
+    nodes = rng.uniform(0.0, 0.3, (265, 2))
+    variables = [{"name": name, "mesh": "interface", "components": 2} for name in ("force", "displacement")]
+    return F, U, K, {"interface": nodes}, variables
+
+
+def recorded_snapshots(results: list[str], t_max: float):
+    config = load_config(ROOT / "scenes" / "double_flap_rom.toml", [f"snapshots.t_max={t_max}"])
+    F, U, _, _ = read_training_set(results, config["snapshots"])
+    variables, meshes = read_interface(results[0], config["snapshots"])
+    return F, U, interface_index(results[0], config["snapshots"]), meshes, variables
+
+
+def kratos_call_times(force: np.ndarray, calls: int) -> dict[str, np.ndarray]:
+    """Compute seconds of ``calls`` solves of one window by the Kratos solid, for each linear solver."""
+    from solid_component.kratos import KratosSolid
+    times = {}
+    for solver in ("sparse_qr", "sparse_lu"):
+        solid = KratosSolid()
+        try:
+            solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008}, "mesh": str(MESHES / "solid.mdpa"),
+                               "linear_solver": solver})
+            solid.step(0.0, 0.008, {"force": force})        # the first solve assembles and factorises
+            seconds = []
+            for _ in range(calls):
+                started = time.perf_counter()
+                solid.step(0.0, 0.008, {"force": force})
+                seconds.append(time.perf_counter() - started)
+            times[solver] = np.array(seconds)
+        finally:
+            solid.close()
+    return times
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--results", nargs="+", help="double-flap FOM-FOM results.h5 files to train on")
+    parser.add_argument("--t-max", type=float, default=3.0, help="train on windows ending at or before (s)")
+    parser.add_argument("--small", action="store_true", help="synthetic snapshots, few repeats (for the tests)")
+    args = parser.parse_args(argv)
+    if not args.small and not args.results:
+        parser.error("give --results (recorded double-flap runs) or --small")
+    out = fresh_directory("flap_rom_call")
+    repeat, fom_calls = (5, 3) if args.small else (15, 15)
+    print(f"machine: {machine()}")
+    F, U, K, meshes, variables = synthetic_snapshots() if args.small else recorded_snapshots(args.results, args.t_max)
+    started = time.perf_counter()
+    estimator = SolidRom(**PARAMS).fit(F, U)
+    fit_seconds = time.perf_counter() - started
+    model_path = persistence.save(out / "model.npz",
+                                  {**estimator.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}},
+                                  {"regressor": "poly", "params": PARAMS, "variables": variables,
+                                   "input_variable": "force", "output_variable": "displacement"})
+    online = persistence.load(model_path)
+    fast = OnlineRom(*persistence.load_arrays(model_path), arithmetic="fast")
+    fmu_path = export_fmu(model_path, out / "solid_rom.fmu", 2)
+    fmu = FmuSolid()
+    fmu.instantiate({"fmu": str(fmu_path)})
+    fmu.enter_initialization_mode(0.0, 1.0)
+    fmu.exit_initialization_mode()
+    slave = fmu.slave
+    refs_in, refs_out = list(np.ravel(fmu.inputs["force"][0])), list(np.ravel(fmu.outputs["displacement"][0]))
+    component = RomSolid()
+    component.instantiate({"model": str(model_path)})
+    f = np.ascontiguousarray(F[len(F) // 2])
+    force = f.reshape(265, 2)
+
+    def fmpy_convenience() -> list:
+        slave.setReal(refs_in, list(f))
+        slave.doStep(0.0, 0.008)
+        return slave.getReal(refs_out)
+
+    np.testing.assert_array_equal(np.ravel(fmu.step(0.0, 0.008, {"force": force})["displacement"]), online(f))
+    np.testing.assert_allclose(online(f), estimator.predict(f[None])[0, K], rtol=1e-10, atol=1e-14)
+    rows = [
+        ("ROM offline path: estimator.predict(one row), full field (baseline)",
+         per_call(lambda: estimator.predict(f[None]), repeat)),
+        ("ROM online interface path, fast arithmetic (BLAS)", per_call(lambda: fast(f), repeat)),
+        ("ROM online interface path, reproducible arithmetic (= the FMU)", per_call(lambda: online(f), repeat)),
+        ("ROM component step (reproducible, input checks, trust)",
+         per_call(lambda: component.step(0.0, 0.008, {"force": force}), repeat)),
+        ("FMU ROM through the fmu component (raw fmi2 calls)",
+         per_call(lambda: fmu.step(0.0, 0.008, {"force": force}), repeat)),
+        ("FMU ROM through fmpy setReal/doStep/getReal (baseline)", per_call(fmpy_convenience, repeat)),
+    ]
+    fmu.terminate()
+    kratos = kratos_call_times(force, fom_calls)
+    from benchmarks.common import Timing
+    fom_rows = [(f"solid FOM, Kratos, {solver}{' (the authors)' if solver == 'sparse_qr' else ''}",
+                 Timing.of(seconds)) for solver, seconds in kratos.items()]
+    n, r_f, r_u = online.n_inputs, online.E.shape[0], online.A.shape[1]
+    terms = int((online.H != 0).sum())
+    flops = 2 * r_f * n + len(online.qi) + 2 * terms + 2 * n * r_u + 2 * n * r_u * (r_u + 1) // 2
+    print(f"\nDouble-flap solid ROM: {len(F)} {'synthetic' if args.small else 'recorded'} snapshots, r_f = {r_f}, "
+          f"r_u = {r_u}, sparse quadratic polynomial ({terms} of {online.H.size} coefficients non-zero), quadratic "
+          f"manifold; {n} forces in, {online.n_outputs} interface displacements out; online path about {flops} flops")
+    print(f"  training (fit): {fit_seconds:.2f} s")
+    print(f"  {'per call, in-process, us: median [IQR]':<70}{'':>28}{'sigma (FOM sparse_qr / row)':>30}"
+          f"{'(FOM sparse_lu / row)':>24}")
+    qr, lu = kratos["sparse_qr"], kratos["sparse_lu"]
+    for label, timing in fom_rows + rows:
+        print(f"  {label:<70}{str(timing):>28}{np.median(qr) * 1e6 / timing.median:>30.0f}"
+              f"{np.median(lu) * 1e6 / timing.median:>24.0f}")
+    print(f"  {'paper: ROM call 2.8 ms, solid FOM 0.724 s (sigma about 260; its machine)':<70}"
+          f"{PAPER['rom_call_us']:>28.1f}{PAPER['fom_call_us'] / PAPER['rom_call_us']:>30.0f}")
+    return {"machine": machine(), "calls": dict(rows + fom_rows), "fit_seconds": fit_seconds, "flops": flops}
+
+
+if __name__ == "__main__":
+    main()
