@@ -61,3 +61,16 @@ def fresh_directory(kind: str) -> Path:
     path = ROOT / "runs" / "bench" / f"{kind}-{stamp}-{os.getpid()}"
     path.mkdir(parents=True)
     return path
+
+
+def rewrite_readme(marker: str, lines: list[str], command: str) -> None:
+    """Replace the README's block between ``<!-- marker:begin`` and ``<!-- marker:end -->`` with ``lines``."""
+    readme = ROOT / "README.md"
+    text = readme.read_text()
+    begin, end = f"<!-- {marker}:begin", f"<!-- {marker}:end -->"
+    if begin not in text or end not in text:
+        raise SystemExit(f"README.md has no '{begin}' ... '{end}' block")
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    block = f"{begin} ({command} writes this part) -->\n```\n" + "\n".join(lines) + "\n```\n"
+    readme.write_text(head + block + end + tail)

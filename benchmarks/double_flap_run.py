@@ -27,7 +27,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.common import Timing, fresh_directory, machine  # noqa: E402
+from benchmarks.common import Timing, fresh_directory, machine, rewrite_readme  # noqa: E402
 from benchmarks.kratos_peer import TIPS  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
 from cosim.results import RunResults  # noqa: E402
@@ -105,17 +105,6 @@ def table(runs: dict[str, dict], theirs: dict, linear_solver: str) -> list[str]:
     return lines
 
 
-def rewrite_readme(lines: list[str], command: str) -> None:
-    """Replace the README's block between the double-flap markers with this run's table."""
-    readme = ROOT / "README.md"
-    text = readme.read_text()
-    begin, end = "<!-- double-flap:begin", "<!-- double-flap:end -->"
-    head, rest = text.split(begin, 1)
-    _, tail = rest.split(end, 1)
-    block = f"{begin} ({command} writes this part) -->\n```\n" + "\n".join(lines) + "\n```\n"
-    readme.write_text(head + block + end + tail)
-
-
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("windows", type=int, nargs="?", default=100)
@@ -136,7 +125,7 @@ def main(argv: list[str] | None = None) -> dict:
     (out / "ours.json").write_text(json.dumps(runs))
     if args.readme:
         command = f"python benchmarks/double_flap_run.py {windows} --linear-solver {args.linear_solver} --readme"
-        rewrite_readme(lines, command)
+        rewrite_readme("double-flap", lines, command)
     return {"ours": mine, "runs": runs, "peer": theirs, "out": str(out)}
 
 

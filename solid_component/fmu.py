@@ -167,7 +167,9 @@ class FmuSolid(Component):
         self.slave.exitInitializationMode()
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
-        check_inputs(self, values, {v.name: v.shape for v in self.variables() if v.causality == "input"})
+        if not hasattr(self, "_input_shapes"):   # the declared inputs do not change after instantiate
+            self._input_shapes = {v.name: v.shape for v in self.variables() if v.causality == "input"}
+        check_inputs(self, values, self._input_shapes)
         for name, value in values.items():
             np.copyto(self.inputs[name][1], np.ravel(value))
             refs, count, data = self._pointers[name]

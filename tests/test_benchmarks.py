@@ -42,3 +42,15 @@ def test_double_flap_benchmark_small(capsys):
     # the same case: after three windows both tips agree with the peer's to a few per cent of their value
     for side in ("left", "right"):
         assert abs(ours[f"tip_{side}"][-1] - peer[f"tip_{side}"][-1]) < 0.05 * abs(peer[f"tip_{side}"][-1])
+
+
+def test_flap_rom_call_benchmark_small(capsys):
+    from benchmarks import flap_rom_call
+    results = flap_rom_call.main(["--small"])   # asserts inside: FMU = online ROM bit for bit = offline on K
+    text = capsys.readouterr().out
+    assert "530 forces in, 530 interface displacements out" in text and "sigma" in text
+    calls = results["calls"]
+    assert all(0 < t.q1 <= t.median <= t.q3 and math.isfinite(t.q3) for t in calls.values())
+    fom = calls["solid FOM, Kratos, sparse_lu"].median
+    assert calls["solid FOM, Kratos, sparse_qr (the authors)"].median > fom   # the authors' solver is the slower
+    assert fom > 100 * calls["ROM online interface path, fast arithmetic (BLAS)"].median
