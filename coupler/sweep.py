@@ -188,6 +188,19 @@ class SweepTable:
             with open(path, "w", newline="") as stream:
                 csv.writer(stream).writerow(self.columns)
 
+    def forget(self, names: set[str]) -> None:
+        """Drop the rows of these runs (they will run again), rewriting the table."""
+        if not names & set(self.done):
+            return
+        for name in names:
+            self.done.pop(name, None)
+        partial = self.path.with_name(self.path.name + ".partial")
+        with open(partial, "w", newline="") as stream:
+            writer = csv.DictWriter(stream, self.columns)
+            writer.writeheader()
+            writer.writerows(self.done.values())
+        partial.replace(self.path)
+
     def add(self, run: SweepRun, row: dict[str, Any]) -> None:
         values = {"name": run.name, **run.settings(), **row}
         with open(self.path, "a", newline="") as stream:

@@ -86,13 +86,10 @@ def load_plan(path: str | Path, out: Path) -> Plan:
     return Plan((base / plan["scene"]).resolve(), (base / plan["rom_config"]).resolve(), fom, models, predictions)
 
 
-def train_model(sources: list[str], config_path: str, overrides: list[str], out: str, *finished: Any) -> dict:
-    """Train one model on a worker (``finished``: the rows of the FOM runs it waits for); writes the model,
-    its log and a stamp of the configuration it was trained with."""
+def train_model(sources: list[str], config_path: str, overrides: list[str], out: str) -> dict:
+    """Train one model on a worker; writes the model, its log and a stamp of the configuration it was
+    trained with."""
     from rom_component.train import load_config, train
-    failed = [row for row in finished if row.get("failure")]
-    if failed:
-        raise RuntimeError(f"a FOM run it trains on failed: {failed[0]['failure_message']}")
     out_path = Path(out)
     lines: list[str] = []
     started = time.perf_counter()
@@ -102,11 +99,6 @@ def train_model(sources: list[str], config_path: str, overrides: list[str], out:
     _stamp(out_path).write_text(json.dumps(_model_key(sources, config_path, overrides)))
     return {"seconds": time.perf_counter() - started, "cv_seconds": metadata.get("cv_seconds"),
             "fit_seconds": metadata["fit_seconds"], "modes": metadata["params"]["n_force_modes"]}
-
-
-def run_after(scene: str, overrides: list[str], out_dir: str, *dependencies: Any) -> dict:
-    """``run_one`` once its ``dependencies`` (futures) have finished."""
-    return run_one(scene, overrides, out_dir)
 
 
 def _stamp(model: Path) -> Path:
@@ -135,61 +127,61 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
     rom_dir = {p.name: out / "rom" / "runs" / p.run.name for p in plan.predictions}
     started = time.perf_counter()
+    import dask
     from dask.distributed import Client, LocalCluster, as_completed
 
-    cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                  host="127.0.0.1", dashboard_address=None)
+    sources = {name: [str(fom_dir[run] / "results.h5") for run in spec["runs"]] for name, spec in plan.models.items()}
+    current = {name for name, spec in plan.models.items()
+               if _model_is_current(spec["path"], _model_key(sources[name], str(plan.rom_config), spec["set"]))}
+    rom_table.forget({p.run.name for p in plan.predictions if p.model not in current})   # stale: retrained below
+    failed_fom = {name for name, run in plan.fom.items() if fom_table.done.get(run.name, {}).get("failure")}
+    trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
+    # every task is submitted once its inputs exist, so none carries a dependency that would tie it to the
+    # worker holding its input; with one task per worker at a time, a free worker takes the queued task of
+    # highest priority: models, then the FOM runs they train on, the ROM-FOM runs, the other FOM runs
+    with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+        cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                      host="127.0.0.1", dashboard_address=None)
     try:
         with Client(scheduler or cluster) as client:
-            # submission order is the order idle workers take tasks: models whose runs are done, the FOM runs
-            # models train on, the other models, the ROM-FOM runs, and last the FOM runs only reports need
-            trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
-            fom: dict[str, Any] = {}
-            for name, run in plan.fom.items():
-                if run.name in fom_table.done:
-                    fom[name] = {"failure": fom_table.done[run.name]["failure"],
-                                 "failure_message": fom_table.done[run.name]["failure_message"]}
             jobs: dict[Any, tuple[str, str]] = {}
+            pending = as_completed()
 
-            def submit_fom(name: str, priority: int) -> None:
-                run = plan.fom[name]
-                fom[name] = client.submit(run_one, str(plan.scene), list(run.overrides), str(fom_dir[name]),
-                                          key=f"fom-{name}-{run.name}", pure=False, priority=priority)
-                jobs[fom[name]] = ("fom", name)
+            def submit(kind: str, name: str, function, *args, priority: int) -> None:
+                future = client.submit(function, *args, key=f"{kind}-{name}-{time.time_ns()}", pure=False,
+                                       priority=priority)
+                jobs[future] = (kind, name)
+                pending.add(future)
 
-            models: dict[str, Any] = {}
+            def submit_ready_models() -> None:
+                for name, spec in plan.models.items():
+                    if name in current or name in submitted_models:
+                        continue
+                    if any(run in failed_fom for run in spec["runs"]):
+                        echo(f"model {name}: not trained, a FOM run it needs failed")
+                        submitted_models.add(name)
+                    elif all(plan.fom[run].name in fom_table.done for run in spec["runs"]):
+                        submitted_models.add(name)
+                        submit("model", name, train_model, sources[name], str(plan.rom_config), spec["set"],
+                               str(spec["path"]), priority=3)
 
-            def submit_model(name: str) -> None:
-                spec = plan.models[name]
-                sources = [str(fom_dir[run] / "results.h5") for run in spec["runs"]]
-                if _model_is_current(spec["path"], _model_key(sources, str(plan.rom_config), spec["set"])):
-                    models[name] = None
-                    return
-                models[name] = client.submit(train_model, sources, str(plan.rom_config), spec["set"],
-                                             str(spec["path"]), *[fom[run] for run in spec["runs"]],
-                                             key=f"train-{name}", pure=False, priority=3)
-                jobs[models[name]] = ("model", name)
+            def submit_ready_predictions() -> None:
+                for p in plan.predictions:
+                    if p.name in submitted_runs or p.run.name in rom_table.done or p.model not in current:
+                        continue
+                    submitted_runs.add(p.name)
+                    submit("rom", p.name, run_one, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
+                           priority=1)
 
-            ready = [name for name, spec in plan.models.items() if all(run in fom for run in spec["runs"])]
-            for name in ready:
-                submit_model(name)
-            for name in plan.fom:
-                if name not in fom and name in trained_on:
-                    submit_fom(name, 2)
-            for name in plan.models:
-                if name not in models:
-                    submit_model(name)
-            for p in plan.predictions:
-                if p.run.name in rom_table.done:
-                    continue
-                dependency = [models[p.model]] if models[p.model] is not None else []
-                future = client.submit(run_after, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
-                                       *dependency, key=f"rom-{p.name}-{p.run.name}", pure=False, priority=1)
-                jobs[future] = ("rom", p.name)
-            for name in plan.fom:
-                if name not in fom:
-                    submit_fom(name, 0)
-            for future in as_completed(list(jobs)):
+            submitted_models: set[str] = set()
+            submitted_runs: set[str] = set()
+            submit_ready_models()
+            for name, run in plan.fom.items():
+                if run.name not in fom_table.done:
+                    submit("fom", name, run_one, str(plan.scene), list(run.overrides), str(fom_dir[name]),
+                           priority=2 if name in trained_on else 0)
+            submit_ready_predictions()
+            for future in pending:
                 kind, name = jobs[future]
                 if future.status == "error":
                     echo(f"{kind} {name}: failed: {future.exception()}")
@@ -197,18 +189,22 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                 result = future.result()
                 if kind == "fom":
                     fom_table.add(plan.fom[name], result)
-                elif kind == "rom":
+                    if result["failure"]:
+                        failed_fom.add(name)
+                    submit_ready_models()
+                elif kind == "model":
+                    current.add(name)
+                    echo(f"model {name}: trained in {result['seconds']:.1f} s (cross-validation "
+                         f"{result['cv_seconds']:.1f} s, fit {result['fit_seconds']:.2f} s), r_f = {result['modes']}")
+                    submit_ready_predictions()
+                    continue
+                else:
                     p = next(p for p in plan.predictions if p.name == name)
                     rom_table.add(p.run, {"model": p.model, "reference": p.reference,
                                           "switch_time": p.run.settings()["components.solid.rom.switch_time"],
                                           **result})
-                    result = {**result, "model": p.model}
-                if kind == "model":
-                    echo(f"model {name}: trained in {result['seconds']:.1f} s (cross-validation "
-                         f"{result['cv_seconds']:.1f} s, fit {result['fit_seconds']:.2f} s), r_f = {result['modes']}")
-                else:
-                    echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
-                         f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
+                echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
+                     f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
     finally:
         if cluster is not None:
             cluster.close()

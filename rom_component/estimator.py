@@ -32,7 +32,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
 
     def __init__(self, n_force_modes: int = 3, n_disp_modes: int = 9, decoder: str = "linear",
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
-                 rbf_smoothing: float = 0.0):
+                 rbf_smoothing: float = 0.0, quadratic_modes: int = 0):
         self.n_force_modes = n_force_modes
         self.n_disp_modes = n_disp_modes
         self.decoder = decoder
@@ -40,6 +40,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.input_scaling = input_scaling
         self.manifold_regularization = manifold_regularization
         self.rbf_smoothing = rbf_smoothing
+        self.quadratic_modes = quadratic_modes
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -58,6 +59,9 @@ class SolidRom(RegressorMixin, BaseEstimator):
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         if self.decoder not in ("linear", "quadratic"):
             raise ValueError(f"decoder {self.decoder!r} not in ('linear', 'quadratic')")
+        if isinstance(self.quadratic_modes, bool) or not isinstance(self.quadratic_modes, numbers.Integral) \
+                or self.quadratic_modes < 0:
+            raise ValueError(f"quadratic_modes must be an integer >= 0 (0: all), got {self.quadratic_modes!r}")
         for name in ("manifold_regularization", "rbf_smoothing"):
             value = getattr(self, name)
             if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
@@ -85,7 +89,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
         Zf = (F - self.f_mean_) @ self.Phi_f_
         self.scaling_ = Scaling(self.input_scaling).fit(Zf)
         X = self.scaling_(Zf)
-        self.regression_ = make_regression(self.regressor, self.rbf_smoothing).fit(X, Zu)
+        self.regression_ = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes).fit(X, Zu)
         self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
 

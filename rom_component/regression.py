@@ -15,7 +15,7 @@ import numpy as np
 from scipy.spatial.distance import cdist
 from scipy.special import xlogy
 
-from rom_component.manifold import quadratic_index, quadratic_terms
+from rom_component.manifold import quadratic_index
 
 SCALINGS = ("global", "standard", "minmax", "none")
 
@@ -111,13 +111,23 @@ class RbfRegression:
 
 
 class SparseQuadraticRegression:
-    """u~_k = c_k + sum over a BIC-selected subset of {x_i, x_i x_j} of the terms."""
+    """u~_k = c_k + sum over a BIC-selected subset of {x_i, x_i x_j} of the terms.
+
+    ``quadratic_modes`` = q limits the products to the leading q reduced forces (i, j < q; default: all):
+    the response stays linear in the weaker modes, which matters once the coupling drives the inputs
+    beyond the training data (a product of two weak modes grows fast outside their small range).
+    """
 
     kind = "poly"
+
+    def __init__(self, quadratic_modes: int = 0):
+        self.quadratic_modes = quadratic_modes
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> "SparseQuadraticRegression":
         from sklearn.linear_model import LassoLarsIC
         self.n_inputs = X.shape[1]
+        q = self.n_inputs if self.quadratic_modes <= 0 else min(self.quadratic_modes, self.n_inputs)
+        self.quad_i, self.quad_j = quadratic_index(q)
         features = self.features(X)
         self.feature_mean = features.mean(axis=0)
         self.feature_scale = features.std(axis=0)
@@ -139,9 +149,8 @@ class SparseQuadraticRegression:
         self.n_selected = (coefficients != 0).sum(axis=0)
         return self
 
-    @staticmethod
-    def features(X: np.ndarray) -> np.ndarray:
-        return np.hstack([quadratic_terms(X), X])
+    def features(self, X: np.ndarray) -> np.ndarray:
+        return np.hstack([X[:, self.quad_i] * X[:, self.quad_j], X])
 
     def predict(self, X: np.ndarray) -> np.ndarray:
         Phi = (self.features(X) - self.feature_mean) / self.feature_scale
@@ -152,13 +161,12 @@ class SparseQuadraticRegression:
         C = self.coefficients / self.feature_scale[:, None] * self.y_scale[None, :]
         constant = self.y_mean - self.feature_mean @ C
         H = np.vstack([C, constant[None]]).T
-        i, j = quadratic_index(self.n_inputs)
-        return {"H": np.ascontiguousarray(H), "quad_i": i, "quad_j": j}
+        return {"H": np.ascontiguousarray(H), "quad_i": self.quad_i, "quad_j": self.quad_j}
 
 
-def make_regression(kind: str, smoothing: float = 0.0):
+def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0):
     if kind == "rbf":
         return RbfRegression(smoothing)
     if kind == "poly":
-        return SparseQuadraticRegression()
+        return SparseQuadraticRegression(quadratic_modes)
     raise ValueError(f"regressor {kind!r} not in ('rbf', 'poly')")

@@ -61,7 +61,7 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
     coefficients = getattr(estimator.regression_, "coefficients", None)
     if coefficients is not None:
         n = estimator.regression_.n_inputs
-        quadratic = n * (n + 1) // 2
+        quadratic = len(estimator.regression_.quad_i)
         order = np.r_[quadratic:quadratic + n, 0:quadratic]      # linear terms first, then the products
         kept = coefficients[order].T != 0                        # (r_u, terms)
         fig, ax = plt.subplots(figsize=(11, 3.2), constrained_layout=True)

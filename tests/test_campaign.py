@@ -85,11 +85,13 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     third = campaign(plan, out)
     assert third.returncode == 0, third.stderr
     assert (out / "models/a.npz").stat().st_mtime_ns != stamp
-    assert len(rows(out / "fom/sweep.csv")) == 2 and len(rows(out / "rom/sweep.csv")) == 3
+    after = rows(out / "rom/sweep.csv")
+    assert len(rows(out / "fom/sweep.csv")) == 2 and len(after) == 2
+    assert after[0] == rom[1] and after[1]["name"] == rom[0]["name"] and after[1] != rom[0]
 
 
 @pytest.mark.parametrize("text, message", [
-    ('scene = "x.toml"\nrom_config = "y.toml"\n[fom]\na = []\n[models]\nm = { runs = ["b"] }\npredictions = []',
+    ('scene = "x.toml"\nrom_config = "y.toml"\npredictions = []\n[fom]\na = []\n[models]\nm = { runs = ["b"] }',
      "models.m.runs names 'b', which is not in [fom]"),
     ('scene = "x.toml"\nrom_config = "y.toml"\n[fom]\na = []\n[models]\nm = { runs = ["a"] }\n'
      '[[predictions]]\nmodel = "n"\nreference = "a"\nswitch_time = 1.0', "predictions.0.model is 'n'"),

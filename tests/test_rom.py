@@ -62,13 +62,32 @@ def test_quadratic_manifold_reproduces_data_on_a_quadratic_manifold():
 def test_lasso_bic_recovers_the_support_of_a_sparse_quadratic():
     rng = np.random.default_rng(3)
     X = rng.standard_normal((400, 4))
-    terms = SparseQuadraticRegression.features(X)  # 10 quadratic terms, then 4 linear
+    i, j = np.triu_indices(4)
+    terms = np.hstack([X[:, i] * X[:, j], X])  # 10 quadratic terms, then 4 linear
     truth = np.zeros(terms.shape[1])
     truth[[0, 5, 11]] = [1.5, -2.0, 0.8]     # x0^2, x1 x3, x1
     y = terms @ truth + 0.3 + 1e-3 * rng.standard_normal(400)
     model = SparseQuadraticRegression().fit(X, y[:, None])
     np.testing.assert_array_equal(np.flatnonzero(model.coefficients[:, 0]), [0, 5, 11])
     np.testing.assert_allclose(model.predict(X)[:, 0], terms @ truth + 0.3, atol=1e-2)
+
+
+def test_products_of_the_leading_modes_only_keep_the_response_linear_in_the_others():
+    rng = np.random.default_rng(5)
+    X = rng.standard_normal((400, 5))
+    y = 1.5 * X[:, 0] ** 2 - 2.0 * X[:, 0] * X[:, 1] + 0.8 * X[:, 4] + 1e-3 * rng.standard_normal(400)
+    model = SparseQuadraticRegression(quadratic_modes=2).fit(X, y[:, None])
+    assert len(model.quad_i) == 3 and model.coefficients.shape == (3 + 5, 1)   # x0^2, x0 x1, x1^2; 5 linear
+    np.testing.assert_allclose(model.predict(X)[:, 0], y, atol=1e-2)
+    far = np.zeros((2, 5))
+    far[:, 3] = [10.0, 20.0]                  # far out in a weak mode: the response stays linear (here: flat)
+    response = model.predict(far)[:, 0]
+    assert abs(response[1] - 2 * response[0] + model.predict(np.zeros((1, 5)))[0, 0]) < 1e-9
+    # the online path and the FMU's arrays take the products they are given
+    F, U = smooth_data()
+    rom = SolidRom(4, 4, decoder="quadratic", regressor="poly", quadratic_modes=2).fit(F, U)
+    assert len(rom.online_arrays()["quad_i"]) == 3
+    np.testing.assert_allclose(rom.to_online().predict(F[:20] + 0.01), rom.predict(F[:20] + 0.01), atol=1e-9)
 
 
 def test_rbf_regressor_interpolates_its_centres():
