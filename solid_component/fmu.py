@@ -188,6 +188,14 @@ class FmuSolid(Component):
     def do_step(self, t: float, dt: float) -> None:
         self._check(self._do_step(self.slave.component, t, dt, 1), "fmi2DoStep")
 
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The hot path: set, step, get, with the names it returns worked out once."""
+        if not hasattr(self, "_returned"):
+            self._returned = self.output_names() + self.local_names()
+        self.set_values(inputs)
+        self.do_step(t, dt)
+        return self.get_values(self._returned)
+
     @property
     def can_get_and_set_state(self) -> bool:
         return bool(getattr(self, "stateful", False))

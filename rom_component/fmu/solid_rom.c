@@ -297,36 +297,30 @@ static double rom_log(double x) {
 #define HOT
 #endif
 
-/* numpy's pairwise summation (the order of ndarray.sum along a contiguous axis):
- * 8 running sums over blocks of at most 128 values, halving recursively above that */
-HOT static double pairwise_sum(const double *a, int32_t n) {
+/* sum_i row[i] * v[i], each product rounded, then summed in numpy's pairwise order (the order of
+ * ndarray.sum along a contiguous axis: 8 running sums over blocks of at most 128 values, halving
+ * recursively above that), without a scratch row */
+HOT static double pairwise_dot(const double *row, const double *v, int32_t n) {
     if (n < 8) {
         double res = -0.0;
         int32_t i;
-        for (i = 0; i < n; i++) res += a[i];
+        for (i = 0; i < n; i++) res += row[i] * v[i];
         return res;
     }
     if (n <= 128) {
         double r[8], res;
         int32_t i, j;
-        for (j = 0; j < 8; j++) r[j] = a[j];
+        for (j = 0; j < 8; j++) r[j] = row[j] * v[j];
         for (i = 8; i < n - (n % 8); i += 8)
-            for (j = 0; j < 8; j++) r[j] += a[i + j];
+            for (j = 0; j < 8; j++) r[j] += row[i + j] * v[i + j];
         res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
-        for (; i < n; i++) res += a[i];
+        for (; i < n; i++) res += row[i] * v[i];
         return res;
     } else {
         int32_t n2 = n / 2;
         n2 -= n2 % 8;
-        return pairwise_sum(a, n2) + pairwise_sum(a + n2, n - n2);
+        return pairwise_dot(row, v, n2) + pairwise_dot(row + n2, v + n2, n - n2);
     }
-}
-
-/* sum_i row[i] * v[i] in the pairwise order; products go through a scratch row */
-HOT static double pairwise_dot(const double *row, const double *v, int32_t n, double *scratch) {
-    int32_t i;
-    for (i = 0; i < n; i++) scratch[i] = row[i] * v[i];
-    return pairwise_sum(scratch, n);
 }
 
 /* the interface path, operation for operation as OnlineRom(arithmetic="reproducible") */
@@ -335,7 +329,7 @@ HOT static void evaluate(Instance *inst) {
     const int32_t width = m->m + m->r_f + 1;
     int32_t i, k, a, o;
     for (k = 0; k < m->r_f; k++)
-        inst->x[k] = pairwise_dot(m->E + (size_t)k * m->n_in, inst->inputs, m->n_in, inst->scratch) - m->e[k];
+        inst->x[k] = pairwise_dot(m->E + (size_t)k * m->n_in, inst->inputs, m->n_in) - m->e[k];
     if (m->regressor == 0) {
         for (i = 0; i < m->m; i++) {
             const double *c = m->centres + (size_t)i * m->r_f;
@@ -349,7 +343,7 @@ HOT static void evaluate(Instance *inst) {
     for (k = 0; k < m->r_f; k++) inst->z[m->m + k] = inst->x[k];
     inst->z[m->m + m->r_f] = 1.0;
     for (a = 0; a < m->r_u; a++)
-        inst->reduced[a] = pairwise_dot(m->H + (size_t)a * width, inst->z, width, inst->scratch);
+        inst->reduced[a] = pairwise_dot(m->H + (size_t)a * width, inst->z, width);
     if (m->decoder == 1) {
         int32_t q = 0, b;
         for (a = 0; a < m->r_u; a++)
