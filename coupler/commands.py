@@ -1,5 +1,5 @@
-"""The coupler's subcommands ``cosim run`` and ``cosim sweep`` (registered in pyproject.toml under
-``cosim.commands``)."""
+"""The coupler's subcommands ``cosim run``, ``cosim sweep``, ``cosim stability`` and ``cosim campaign``
+(registered in pyproject.toml under ``cosim.commands``)."""
 
 from __future__ import annotations
 
@@ -121,3 +121,25 @@ run = Command("run a scene", _arguments, _run)
 stability = Command("the tube's stability matrix: stiffness x time step per method, against theory",
                     _stability_arguments, _stability)
 sweep = Command("run many variants of a scene on Dask (a local cluster or a scheduler)", _sweep_arguments, _sweep)
+
+
+def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("campaign", help="campaign file (TOML), e.g. scenes/double_flap_campaign.toml")
+    parser.add_argument("--out", required=True, help="campaign directory: fom/, models/, rom/, report/")
+    parser.add_argument("--workers", type=int, default=2, help="local Dask workers, one run each at a time (default 2)")
+    parser.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:port) instead")
+
+
+def _campaign(args: argparse.Namespace) -> int:
+    from coupler.campaign import run_campaign
+    from cosim.errors import SceneError
+
+    if args.workers < 1:
+        raise SceneError(f"--workers is {args.workers}; allowed: an integer >= 1")
+    report = run_campaign(args.campaign, args.out, args.workers, args.scheduler)
+    print(f"report written to {report}")
+    return 0
+
+
+campaign = Command("run a ROM evaluation campaign (FOM runs, training, ROM-FOM runs, report) on Dask",
+                   _campaign_arguments, _campaign)

@@ -27,17 +27,28 @@ def _report_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("runs", nargs="+", metavar="RUN[=REFERENCE]", help="run directory, optionally with its reference")
     parser.add_argument("--reference", help="FOM-FOM run directory for runs given without one")
     parser.add_argument("--out", default="runs/report", help="report directory (default: runs/report)")
+    parser.add_argument("--label", action="append", metavar="DIR=NAME",
+                        help="name a run or reference directory in the tables and PNGs (default: its own name)")
 
 
 def _report(args: argparse.Namespace) -> int:
     from rom_component.report import Run, write_report
+    labels = {}
+    for item in args.label or []:
+        directory, sep, name = item.rpartition("=")
+        if not sep or not directory or not name:
+            raise SceneError(f"--label '{item}' is not of the form DIR=NAME")
+        labels[Path(directory).resolve()] = name
     pairs = []
     for item in args.runs:
         run_dir, _, ref_dir = item.partition("=")
         ref_dir = ref_dir or args.reference
         if not ref_dir:
             raise SceneError(f"run '{run_dir}' has no reference: write RUN=REFERENCE or pass --reference")
-        pairs.append((Run.read(run_dir), Run.read(ref_dir)))
+        pair = (Run.read(run_dir), Run.read(ref_dir))
+        for run, directory in zip(pair, (run_dir, ref_dir)):
+            run.label = labels.get(Path(directory).resolve(), run.label)
+        pairs.append(pair)
     write_report(pairs, Path(args.out))
     print(f"report written to {args.out}")
     return 0
@@ -55,24 +66,6 @@ def _export_fmu(args: argparse.Namespace) -> int:
     return 0
 
 
-def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("campaign", help="campaign file (TOML), e.g. scenes/double_flap_campaign.toml")
-    parser.add_argument("--out", required=True, help="campaign directory: fom/, models/, rom/, report/")
-    parser.add_argument("--workers", type=int, default=2, help="local Dask workers, one run each at a time (default 2)")
-    parser.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:port) instead")
-
-
-def _campaign(args: argparse.Namespace) -> int:
-    from rom_component.campaign import run_campaign
-    if args.workers < 1:
-        raise SceneError(f"--workers is {args.workers}; it must be at least 1")
-    report = run_campaign(args.campaign, args.out, args.workers, args.scheduler)
-    print(f"report written to {report}")
-    return 0
-
-
 train = Command("train a solid ROM from the snapshots of a run", _train_arguments, _train)
 report = Command("compare ROM-FOM runs with FOM-FOM references", _report_arguments, _report)
-campaign = Command("run a ROM evaluation campaign (FOM runs, training, ROM-FOM runs, report) on Dask",
-                   _campaign_arguments, _campaign)
 export_fmu = Command("export a trained ROM as an FMI 2.0 Co-Simulation FMU", _export_arguments, _export_fmu)

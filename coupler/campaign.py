@@ -14,6 +14,8 @@ finished and a ROM-FOM run starts as soon as its model exists: independent runs 
 rerun skips finished runs and models (a model is retrained when its configuration changed); a run that
 was stopped midway starts again from its beginning. The report of every prediction goes to
 ``DIR/report/``, the training logs (hold-out tables, timings) to ``DIR/models/<name>.log``.
+Training and the report are the ``cosim train`` and ``cosim report`` subcommands, found through
+the command registry like any other, so the coupler imports no ROM code.
 """
 
 from __future__ import annotations
@@ -86,17 +88,38 @@ def load_plan(path: str | Path, out: Path) -> Plan:
     return Plan((base / plan["scene"]).resolve(), (base / plan["rom_config"]).resolve(), fom, models, predictions)
 
 
+def _command(argv: list[str]) -> list[str]:
+    """Run a ``cosim`` subcommand in this process; its output lines (an error if it fails)."""
+    import contextlib
+    import io
+
+    from cosim.cli import main
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    if code != 0:
+        raise SceneError(err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else f"exit code {code}")
+    return out.getvalue().splitlines()
+
+
+def _model_metadata(path: Path) -> dict[str, Any]:
+    """The JSON metadata a model file carries (array ``metadata_json``; read without the ROM package)."""
+    import numpy as np
+    with np.load(path, allow_pickle=False) as data:
+        return json.loads(data["metadata_json"].tobytes().decode())
+
+
 def train_model(sources: list[str], config_path: str, overrides: list[str], out: str) -> dict:
-    """Train one model on a worker; writes the model, its log and a stamp of the configuration it was
-    trained with."""
-    from rom_component.train import load_config, train
+    """Train one model on a worker (``cosim train``); writes the model, its log and a stamp of the
+    configuration it was trained with."""
     out_path = Path(out)
-    lines: list[str] = []
     started = time.perf_counter()
-    metadata = train(sources, out_path, load_config(config_path, overrides), echo=lines.append)
+    lines = _command(["train", *sources, "--config", config_path, "--out", out,
+                      *[arg for item in overrides for arg in ("--set", item)]])
     lines.append(f"training with cross-validation: {time.perf_counter() - started:.1f} s")
     out_path.with_suffix(".log").write_text("\n".join(lines) + "\n")
     _stamp(out_path).write_text(json.dumps(_model_key(sources, config_path, overrides)))
+    metadata = _model_metadata(out_path)
     return {"seconds": time.perf_counter() - started, "cv_seconds": metadata.get("cv_seconds"),
             "fit_seconds": metadata["fit_seconds"], "modes": metadata["params"]["n_force_modes"]}
 
@@ -220,8 +243,7 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
                           failed: dict[str, str], echo: Callable[[str], None] = print) -> Path:
     """``cosim report`` over every prediction whose run and reference finished; the failed ones are listed
     in ``report/failed.txt``."""
-    from rom_component.report import Run, write_report
-    pairs, notes = [], []
+    pairs, labels, notes = [], [], []
     for p in plan.predictions:
         run, reference = rom_dir[p.name] / "results.h5", fom_dir[p.reference] / "results.h5"
         for name in (p.name, p.reference):
@@ -230,15 +252,16 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
         if notes and notes[-1].startswith(f"{p.name}:"):
             continue
         if run.is_file() and reference.is_file():
-            pairs.append((Run.read(rom_dir[p.name]), Run.read(fom_dir[p.reference])))
-            pairs[-1][0].label, pairs[-1][1].label = p.name, p.reference
+            pairs.append(f"{rom_dir[p.name]}={fom_dir[p.reference]}")
+            labels += ["--label", f"{rom_dir[p.name]}={p.name}", "--label", f"{fom_dir[p.reference]}={p.reference}"]
         else:
-            echo(f"report: {p.name} left out ({'its run' if not run.is_file() else 'its reference'} has no results)")
+            notes.append(f"{p.name}: left out ({'its run' if not run.is_file() else 'its reference'} has no results)")
     report = out / "report"
     report.mkdir(parents=True, exist_ok=True)
     for note in notes:
         echo(note)
     (report / "failed.txt").write_text("".join(f"{note}\n" for note in notes))
     if pairs:
-        write_report(pairs, report, echo)
+        for line in _command(["report", *pairs, "--out", str(report), *labels]):
+            echo(line)
     return report
