@@ -20,6 +20,7 @@ the command registry like any other, so the coupler imports no ROM code.
 
 from __future__ import annotations
 
+import heapq
 import json
 import time
 import tomllib
@@ -150,7 +151,6 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
     rom_dir = {p.name: out / "rom" / "runs" / p.run.name for p in plan.predictions}
     started = time.perf_counter()
-    import dask
     from dask.distributed import Client, LocalCluster, as_completed
 
     sources = {name: [str(fom_dir[run] / "results.h5") for run in spec["runs"]] for name, spec in plan.models.items()}
@@ -159,22 +159,28 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     rom_table.forget({p.run.name for p in plan.predictions if p.model not in current})   # stale: retrained below
     failed_fom = {name for name, run in plan.fom.items() if fom_table.done.get(run.name, {}).get("failure")}
     trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
-    # every task is submitted once its inputs exist, so none carries a dependency that would tie it to the
-    # worker holding its input; with one task per worker at a time, a free worker takes the queued task of
-    # highest priority: models, then the FOM runs they train on, the ROM-FOM runs, the other FOM runs
-    with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
-        cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                      host="127.0.0.1", dashboard_address=None)
+    # the campaign keeps its own queue: a task is queued once its inputs exist, and handed to Dask only
+    # when a worker thread is free, highest priority first (models, then the FOM runs they train on, the
+    # ROM-FOM runs, the other FOM runs), so no task waits behind another on a busy worker
+    cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                  host="127.0.0.1", dashboard_address=None)
     try:
         with Client(scheduler or cluster) as client:
             jobs: dict[Any, tuple[str, str]] = {}
             pending = as_completed()
+            queue: list[tuple[int, int, str, str, Any, tuple]] = []
+            capacity = max(sum(client.nthreads().values()), 1)
 
             def submit(kind: str, name: str, function, *args, priority: int) -> None:
-                future = client.submit(function, *args, key=f"{kind}-{name}-{time.time_ns()}", pure=False,
-                                       priority=priority)
-                jobs[future] = (kind, name)
-                pending.add(future)
+                heapq.heappush(queue, (-priority, len(jobs) + len(queue), kind, name, function, args))
+                dispatch()
+
+            def dispatch() -> None:
+                while queue and sum(not f.done() for f in jobs) < capacity:
+                    _, _, kind, name, function, args = heapq.heappop(queue)
+                    future = client.submit(function, *args, key=f"{kind}-{name}-{time.time_ns()}", pure=False)
+                    jobs[future] = (kind, name)
+                    pending.add(future)
 
             def submit_ready_models() -> None:
                 for name, spec in plan.models.items():
@@ -206,6 +212,7 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
             submit_ready_predictions()
             for future in pending:
                 kind, name = jobs[future]
+                dispatch()
                 if future.status == "error":
                     echo(f"{kind} {name}: failed: {future.exception()}")
                     continue
