@@ -51,7 +51,7 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
         if not fitted:
             continue
         parts = [f"model {log.stem}: {snapshots.group(1) if snapshots else '?'} snapshots, r_f = {fitted.group(1)} "
-                 f"(hold-out), r_u = {fitted.group(2)}, {fitted.group(3)}, {fitted.group(4)} decoder"]
+                 f", r_u = {fitted.group(2)}, {fitted.group(3)}, {fitted.group(4)} decoder"]
         if terms:
             parts.append(f"terms kept per output {terms.group(3)}-{terms.group(4)} of {terms.group(5)}")
         parts.append(f"fit {float(fitted.group(5)):.1f} s" + "".join(

@@ -54,3 +54,5 @@ def test_flap_rom_call_benchmark_small(capsys):
     fom = calls["solid FOM, Kratos, sparse_lu"].median
     assert calls["solid FOM, Kratos, sparse_qr (the authors)"].median > fom   # the authors' solver is the slower
     assert fom > 100 * calls["ROM online interface path, fast arithmetic (BLAS)"].median
+    do_step = calls["FMU ROM: fmi2DoStep alone (the ROM inside the FMU)"].median
+    assert do_step < calls["FMU ROM through fmpy setReal/doStep/getReal (baseline)"].median
