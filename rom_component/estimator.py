@@ -32,7 +32,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
 
     def __init__(self, n_force_modes: int = 3, n_disp_modes: int = 9, decoder: str = "linear",
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
-                 rbf_smoothing: float = 0.0, quadratic_modes: int = 0):
+                 rbf_smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard"):
         self.n_force_modes = n_force_modes
         self.n_disp_modes = n_disp_modes
         self.decoder = decoder
@@ -41,6 +41,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.manifold_regularization = manifold_regularization
         self.rbf_smoothing = rbf_smoothing
         self.quadratic_modes = quadratic_modes
+        self.feature_scaling = feature_scaling
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -89,7 +90,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
         Zf = (F - self.f_mean_) @ self.Phi_f_
         self.scaling_ = Scaling(self.input_scaling).fit(Zf)
         X = self.scaling_(Zf)
-        self.regression_ = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes).fit(X, Zu)
+        self.regression_ = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes,
+                                           self.feature_scaling).fit(X, Zu)
         self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
 

@@ -120,8 +120,11 @@ class SparseQuadraticRegression:
 
     kind = "poly"
 
-    def __init__(self, quadratic_modes: int = 0):
+    def __init__(self, quadratic_modes: int = 0, feature_scaling: str = "standard"):
+        if feature_scaling not in ("standard", "global"):
+            raise ValueError(f"feature scaling {feature_scaling!r} not in ('standard', 'global')")
         self.quadratic_modes = quadratic_modes
+        self.feature_scaling = feature_scaling
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> "SparseQuadraticRegression":
         from sklearn.linear_model import LassoLarsIC
@@ -132,6 +135,10 @@ class SparseQuadraticRegression:
         self.feature_mean = features.mean(axis=0)
         self.feature_scale = features.std(axis=0)
         self.feature_scale[self.feature_scale == 0] = 1.0
+        if self.feature_scaling == "global":
+            # one scale for every term (that of the strongest linear term): the Lasso then weighs a weak
+            # mode's term by its size, instead of inflating it to the strongest one's
+            self.feature_scale = np.full_like(self.feature_scale, self.feature_scale[len(self.quad_i)])
         Phi = (features - self.feature_mean) / self.feature_scale
         self.y_mean, self.y_scale = Y.mean(axis=0), Y.std(axis=0)
         self.y_scale[self.y_scale == 0] = 1.0
@@ -164,9 +171,9 @@ class SparseQuadraticRegression:
         return {"H": np.ascontiguousarray(H), "quad_i": self.quad_i, "quad_j": self.quad_j}
 
 
-def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0):
+def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard"):
     if kind == "rbf":
         return RbfRegression(smoothing)
     if kind == "poly":
-        return SparseQuadraticRegression(quadratic_modes)
+        return SparseQuadraticRegression(quadratic_modes, feature_scaling)
     raise ValueError(f"regressor {kind!r} not in ('rbf', 'poly')")

@@ -32,7 +32,8 @@ CONFIG = {
                   "t_min": 0.0, "t_max": 1e300, "converged_only": False},
     "model": {"n_force_modes": 3, "n_disp_modes": 9, "decoder": "linear", "regressor": "rbf",
               "input_scaling": "global", "manifold_regularization": 1e-6, "rbf_smoothing": 0.0,
-              "quadratic_modes": 0},   # poly: products of the leading quadratic_modes reduced forces only (0: all)
+              "quadratic_modes": 0,    # poly: products of the leading quadratic_modes reduced forces only (0: all)
+              "feature_scaling": "standard"},   # poly: each term to unit variance, or "global": one scale for all
     "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
     "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],

@@ -32,7 +32,8 @@ def _pct(value: float, digits: int = 2) -> str:
 
 
 def summary(campaign: Path, calls: Path | None) -> list[str]:
-    report = json.loads((campaign / "report" / "report.json").read_text())["runs"]
+    report_file = campaign / "report" / "report.json"
+    report = json.loads(report_file.read_text())["runs"] if report_file.is_file() else []
     lines = []
     with open(campaign / "fom" / "sweep.csv", newline="") as stream:
         fom = list(csv.DictReader(stream))
@@ -61,12 +62,22 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
             parts.append(f"total {float(total.group(1)):.0f} s (paper: fit {PAPER['fit_s']} s, with "
                          f"cross-validation {PAPER['cv_s']} s, 8-core laptop)")
         lines.append("; ".join(parts))
+    rom_table = campaign / "rom" / "sweep.csv"
+    if rom_table.is_file():
+        with open(rom_table, newline="") as stream:
+            for r in csv.DictReader(stream):
+                state = f"failed ({r['failure']}): {r['failure_message'][:110]}" if r["failure"] else "finished"
+                lines.append(f"ROM-FOM {r['model']} against {r['reference']} from {float(r['switch_time']):g} s: "
+                             f"{r['windows_converged']} windows converged, {float(r['mean_iterations']):.3f} "
+                             f"iterations/window, {float(r['wall_seconds']) / 60:.0f} min; {state}")
     qr = lu = None
     if calls:
         medians = json.loads(calls.read_text())["median_seconds"]
         qr = medians["solid FOM, Kratos, sparse_qr (the authors)"]
         lu = medians["solid FOM, Kratos, sparse_lu"]
         lines.append(f"solid FOM per call (benchmark, median): sparse_qr {qr * 1e3:.0f} ms, sparse_lu {lu * 1e3:.1f} ms")
+    if not report:
+        return lines + ["(no ROM-FOM run has finished: no report yet)"]
     head = (f"{'prediction':<16}{'T_i s':>6}{'e(t) mean':>10}{'e(t) max':>10}{'tip L':>8}{'tip R':>8}"
             f"{'iter +%':>9}{'iter all':>9}{'sigma':>8}{'sigma rt':>9}{'speed-up':>9}{'bound':>7}{'ratio':>7}")
     if qr:

@@ -190,3 +190,17 @@ def test_thin_plate_spline_matches_scipys_rbf_interpolator(smoothing):
     np.testing.assert_allclose(ours.predict(X_new), scipys(X_new), rtol=1e-9, atol=1e-9 * np.abs(Y).max())
     if smoothing == 0.0:
         np.testing.assert_allclose(ours.predict(X), Y, atol=1e-9)   # an interpolant
+
+
+def test_one_feature_scale_for_every_term_keeps_the_online_path_and_the_fit():
+    F, U = smooth_data(m=300)
+    standard = SolidRom(3, 4, decoder="quadratic", regressor="poly").fit(F, U)
+    single = SolidRom(3, 4, decoder="quadratic", regressor="poly", feature_scaling="global").fit(F, U)
+    scale = single.regression_.feature_scale
+    assert np.all(scale == scale[0]) and not np.all(standard.regression_.feature_scale == scale[0])
+    np.testing.assert_allclose(single.to_online().predict(F[:20] + 0.01), single.predict(F[:20] + 0.01), atol=1e-9)
+    for model in (standard, single):
+        error = np.linalg.norm(model.predict(F) - U, axis=1) / np.linalg.norm(U - U.mean(0), axis=1)
+        assert np.median(error) < 0.05
+    with pytest.raises(ValueError, match="feature scaling"):
+        SolidRom(3, 4, regressor="poly", feature_scaling="minmax").fit(F, U)
