@@ -138,9 +138,12 @@ def error_vs_cost(pairs, rows, out: Path) -> Path:
             variant = (f"r_f={model.get('n_force_modes')}, {model.get('regressor')}, {model.get('decoder')}"
                        if model else "")
             ax.plot([solid_cost(row)], [100 * error], "o", label=f"{run.label}: {variant}")
+        costs = [calls] + [solid_cost(row) for _, row in items]
+        errors = [100 * _error_of(row)[0] for _, row in items]
         ax.set_xscale("log")
+        ax.set_xlim(0.7 * min(costs), 1.4 * max(costs))
         ax.set_yscale("symlog", linthresh=1e-2)
-        ax.set_ylim(bottom=-1e-3)
+        ax.set_ylim(-1e-3, 3 * max(errors + [1e-2]))
         ax.set_xlabel("solid cost [solid-FOM-call equivalents: calls x median compute / FOM median]")
         ax.set_ylabel(f"{kind} [%]")
         ax.set_title(f"reference '{label}'", fontsize=10)
