@@ -222,7 +222,8 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
             "rom_roundtrip_per_call_s": float(rom["roundtrip_seconds"].mean()),
             "speedup_compute": float(sigma), "speedup_roundtrip": float(sigma_rt)}
         # the bound for this run's schedule: the ROM replaces the solid FOM in the predicted windows only
-        solid_predicted = float(fom["compute_seconds"][predicted[_call_windows(reference)]].sum()) \
+        in_predicted = predicted[_call_windows(reference)]      # per call of a once-per-iteration component
+        solid_predicted = float(fom["compute_seconds"][in_predicted].sum()) \
             if len(fom["compute_seconds"]) == reference.iterations.sum() else solid_total
         result["total_speedup"] = reference.wall / run.wall
         result["total_speedup_bound"] = float((others + solid_total) /
@@ -232,7 +233,6 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
         fluid_calls = [c["compute_seconds"] for n, c in reference.components.items()
                        if n != participant and len(c["compute_seconds"]) == reference.iterations.sum()]
         if fluid_calls and solid_predicted > 0:
-            in_predicted = predicted[_call_windows(reference)]
             fluid_predicted = float(sum(c[in_predicted].sum() for c in fluid_calls))
             result["predicted_range"] = {
                 "speedup": float(reference.window_wall[predicted].sum() / run.window_wall[predicted].sum()),

@@ -21,6 +21,18 @@ def _pyplot():
     return plt
 
 
+def _finish(plt, fig, ax, xlabel: str, ylabel: str, title: str, path: Path) -> Path:
+    """Labels, legend and grid of a line plot, saved and closed."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def write_training_plots(model_path: str | Path, estimator, tables: dict) -> list[Path]:
     """Every PNG for a fitted ``SolidRom`` and its hold-out tables (by split name)."""
     plt = _pyplot()
@@ -34,14 +46,8 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
         line, = ax.semilogy(np.arange(1, len(s) + 1), s, lw=1.2, label=f"{label} (r = {chosen})")
         ax.plot([chosen], [s[chosen - 1]], "o", color=line.get_color())
     ax.set_xscale("log")
-    ax.set_xlabel("mode number [count]")
-    ax.set_ylabel("singular value / largest [dimensionless]")
-    ax.set_title("Singular values of the training snapshots (centred)", fontsize=10)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3, which="both")
-    paths.append(Path(f"{stem}_singular_values.png"))
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(_finish(plt, fig, ax, "mode number [count]", "singular value / largest [dimensionless]",
+                         "Singular values of the training snapshots (centred)", Path(f"{stem}_singular_values.png")))
 
     if tables:
         fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
@@ -49,14 +55,9 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
             for i, r in enumerate(table.disp_modes):
                 ax.semilogy(table.force_modes, 100 * table.relative[i], "o-",
                             label=f"split by {split}, r_u = {r} (best r_f = {table.best[0]})")
-        ax.set_xlabel("force modes r_f [count]")
-        ax.set_ylabel("hold-out error, mean ||U - ROM(F)|| / mean ||U - mean|| [%]")
-        ax.set_title("Hold-out cross-validation of the number of force modes", fontsize=10)
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3, which="both")
-        paths.append(Path(f"{stem}_holdout.png"))
-        fig.savefig(paths[-1], dpi=110)
-        plt.close(fig)
+        paths.append(_finish(plt, fig, ax, "force modes r_f [count]",
+                             "hold-out error, mean ||U - ROM(F)|| / mean ||U - mean|| [%]",
+                             "Hold-out cross-validation of the number of force modes", Path(f"{stem}_holdout.png")))
 
     coefficients = getattr(estimator.regression_, "coefficients", None)
     if coefficients is not None:
