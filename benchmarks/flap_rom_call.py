@@ -5,8 +5,8 @@ Prints per-call times (median and interquartile range of repeated timings, micro
   one window re-solved per call from a recorded interface force;
 - the ROM's offline path (estimator.predict on one row) as a baseline;
 - the ROM's online interface path (530 forces in, 530 interface displacements out: encoder, sparse
-  quadratic polynomial, quadratic manifold restricted to the interface) in both arithmetics, and the
-  ROM component's step;
+  quadratic polynomial, quadratic manifold restricted to the interface) in fast and reproducible arithmetic,
+  and compiled (the FMU's C code in-process, bit-identical to reproducible), and the ROM component's step;
 - the exported FMU through the fmu component (raw fmi2 calls) and, as a baseline, through fmpy;
 and the solid speed-up sigma = FOM / ROM for each. The ROM has r_f = 45, r_u = 9, as in the paper.
 
@@ -114,8 +114,11 @@ def main(argv: list[str] | None = None) -> dict:
     fmu.exit_initialization_mode()
     slave = fmu.slave
     refs_in, refs_out = list(np.ravel(fmu.inputs["force"][0])), list(np.ravel(fmu.outputs["displacement"][0]))
+    compiled = persistence.load(model_path, "compiled")
     component = RomSolid()
     component.instantiate({"model": str(model_path)})
+    compiled_component = RomSolid()
+    compiled_component.instantiate({"model": str(model_path), "arithmetic": "compiled"})
     f = np.ascontiguousarray(F[len(F) // 2])
     force = f.reshape(265, 2)
 
@@ -125,14 +128,18 @@ def main(argv: list[str] | None = None) -> dict:
         return slave.getReal(refs_out)
 
     np.testing.assert_array_equal(np.ravel(fmu.step(0.0, 0.008, {"force": force})["displacement"]), online(f))
+    assert compiled(f).tobytes() == online(f).tobytes()
     np.testing.assert_allclose(online(f), estimator.predict(f[None])[0, K], rtol=1e-10, atol=1e-14)
     rows = [
         ("ROM offline path: estimator.predict(one row), full field (baseline)",
          per_call(lambda: estimator.predict(f[None]), repeat)),
         ("ROM online interface path, fast arithmetic (BLAS)", per_call(lambda: fast(f), repeat)),
         ("ROM online interface path, reproducible arithmetic (= the FMU)", per_call(lambda: online(f), repeat)),
+        ("ROM online interface path, compiled (the FMU's C code in-process)", per_call(lambda: compiled(f), repeat)),
         ("ROM component step (reproducible, input checks, trust)",
          per_call(lambda: component.step(0.0, 0.008, {"force": force}), repeat)),
+        ("ROM component step (compiled, input checks, trust)",
+         per_call(lambda: compiled_component.step(0.0, 0.008, {"force": force}), repeat)),
         ("FMU ROM: fmi2DoStep alone (the ROM inside the FMU)", per_call(lambda: fmu.do_step(0.0, 0.008), repeat)),
         ("FMU ROM through the fmu component (raw fmi2 set, doStep, get)",
          per_call(lambda: fmu.step(0.0, 0.008, {"force": force}), repeat)),

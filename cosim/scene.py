@@ -34,7 +34,9 @@ COMPONENT = {
         "entry": "rom_component.component:RomSolid",
         "model": "",
         "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
-        "arithmetic": "reproducible",  # bit-identical to the exported FMU; "fast": BLAS products
+        # "reproducible": bit-identical to the exported FMU; "compiled": the FMU's own C code in-process (the same
+        # results, a few times faster; needs a C compiler); "fast": BLAS products (not bit-identical)
+        "arithmetic": "reproducible",
         "on_out_of_range": "warn",     # a call outside the training range: "warn", "fail", or "fallback"
         "range_margin": Value(0.05, low=0.0),   # (the full-order solid, kept running, takes such calls)
     },

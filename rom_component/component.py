@@ -13,13 +13,14 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
-from cosim.errors import ComponentError
+from cosim.errors import ComponentError, CosimError
 from cosim.schema import Required, Value, validate
-from rom_component.persistence import ModelFileError, load
+from rom_component.persistence import load
 
 ROM_SCHEMA = {"model": Required(str), "arithmetic": "reproducible",
               "on_out_of_range": "warn",     # "warn", "fail", or "fallback" (the full-order solid takes the call)
               "range_margin": Value(0.05, low=0.0)}   # beyond a mode's training range by this fraction of it
+ARITHMETIC = ("reproducible", "compiled", "fast")   # compiled: the FMU's C code in-process, same results
 TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
 
 
@@ -32,9 +33,11 @@ class RomSolid(Component):
         prm = validate(parameters, ROM_SCHEMA)
         if not prm["model"]:
             raise ComponentError(self.name, "parameter 'model' (path of the trained .npz) is not set")
+        if prm["arithmetic"] not in ARITHMETIC:
+            raise ComponentError(self.name, f"'arithmetic' is {prm['arithmetic']!r}; allowed: {', '.join(ARITHMETIC)}")
         try:
             self.rom = load(prm["model"], prm["arithmetic"])
-        except ModelFileError as exc:
+        except CosimError as exc:   # a bad model file, or no compiler for the compiled arithmetic
             raise ComponentError(self.name, str(exc)) from None
         if prm["on_out_of_range"] not in ("warn", "fail", "fallback"):
             raise ComponentError(self.name, f"'on_out_of_range' is {prm['on_out_of_range']!r}; "

@@ -72,6 +72,9 @@ def load(path: str | Path, arithmetic: str = "reproducible") -> OnlineRom:
     """The online ROM stored in ``path`` (``arithmetic``: see ``OnlineRom``)."""
     arrays, metadata = load_arrays(path)
     try:
+        if arithmetic == "compiled":
+            from rom_component.compiled import CompiledRom
+            return CompiledRom(arrays, metadata)
         return OnlineRom(arrays, metadata, arithmetic)
     except (KeyError, ValueError) as exc:
         raise ModelFileError(f"model file '{path}' is incomplete: {exc}") from None

@@ -730,3 +730,75 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
     (void)s; (void)value; return unsupported(c, "fmi2GetStringStatus");
 }
+
+/* ---- in-process use (rom_component.compiled; not part of FMI) ------------------------ */
+/* The same binary serves a Python process directly: open an instance on a resource folder with plain
+ * calloc/free and a logger that keeps the last message, then evaluate the interface path on the caller's
+ * arrays, with no FMI state machine and no value references in between. */
+
+static char last_message[1024];
+
+static void keep_message(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                         fmi2String message, ...) {
+    (void)env; (void)name; (void)status; (void)category;
+    snprintf(last_message, sizeof(last_message), "%s", message);   /* sent with '%' doubled: undo it */
+    {
+        char *r = last_message, *w = last_message;
+        for (; *r; r++, w++) { *w = *r; if (r[0] == '%' && r[1] == '%') r++; }
+        *w = 0;
+    }
+}
+
+static void *plain_allocate(size_t count, size_t size) { return calloc(count, size); }
+static void plain_free(void *pointer) { free(pointer); }
+
+/* the last error message of solid_rom_open (empty if none) */
+const char *solid_rom_last_error(void) { return last_message; }
+
+/* an instance reading resource_uri/rom.bin, or NULL (reason in solid_rom_last_error) */
+void *solid_rom_open(const char *resource_uri, const char *guid) {
+    static const fmi2CallbackFunctions plain = {keep_message, plain_allocate, plain_free, NULL, NULL};
+    last_message[0] = 0;
+    return fmi2Instantiate("solid_rom", fmi2CoSimulation, guid, resource_uri, &plain, fmi2False, fmi2False);
+}
+
+/* u = ROM(f) for n_in forces; the reduced forces x (r_f) and reduced displacements (r_u) are copied out too */
+void solid_rom_evaluate(void *c, const double *f, double *u, double *x, double *reduced) {
+    Instance *inst = (Instance *)c;
+    const Model *m = &inst->model;
+    memcpy(inst->inputs, f, sizeof(double) * (size_t)m->n_in);
+    evaluate(inst);
+    memcpy(u, inst->outputs, sizeof(double) * (size_t)m->n_out);
+    memcpy(x, inst->x, sizeof(double) * (size_t)m->r_f);
+    memcpy(reduced, inst->reduced, sizeof(double) * (size_t)m->r_u);
+}
+
+/* trust of the last evaluation against a training envelope of r_f modes (rom_component.envelope.trust):
+ * out[0] the largest excess beyond [low, high] in range widths (0 inside, NaN if a reduced force is NaN),
+ * out[1] the squared Mahalanobis distance to mean (precision: r_f x r_f, row-major); no libm, so no root */
+void solid_rom_trust(void *c, const double *low, const double *high, const double *mean, const double *precision,
+                     double *out) {
+    const Instance *inst = (const Instance *)c;
+    const int32_t r = inst->model.r_f;
+    double excess = 0.0, quadratic = 0.0;
+    int32_t i, j;
+    for (i = 0; i < r; i++) {
+        const double x = inst->x[i], below = low[i] - x, above = x - high[i];
+        double width = high[i] - low[i], e = below > above ? below : above;
+        if (x != x) excess = x;
+        if (excess != excess) continue;
+        if (!(width > 1e-300)) width = 1e-300;
+        e = e > 0.0 ? e / width : 0.0;
+        if (e > excess) excess = e;
+    }
+    for (i = 0; i < r; i++) {
+        const double *row = precision + (size_t)i * r;
+        double s = 0.0;
+        for (j = 0; j < r; j++) s += row[j] * (inst->x[j] - mean[j]);
+        quadratic += (inst->x[i] - mean[i]) * s;
+    }
+    out[0] = excess;
+    out[1] = quadratic > 0.0 ? quadratic : 0.0;
+}
+
+void solid_rom_close(void *c) { fmi2FreeInstance((fmi2Component)c); }

@@ -1,0 +1,106 @@
+"""The ROM's online path run by the exported FMU's own C code, in-process (``arithmetic = "compiled"``).
+
+The FMU's source (``fmu/solid_rom.c``) is compiled once per source and compiler into a cache
+folder (``$COSIM_CACHE``, else ``~/.cache/cosim``) and called through ctypes on the caller's arrays,
+without the FMI state machine. Its sums run in the order of ``OnlineRom(arithmetic="reproducible")``,
+so the results are bit-identical to it and to the FMU, at the FMU's speed.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import math
+import os
+import tempfile
+import weakref
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from cosim.errors import CosimError
+from rom_component.fmu_export import HEADERS, SOURCE, compile_binary, fmi_headers, model_guid, resource_bytes
+from rom_component.online import OnlineRom
+
+
+def cache_dir() -> Path:
+    return Path(os.environ.get("COSIM_CACHE") or Path.home() / ".cache" / "cosim")
+
+
+def library_path() -> Path:
+    """The compiled solid_rom library for the present source and compiler, built if missing."""
+    compiler = os.environ.get("CC", "cc")
+    digest = hashlib.sha256(SOURCE.read_bytes() + compiler.encode()).hexdigest()[:16]
+    target = cache_dir() / f"solid_rom-{digest}.so"
+    if target.is_file():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
+        sources = Path(tmp)
+        (sources / SOURCE.name).write_bytes(SOURCE.read_bytes())
+        for header in HEADERS:
+            (sources / header).write_bytes((fmi_headers() / header).read_bytes())
+        built = sources / target.name
+        compile_binary(sources, built)
+        os.replace(built, target)    # atomic: processes building at once all end with a whole library
+    return target
+
+
+def _library() -> ctypes.CDLL:
+    lib = ctypes.CDLL(str(library_path()))
+    lib.solid_rom_open.restype = ctypes.c_void_p
+    lib.solid_rom_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
+    lib.solid_rom_last_error.restype = ctypes.c_char_p
+    lib.solid_rom_evaluate.restype = None
+    lib.solid_rom_evaluate.argtypes = [ctypes.c_void_p] * 5
+    lib.solid_rom_trust.restype = None
+    lib.solid_rom_trust.argtypes = [ctypes.c_void_p] * 6
+    lib.solid_rom_close.argtypes = [ctypes.c_void_p]
+    return lib
+
+
+class CompiledRom(OnlineRom):
+    """``OnlineRom`` whose calls run the FMU's C code (bit-identical to ``arithmetic="reproducible"``)."""
+
+    def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]):
+        super().__init__(arrays, metadata, "reproducible")
+        self.arithmetic = "compiled"
+        self._lib = _library()
+        guid = model_guid(self, 1)
+        with tempfile.TemporaryDirectory() as tmp:   # the C code reads the whole file at open
+            (Path(tmp) / "rom.bin").write_bytes(resource_bytes(self, guid, 1))
+            handle = self._lib.solid_rom_open(Path(tmp).as_uri().encode(), guid.encode())
+        if not handle:
+            raise CosimError(f"the compiled ROM did not open: {self._lib.solid_rom_last_error().decode()}")
+        self._handle = handle
+        self._finalizer = weakref.finalize(self, self._lib.solid_rom_close, handle)
+        # fixed buffers, their addresses taken once; the C code writes the reduced forces where trust() reads
+        self._f, self._u, self._reduced = np.empty(self.n_inputs), np.empty(self.n_outputs), np.empty(len(self.reduced))
+        self._call = (self._lib.solid_rom_evaluate, handle, self._f.ctypes.data, self._u.ctypes.data,
+                      self._x_slot.ctypes.data, self._reduced.ctypes.data)
+        self._evaluate = self._compiled
+        if self.envelope is not None:
+            env = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in self.envelope.items()}
+            self._trust_out = np.empty(2)
+            self._trust_call = (self._lib.solid_rom_trust, handle, *(env[k].ctypes.data for k in (
+                "envelope_low", "envelope_high", "envelope_mean", "envelope_precision")), self._trust_out.ctypes.data)
+            self._envelope_arrays, self._max_distance = env, float(env["envelope_max_distance"][0])
+
+    def _compiled(self, f: np.ndarray) -> np.ndarray:
+        if np.shape(f) != self._f.shape:
+            raise ValueError(f"ROM input has shape {np.shape(f)}, expected {self._f.shape}")
+        self._f[:] = f
+        function, *pointers = self._call
+        function(*pointers)
+        self.reduced = self._reduced.copy()
+        return self._u.copy()   # fresh arrays, as OnlineRom returns
+
+    def trust(self) -> tuple[float, float]:
+        """As ``OnlineRom.trust``, summed in C (the distance may differ in its last bits)."""
+        if self.envelope is None:
+            return math.nan, math.nan
+        function, *pointers = self._trust_call
+        function(*pointers)
+        excess, quadratic = self._trust_out
+        return float(excess), math.sqrt(quadratic) / self._max_distance

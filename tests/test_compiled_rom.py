@@ -1,0 +1,84 @@
+"""The ROM's online path run in-process by the FMU's C code (``arithmetic = "compiled"``)."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from coupler.run import run_scene
+from cosim.errors import ComponentError, CosimError
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from rom_component import compiled, persistence
+from rom_component.component import RomSolid
+from rom_component.estimator import SolidRom
+
+from tests.conftest import TUBE_SCENE, children_of
+from tests.test_flap_rom import calls  # noqa: F401  (the module's fixture)
+from tests.test_fmu import models  # noqa: F401  (the module's fixture)
+from tests.test_rom_integration import END, TRAIN_END, fom, model, rom_run  # noqa: F401  (fixtures)
+
+
+def assert_same_calls(path, F):
+    reference, fast = persistence.load(path), persistence.load(path, "compiled")
+    for f in F:
+        assert fast(f).tobytes() == reference(f).tobytes()
+        assert fast.reduced.tobytes() == reference.reduced.tobytes()
+        (e_ref, d_ref), (e, d) = reference.trust(), fast.trust()
+        assert e == e_ref and d == pytest.approx(d_ref, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["rbf", "qm_poly"])
+def test_compiled_calls_are_bit_identical_in_and_out_of_range(models, name):  # noqa: F811
+    path, _, F = models[name]
+    assert_same_calls(path, np.vstack([F[:40] * 1.003, F[:10] * 3.0 - 1.0]))   # the last ones far out of range
+
+
+def test_compiled_calls_are_bit_identical_on_the_double_flap(calls, tmp_path):  # noqa: F811
+    F, U, _, _ = calls
+    rom = SolidRom(n_force_modes=45, n_disp_modes=9, decoder="quadratic", regressor="poly", quadratic_modes=4,
+                   feature_scaling="global").fit(F[::2], U[::2])
+    path = persistence.save(tmp_path / "flap.npz", rom.online_arrays(), {"regressor": "poly",
+                                                                           "params": rom.get_params()})
+    out_of_range = F[1:200:20] + 0.3 * (F[1:200:20] - F.mean(axis=0))
+    assert_same_calls(path, np.vstack([F[1:400:4], out_of_range]))
+
+
+def test_the_library_is_built_once_per_source_and_a_missing_compiler_is_named(models, tmp_path, monkeypatch):  # noqa: F811
+    path, _, F = models["rbf"]
+    monkeypatch.setenv("COSIM_CACHE", str(tmp_path / "cache"))
+    first = compiled.library_path()
+    built = first.stat().st_mtime_ns
+    persistence.load(path, "compiled")(F[0])
+    assert compiled.library_path() == first and first.stat().st_mtime_ns == built
+    assert list((tmp_path / "cache").iterdir()) == [first]       # no build leftovers
+    monkeypatch.setenv("CC", "no-such-compiler")                  # another compiler: another library, not built
+    with pytest.raises(CosimError, match="no-such-compiler.*not found"):
+        persistence.load(path, "compiled")
+
+
+def test_the_component_takes_compiled_arithmetic_and_names_a_wrong_one(models):  # noqa: F811
+    path, _, F = models["qm_poly"]
+    steps = []
+    for arithmetic in ("reproducible", "compiled"):
+        component = RomSolid()
+        component.instantiate({"model": str(path), "arithmetic": arithmetic})
+        steps.append([component.step(0.01 * k, 0.01, {"force": f}) for k, f in enumerate(F[:20])])
+    for a, b in zip(*steps):
+        assert a.keys() == b.keys()
+        assert a["displacement"].tobytes() == b["displacement"].tobytes()
+        assert a["rom_excess"][0] == b["rom_excess"][0]
+    with pytest.raises(ComponentError, match="'arithmetic' is 'quick'; allowed: reproducible, compiled, fast"):
+        RomSolid().instantiate({"model": str(path), "arithmetic": "quick"})
+
+
+def test_a_tube_rom_fom_run_is_the_same_with_the_compiled_path(fom, model, tmp_path):  # noqa: F811
+    rom_run(tmp_path / "reproducible", model, TRAIN_END)
+    rom_run(tmp_path / "compiled", model, TRAIN_END, "components.solid.rom.arithmetic=compiled")
+    assert children_of(os.getpid()) == []
+    with RunResults(tmp_path / "reproducible") as a, RunResults(tmp_path / "compiled") as b:
+        np.testing.assert_array_equal(a.windows.iterations, b.windows.iterations)
+        for name in ("pressure", "section"):
+            np.testing.assert_array_equal(a.fields()[name], b.fields()[name])
