@@ -28,6 +28,17 @@ class SelectionTable:
     n_train: int
     n_test: int
     split: str = "snapshots"
+    tolerance: float = 0.0      # chosen: the fewest modes whose error is within (1 + tolerance) of the best
+
+    @property
+    def chosen(self) -> tuple[int, int]:
+        """(r_f, r_u) with the fewest force modes, then displacement modes, within the tolerance of the best."""
+        limit = np.nanmin(self.errors) * (1.0 + self.tolerance)
+        for j, r_f in sorted(enumerate(self.force_modes), key=lambda item: item[1]):
+            for i, r_u in sorted(enumerate(self.disp_modes), key=lambda item: item[1]):
+                if self.errors[i, j] <= limit:
+                    return r_f, r_u
+        return self.best
 
     def error_at(self, r_f: int, r_u: int) -> float:
         return float(self.errors[self.disp_modes.index(r_u), self.force_modes.index(r_f)])
@@ -42,6 +53,11 @@ class SelectionTable:
         e_f, e_u = self.energy_choice
         lines.append(f"best: r_f = {r_f}, r_u = {r_u}, eps = {self.error_at(r_f, r_u):.3e} "
                      f"({self.relative[self.disp_modes.index(r_u), self.force_modes.index(r_f)]:.2%})")
+        if self.tolerance > 0:
+            c_f, c_u = self.chosen
+            lines.append(f"chosen (fewest modes within {self.tolerance:.0%} of the best): r_f = {c_f}, r_u = {c_u}, "
+                         f"eps = {self.error_at(c_f, c_u):.3e} "
+                         f"({self.relative[self.disp_modes.index(c_u), self.force_modes.index(c_f)]:.2%})")
         if e_f in self.force_modes and e_u in self.disp_modes:
             lines.append(f"energy criterion: r_f = {e_f}, r_u = {e_u}, eps = {self.error_at(e_f, e_u):.3e} "
                          f"({self.error_at(e_f, e_u) / self.error_at(r_f, r_u):.1f} x the best)")
@@ -57,12 +73,13 @@ def energy_choice(F: np.ndarray, U: np.ndarray, energy: float = 0.9999) -> tuple
 
 def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence[int],
                   disp_modes: Sequence[int], test_fraction: float = 0.2, seed: int = 0,
-                  energy: float = 0.9999, groups: np.ndarray | None = None) -> SelectionTable:
+                  energy: float = 0.9999, groups: np.ndarray | None = None, tolerance: float = 0.0) -> SelectionTable:
     """Hold-out error of ``estimator`` for every (r_f, r_u) of the grid.
 
     Without ``groups`` the test set is a random ``test_fraction`` of the snapshots; with them (the
     window of each snapshot) it is a random ``test_fraction`` of whole windows, so that no sub-iteration
-    of a test window, nearly equal to its converged call, is in the training set.
+    of a test window, nearly equal to its converged call, is in the training set. The table's ``chosen``
+    pair has the fewest modes whose error is within ``tolerance`` (relative) of the best.
     """
     if groups is None:
         F_train, F_test, U_train, U_test = train_test_split(F, U, test_size=test_fraction, random_state=seed)
@@ -78,4 +95,4 @@ def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence
     i, j = np.unravel_index(np.nanargmin(errors), errors.shape)
     return SelectionTable(list(force_modes), list(disp_modes), errors, errors / scale,
                           (force_modes[j], disp_modes[i]), energy_choice(F_train, U_train, energy),
-                          len(F_train), len(F_test), "snapshots" if groups is None else "windows")
+                          len(F_train), len(F_test), "snapshots" if groups is None else "windows", tolerance)

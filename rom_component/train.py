@@ -19,7 +19,7 @@ from cosim.errors import SceneError
 from cosim.component import MESH_PREFIX
 from cosim.results import RunResults
 from cosim.scene import apply_override, parse_override
-from cosim.schema import validate
+from cosim.schema import Value, validate
 from rom_component import persistence
 from rom_component.estimator import SolidRom
 from rom_component.selection import energy_choice, holdout_table
@@ -38,7 +38,9 @@ CONFIG = {
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
     "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],
                   "disp_modes": [1, 3, 5, 7, 9, 11, 13], "test_fraction": 0.2, "seed": 0, "energy": 0.9999,
-                  "split": "snapshots", "compare_splits": False},
+                  "split": "snapshots", "compare_splits": False,
+                  # choose = "holdout": the fewest modes whose hold-out error is within this fraction of the best
+                  "tolerance": Value(0.0, low=0.0)},
 }
 
 
@@ -150,13 +152,13 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
             split_started = time.perf_counter()
             tables[split] = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
                                           selection["test_fraction"], selection["seed"], selection["energy"],
-                                          windows if split == "windows" else None)
+                                          windows if split == "windows" else None, selection["tolerance"])
             echo(tables[split].format())
             echo(f"cross-validation time (split by {split}): {time.perf_counter() - split_started:.2f} s")
         table = tables[selection["split"]]
     cv_seconds = time.perf_counter() - started
     if selection["choose"] == "holdout":
-        params["n_force_modes"], params["n_disp_modes"] = table.best
+        params["n_force_modes"], params["n_disp_modes"] = table.chosen
     elif selection["choose"] == "energy":
         params["n_force_modes"], params["n_disp_modes"] = energy_choice(F, U, selection["energy"])
     fit_started = time.perf_counter()
@@ -179,7 +181,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     if table is not None:
         metadata["selection"] = {"force_modes": table.force_modes, "disp_modes": table.disp_modes,
                                  "errors": table.errors.tolist(), "relative": table.relative.tolist(),
-                                 "best": list(table.best), "split": table.split,
+                                 "best": list(table.best), "chosen": list(table.chosen), "split": table.split,
                                  "energy_choice": list(table.energy_choice),
                                  "by_split": {split: {"errors": t.errors.tolist(), "relative": t.relative.tolist(),
                                                       "best": list(t.best)} for split, t in tables.items()}}

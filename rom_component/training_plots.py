@@ -54,7 +54,8 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
         for split, table in tables.items():
             for i, r in enumerate(table.disp_modes):
                 ax.semilogy(table.force_modes, 100 * table.relative[i], "o-",
-                            label=f"split by {split}, r_u = {r} (best r_f = {table.best[0]})")
+                            label=f"split by {split}, r_u = {r} (best r_f = {table.best[0]}"
+                                  + (f", chosen {table.chosen[0]})" if table.chosen != table.best else ")"))
         paths.append(_finish(plt, fig, ax, "force modes r_f [count]",
                              "hold-out error, mean ||U - ROM(F)|| / mean ||U - mean|| [%]",
                              "Hold-out cross-validation of the number of force modes", Path(f"{stem}_holdout.png")))

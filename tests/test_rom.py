@@ -204,3 +204,15 @@ def test_one_feature_scale_for_every_term_keeps_the_online_path_and_the_fit():
         assert np.median(error) < 0.05
     with pytest.raises(ValueError, match="feature scaling"):
         SolidRom(3, 4, regressor="poly", feature_scaling="minmax").fit(F, U)
+
+
+def test_the_chosen_modes_are_the_fewest_within_the_tolerance_of_the_best():
+    from rom_component.selection import SelectionTable
+    errors = np.array([[8.5e-3, 2.8e-3, 6.8e-4, 5.0e-4, 4.2e-4],     # r_u = 5
+                       [8.4e-3, 2.7e-3, 6.6e-4, np.nan, 4.1e-4]])    # r_u = 9 (one cell not computed)
+    table = SelectionTable([5, 10, 20, 30, 60], [5, 9], errors, errors / 0.2, (60, 9), (18, 4), 100, 5)
+    assert table.chosen == table.best == (60, 9)                     # no tolerance: the best
+    table.tolerance = 1.0                                            # within twice the best (8.2e-4)
+    assert table.chosen == (20, 5) and "chosen (fewest modes within 100% of the best): r_f = 20, r_u = 5" in table.format()
+    table.tolerance = 0.25                                           # 5.1e-4: r_f = 30 at r_u = 5
+    assert table.chosen == (30, 5)
