@@ -5,7 +5,10 @@ A campaign file names a scene, a ROM configuration and three tables:
 - ``[fom]``: name -> the ``--set`` overrides of one FOM-FOM run;
 - ``[models.<name>]``: the FOM runs it trains on (``runs``) and overrides of the ROM configuration (``set``);
 - ``[[predictions]]``: a ROM-FOM run: ``model``, ``reference`` (the FOM run whose scene it repeats and
-  against which it is reported) and ``switch_time``.
+  against which it is reported) and ``switch_time``; with ``fmu = true`` the model is exported as an FMU
+  (``DIR/models/<model>.fmu``, through ``cosim export-fmu``) and the FMU serves the solid, and a prediction
+  of the same model, reference and switch time is its twin: ``DIR/report/fmu_check.txt`` says whether the
+  two runs are bit-identical.
 
 Every run is the sweep's ``run_one`` (``coupler.sweep``) on a Dask worker, with the sweep's tables
 ``DIR/fom/sweep.csv`` and ``DIR/rom/sweep.csv`` and run directories named from the overrides, so that
@@ -28,6 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+import numpy as np
+
 from cosim.errors import SceneError
 from cosim.schema import Required, validate
 from coupler.sweep import TABLE, SweepRun, SweepTable, check_runs, run_one, setting_keys
@@ -35,7 +40,8 @@ from coupler.sweep import TABLE, SweepRun, SweepTable, check_runs, run_one, sett
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "models": Required(dict),
         "predictions": Required(list)}
 MODEL = {"runs": Required(list), "set": []}
-PREDICTION = {"model": Required(str), "reference": Required(str), "switch_time": Required(float), "set": []}
+PREDICTION = {"model": Required(str), "reference": Required(str), "switch_time": Required(float), "set": [],
+              "fmu": False}   # true: the model exported as an FMU serves the solid (checked against its ROM twin)
 
 
 @dataclass
@@ -44,6 +50,8 @@ class Prediction:
     model: str
     reference: str
     run: SweepRun
+    switch_time: float
+    fmu: Path | None = None     # the exported FMU that serves the solid, if any
 
 
 @dataclass
@@ -81,11 +89,15 @@ def load_plan(path: str | Path, out: Path) -> Plan:
             raise SceneError(f"{path}: predictions.{i}.model is '{spec['model']}', which is not in [models]")
         if spec["reference"] not in fom:
             raise SceneError(f"{path}: predictions.{i}.reference is '{spec['reference']}', which is not in [fom]")
-        overrides = (*fom[spec["reference"]].overrides, "components.solid.backend=rom",
-                     f"components.solid.rom.model={models[spec['model']]['path']}",
-                     f"components.solid.rom.switch_time={spec['switch_time']!r}", *spec["set"])
-        name = f"{spec['model']}-{spec['reference']}"
-        predictions.append(Prediction(name, spec["model"], spec["reference"], SweepRun(overrides)))
+        model_path = models[spec["model"]]["path"]
+        fmu = model_path.with_suffix(".fmu") if spec["fmu"] else None
+        backend, file = ("fmu", f"path={fmu}") if fmu else ("rom", f"model={model_path}")
+        overrides = (*fom[spec["reference"]].overrides, f"components.solid.backend={backend}",
+                     f"components.solid.{backend}.{file}",
+                     f"components.solid.{backend}.switch_time={spec['switch_time']!r}", *spec["set"])
+        name = f"{spec['model']}-{spec['reference']}" + ("-fmu" if fmu else "")
+        predictions.append(Prediction(name, spec["model"], spec["reference"], SweepRun(overrides),
+                                      spec["switch_time"], fmu))
     return Plan((base / plan["scene"]).resolve(), (base / plan["rom_config"]).resolve(), fom, models, predictions)
 
 
@@ -105,7 +117,6 @@ def _command(argv: list[str]) -> list[str]:
 
 def _model_metadata(path: Path) -> dict[str, Any]:
     """The JSON metadata a model file carries (array ``metadata_json``; read without the ROM package)."""
-    import numpy as np
     with np.load(path, allow_pickle=False) as data:
         return json.loads(data["metadata_json"].tobytes().decode())
 
@@ -199,6 +210,9 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                     if p.name in submitted_runs or p.run.name in rom_table.done or p.model not in current:
                         continue
                     submitted_runs.add(p.name)
+                    model = plan.models[p.model]["path"]
+                    if p.fmu and (not p.fmu.is_file() or p.fmu.stat().st_mtime_ns < model.stat().st_mtime_ns):
+                        echo(_command(["export-fmu", str(model), "--out", str(p.fmu)])[-1])
                     submit("rom", p.name, run_one, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
                            priority=1)
 
@@ -231,7 +245,7 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                 else:
                     p = next(p for p in plan.predictions if p.name == name)
                     rom_table.add(p.run, {"model": p.model, "reference": p.reference,
-                                          "switch_time": p.run.settings()["components.solid.rom.switch_time"],
+                                          "switch_time": p.switch_time,
                                           **result})
                 echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
                      f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
@@ -244,6 +258,29 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     failed.update({name: fom_table.done[run.name]["failure_message"] for name, run in plan.fom.items()
                    if fom_table.done.get(run.name, {}).get("failure")})
     return write_campaign_report(plan, out, fom_dir, rom_dir, failed, echo)
+
+
+def fmu_check(fmu: Prediction, twin: Prediction, rom_dir: dict[str, Path]) -> str:
+    """One line: does the FMU's run repeat its ROM twin's bit for bit (iterations, fields, residuals)?"""
+    from cosim.results import RunResults
+    paths = [rom_dir[p.name] / "results.h5" for p in (fmu, twin)]
+    if not all(path.is_file() for path in paths):
+        return ""
+    with RunResults(paths[0]) as a, RunResults(paths[1]) as b:
+        its_a, its_b = a.windows.iterations, b.windows.iterations
+        n = min(len(its_a), len(its_b))
+        fields_a, fields_b = a.fields(), b.fields()
+        diffs = {name: float(np.max(np.abs(fields_a[name][:n] - fields_b[name][:n]), initial=0.0))
+                 for name in sorted(fields_a) if name in fields_b}
+        res_a, res_b = a.residuals()[1], b.residuals()[1]
+        same_residuals = len(res_a) == len(res_b) and bool(np.array_equal(res_a, res_b))
+    identical = (len(its_a) == len(its_b) and bool(np.array_equal(its_a, its_b)) and same_residuals
+                 and all(d == 0.0 for d in diffs.values()))
+    return (f"{fmu.name} against {twin.name}: {len(its_a)} and {len(its_b)} windows, {int(its_a.sum())} and "
+            f"{int(its_b.sum())} coupling iterations; largest field difference "
+            + ", ".join(f"{name} {d:.3g}" for name, d in diffs.items())
+            + f"; residuals {'equal' if same_residuals else 'differ'}: "
+            + ("bit-identical" if identical else "NOT bit-identical"))
 
 
 def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_dir: dict[str, Path],
@@ -268,6 +305,13 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
     for note in notes:
         echo(note)
     (report / "failed.txt").write_text("".join(f"{note}\n" for note in notes))
+    checks = [fmu_check(p, twin, rom_dir) for p in plan.predictions if p.fmu
+              for twin in plan.predictions if not twin.fmu and (twin.model, twin.reference, twin.switch_time) ==
+              (p.model, p.reference, p.switch_time)]
+    checks = [line for line in checks if line]
+    for line in checks:
+        echo(line)
+    (report / "fmu_check.txt").write_text("".join(f"{line}\n" for line in checks))
     if pairs:
         for line in _command(["report", *pairs, "--out", str(report), *labels]):
             echo(line)

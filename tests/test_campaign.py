@@ -39,6 +39,12 @@ switch_time = 6.0
 model = "ab"
 reference = "stiff"
 switch_time = 6.0
+
+[[predictions]]
+model = "a"
+reference = "mu1"
+switch_time = 6.0
+fmu = true
 """
 
 
@@ -59,7 +65,7 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     done = campaign(plan, out)
     assert done.returncode == 0, done.stderr
     fom, rom = rows(out / "fom/sweep.csv"), rows(out / "rom/sweep.csv")
-    assert len(fom) == 2 and len(rom) == 2
+    assert len(fom) == 2 and len(rom) == 3
     assert all(row["failure"] == "" and row["windows_converged"] == "80" for row in fom + rom)
     # the model on two runs trained on both: twice the snapshots of one, windows labelled per run
     a = json.loads((out / "models/a.json").read_text())
@@ -70,6 +76,10 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
         assert (out / "models" / name).stat().st_size > 5_000
     report = json.loads((out / "report/report.json").read_text())["runs"]
     assert [Path(r["run"]).name for r in report] == [p.run.name for p in load_plan(plan, out).predictions]
+    # the FMU of model a served the solid in the third run, bit for bit as the Python ROM in the first
+    check = (out / "report/fmu_check.txt").read_text()
+    assert check.startswith("a-mu1-fmu against a-mu1: 80 and 80 windows") and check.strip().endswith(": bit-identical")
+    assert (out / "models/a.fmu").stat().st_size > 10_000
     for row, bound in zip(report, (5e-3, 3e-2)):   # the second model serves two stiffnesses with 2-3 modes
         assert row["switch_time"] == 6.0 and row["predicted_windows"] == 20
         assert 0 < row["monitor_error"] < bound
@@ -86,11 +96,14 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     assert third.returncode == 0, third.stderr
     assert (out / "models/a.npz").stat().st_mtime_ns != stamp
     after = rows(out / "rom/sweep.csv")
-    assert len(rows(out / "fom/sweep.csv")) == 2 and len(after) == 2
+    assert len(rows(out / "fom/sweep.csv")) == 2 and len(after) == 3
     before, now = {r["name"]: r for r in rom}, {r["name"]: r for r in after}
-    a_run = load_plan(plan, out).predictions[0].run.name
-    assert now.keys() == before.keys() and now[a_run] != before[a_run]       # a's prediction ran again
-    assert all(now[name] == before[name] for name in now if name != a_run)  # b's did not
+    predictions = load_plan(plan, out).predictions
+    a_runs = {predictions[0].run.name, predictions[2].run.name}           # a's ROM and FMU predictions
+    assert now.keys() == before.keys() and all(now[name] != before[name] for name in a_runs)   # ran again
+    assert all(now[name] == before[name] for name in now if name not in a_runs)               # b's did not
+    assert (out / "models/a.fmu").stat().st_mtime_ns > (out / "models/a.npz").stat().st_mtime_ns   # exported again
+    assert (out / "report/fmu_check.txt").read_text().strip().endswith(": bit-identical")
 
 
 @pytest.mark.parametrize("text, message", [
