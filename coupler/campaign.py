@@ -152,8 +152,9 @@ def _model_is_current(model: Path, key: dict) -> bool:
 
 
 def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, scheduler: str | None = None,
-                 echo: Callable[[str], None] = print) -> Path:
-    """Run what is missing of a campaign, then write the report; returns the report directory."""
+                 echo: Callable[[str], None] = print, retry_failed: bool = False) -> Path:
+    """Run what is missing of a campaign (with ``retry_failed``, the failed ROM-FOM runs too), then write the
+    report; returns the report directory."""
     out = Path(out).resolve()
     plan = load_plan(campaign, out)
     check_runs(str(plan.scene), [*plan.fom.values(), *(p.run for p in plan.predictions)])
@@ -168,6 +169,12 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     current = {name for name, spec in plan.models.items()
                if _model_is_current(spec["path"], _model_key(sources[name], str(plan.rom_config), spec["set"]))}
     rom_table.forget({p.run.name for p in plan.predictions if p.model not in current})   # stale: retrained below
+    if retry_failed:   # the failed runs' directories are kept beside, as <run>.failed-<time>
+        failed_runs = [p for p in plan.predictions if rom_table.done.get(p.run.name, {}).get("failure")]
+        for p in failed_runs:
+            if rom_dir[p.name].is_dir():
+                rom_dir[p.name].rename(rom_dir[p.name].with_name(f"{rom_dir[p.name].name}.failed-{time.time_ns()}"))
+        rom_table.forget({p.run.name for p in failed_runs})
     failed_fom = {name for name, run in plan.fom.items() if fom_table.done.get(run.name, {}).get("failure")}
     trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
     # the campaign keeps its own queue: a task is queued once its inputs exist, and handed to Dask only

@@ -128,6 +128,8 @@ def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="campaign directory: fom/, models/, rom/, report/")
     parser.add_argument("--workers", type=int, default=2, help="local Dask workers, one run each at a time (default 2)")
     parser.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:port) instead")
+    parser.add_argument("--retry-failed", action="store_true",
+                        help="run the ROM-FOM runs that failed once more (after a change to the scene, say)")
 
 
 def _campaign(args: argparse.Namespace) -> int:
@@ -136,7 +138,7 @@ def _campaign(args: argparse.Namespace) -> int:
 
     if args.workers < 1:
         raise SceneError(f"--workers is {args.workers}; allowed: an integer >= 1")
-    report = run_campaign(args.campaign, args.out, args.workers, args.scheduler)
+    report = run_campaign(args.campaign, args.out, args.workers, args.scheduler, retry_failed=args.retry_failed)
     print(f"report written to {report}")
     return 0
 

@@ -117,3 +117,32 @@ def test_a_campaign_file_naming_unknown_runs_or_models_is_refused(tmp_path, text
     plan.write_text(text)
     with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]")):
         load_plan(plan, tmp_path)
+
+
+def test_retry_failed_reruns_a_failed_prediction_and_keeps_the_failed_run_beside(tmp_path):
+    plan = tmp_path / "campaign.toml"
+    plan.write_text(f"""
+scene = "{ROOT}/scenes/tube_fom.toml"
+rom_config = "{ROOT}/scenes/tube_rom.toml"
+[fom]
+mu1 = ["time.end=7.0"]
+[models]
+a = {{ runs = ["mu1"], set = ["snapshots.t_max=6.0", "selection.table=false"] }}
+[[predictions]]
+model = "a"
+reference = "mu1"
+switch_time = 6.0
+set = ["components.solid.rom.on_out_of_range='fail'", "components.solid.rom.range_margin=0.0"]
+""")
+    out = tmp_path / "out"
+    assert campaign(plan, out).returncode == 0
+    (first,) = rows(out / "rom/sweep.csv")
+    assert first["failure"] == "component-error" and "outside the training range" in first["failure_message"]
+    assert campaign(plan, out).returncode == 0 and rows(out / "rom/sweep.csv") == [first]   # a failure stays done
+    retry = subprocess.run([sys.executable, "-m", "cosim", "campaign", str(plan), "--out", str(out), "--retry-failed"],
+                           cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert retry.returncode == 0, retry.stderr
+    (second,) = rows(out / "rom/sweep.csv")
+    assert second["name"] == first["name"] and second["wall_seconds"] != first["wall_seconds"]   # it ran again
+    kept = list((out / "rom/runs").glob(f"{first['name']}.failed-*"))
+    assert len(kept) == 1 and (kept[0] / "results.h5").is_file()
