@@ -60,7 +60,7 @@ class KratosSolid(KratosComponent):
             StructuralMechanicsAnalysis
         self.model = KM.Model()
         stage = StructuralMechanicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
-        self.stepped = SteppedStage(self.name, stage)
+        self.stepped = SteppedStage(self.name, stage, static=True)
         part = self.model["Structure"]
         self.interface = part.GetSubModelPart(prm["interface"]).Nodes
         self.clamped = part.GetSubModelPart(prm["clamped"]).Nodes
