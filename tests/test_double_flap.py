@@ -103,6 +103,28 @@ def test_kratos_solid_at_rest_and_in_equilibrium(solid):
     assert solid.take_warnings() == []
 
 
+def test_the_static_solid_jumps_to_a_later_window_with_the_same_solution(solid):
+    """The solid FOM kept beside a ROM takes a fallback window now and then: a static solve does not depend on
+    the windows in between, only on the load."""
+    from solid_component.kratos import KratosSolid
+    loads = np.zeros((265, 2))
+    loads[:, 0], loads[:, 1] = 2.0, -0.5
+    stepped = [solid.step(k * DT, DT, {"force": loads * (1 + 0.1 * k)}) for k in range(6)][-1]
+    jumper = KratosSolid()
+    jumper.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": DT}, "mesh": str(MESHES / "solid.mdpa")})
+    try:
+        jumper.step(0.0, DT, {"force": loads})
+        jumped = jumper.step(5 * DT, DT, {"force": loads * 1.5})      # windows 1 to 4 never asked for
+        jumped = jumper.step(5 * DT, DT, {"force": loads * 1.5})      # Newton from a farther start: once more
+        assert np.abs(stepped["displacement"]).max() > 1e-4
+        np.testing.assert_allclose(jumped["displacement_field"], stepped["displacement_field"], rtol=0,
+                                   atol=1e-7 * np.abs(stepped["displacement_field"]).max())   # Newton tolerance
+        with pytest.raises(ComponentError, match="cannot step back"):
+            jumper.step(2 * DT, DT, {"force": loads})
+    finally:
+        jumper.close()
+
+
 def test_fluid_and_solid_coupled_in_process_for_two_windows():
     """Gauss-Seidel with IQN-ILS on the fluid's force, driven directly (no processes)."""
     from fluid_component.kratos import KratosFluid
