@@ -11,6 +11,7 @@ import pytest
 from coupler.acceleration import IQNILS
 from coupler.mapping import make_mapping
 from coupler.run import run_scene
+from cosim.errors import ComponentError
 from cosim.results import RunResults
 from cosim.scene import load_scene
 
