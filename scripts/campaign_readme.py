@@ -115,6 +115,12 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
             p = row["predicted_range"]
             lines.append(f"  {row['label']}: over the served windows alone, speed-up {p['speedup']:.3f} "
                          f"against the bound {p['bound']:.3f} ({p['speedup'] / p['bound']:.1%})")
+        if row.get("rom_fallback_windows"):
+            lines.append(f"  {row['label']}: {row['rom_fallback_windows']} windows fell back to the solid FOM "
+                         f"(a call beyond one range width of the training data)")
+    check = campaign / "report" / "fmu_check.txt"
+    if check.is_file() and check.read_text().strip():
+        lines += ["FMU in the solid's place:"] + ["  " + line for line in check.read_text().splitlines()]
     failed = (campaign / "report" / "failed.txt")
     if failed.is_file() and failed.read_text().strip():
         lines += ["failed:"] + ["  " + line for line in failed.read_text().splitlines()]
