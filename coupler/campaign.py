@@ -13,7 +13,8 @@ A campaign file names a scene, a ROM configuration and three tables:
 Every run is the sweep's ``run_one`` (``coupler.sweep``) on a Dask worker, with the sweep's tables
 ``DIR/fom/sweep.csv`` and ``DIR/rom/sweep.csv`` and run directories named from the overrides, so that
 ``cosim sweep`` and ``cosim campaign`` share finished runs. A model trains as soon as its FOM runs have
-finished and a ROM-FOM run starts as soon as its model exists: independent runs share the workers. A
+finished (or failed after the model's ``snapshots.t_max``) and a ROM-FOM run starts as soon as its model
+exists (and its reference has not failed): independent runs share the workers. A
 rerun skips finished runs and models (a model is retrained when its configuration changed); a run that
 was stopped midway starts again from its beginning. The report of every prediction goes to
 ``DIR/report/``, the training logs (hold-out tables, timings) to ``DIR/models/<name>.log``.
@@ -121,6 +122,25 @@ def _model_metadata(path: Path) -> dict[str, Any]:
         return json.loads(data["metadata_json"].tobytes().decode())
 
 
+def _end_time(run_dir: Path) -> float:
+    """The end of the last window a run recorded (0 without results)."""
+    from cosim.results import RunResults
+    if not (run_dir / "results.h5").is_file():
+        return 0.0
+    with RunResults(run_dir / "results.h5") as run:
+        times = run.windows.time
+    return float(times[-1]) if len(times) else 0.0
+
+
+def _training_end(rom_config: Path, overrides: list[str]) -> float:
+    """``snapshots.t_max`` of a model: a FOM run that failed after it still holds all its training data."""
+    from cosim.scene import apply_override, parse_override
+    raw = tomllib.loads(rom_config.read_text())
+    for item in overrides:
+        apply_override(raw, *parse_override(item))
+    return float(raw.get("snapshots", {}).get("t_max", float("inf")))
+
+
 def train_model(sources: list[str], config_path: str, overrides: list[str], out: str) -> dict:
     """Train one model on a worker (``cosim train``); writes the model, its log and a stamp of the
     configuration it was trained with."""
@@ -206,8 +226,11 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                 for name, spec in plan.models.items():
                     if name in current or name in submitted_models:
                         continue
-                    if any(run in failed_fom for run in spec["runs"]):
-                        echo(f"model {name}: not trained, a FOM run it needs failed")
+                    short = [run for run in spec["runs"] if run in failed_fom and
+                             _end_time(fom_dir[run]) < _training_end(plan.rom_config, spec["set"])]
+                    if short:
+                        echo(f"model {name}: not trained, FOM run {short[0]} failed before the end of the training "
+                             f"data")
                         submitted_models.add(name)
                     elif all(plan.fom[run].name in fom_table.done for run in spec["runs"]):
                         submitted_models.add(name)
@@ -217,6 +240,10 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
             def submit_ready_predictions() -> None:
                 for p in plan.predictions:
                     if p.name in submitted_runs or p.run.name in rom_table.done or p.model not in current:
+                        continue
+                    if p.reference in failed_fom:
+                        echo(f"rom {p.name}: not run, its reference {p.reference} failed")
+                        submitted_runs.add(p.name)
                         continue
                     submitted_runs.add(p.name)
                     model = plan.models[p.model]["path"]
