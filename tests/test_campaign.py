@@ -149,3 +149,13 @@ set = ["components.solid.rom.on_out_of_range='fail'", "components.solid.rom.rang
     assert second["name"] == first["name"] and second["wall_seconds"] != first["wall_seconds"]   # it ran again
     kept = list((out / "rom/runs").glob(f"{first['name']}.failed-*"))
     assert len(kept) == 1 and (kept[0] / "results.h5").is_file()
+
+
+def test_a_model_may_train_on_a_failed_run_only_up_to_its_training_end(tmp_path):
+    from coupler.campaign import _end_time, _training_end
+    config = tmp_path / "rom.toml"
+    config.write_text("[snapshots]\nt_max = 1.0\n")
+    assert _training_end(config, []) == 1.0
+    assert _training_end(config, ["snapshots.t_max=3.0"]) == 3.0        # the model's own override wins
+    assert _training_end(tmp_path / "rom.toml", ["model.n_force_modes=4"]) == 1.0
+    assert _end_time(tmp_path / "no-run") == 0.0                        # a run without results holds no data
