@@ -55,6 +55,19 @@ def per_call(function: Callable[[], object], repeat: int = 15, number: int | Non
     return Timing.of(np.array(timer.repeat(repeat=repeat, number=number)) / number)
 
 
+def cold_call(function: Callable[[], object], repeat: int = 15, flush_mb: int = 64) -> Timing:
+    """Time of one call of ``function`` after ``flush_mb`` MB of other data went through the caches (as a
+    component's call does after the other solver's turn): ``repeat`` single-call timings."""
+    other = np.ones(flush_mb * 2**20 // 8)
+    times = []
+    for _ in range(repeat):
+        other += 1.0                       # evict the caller's data from every cache level
+        started = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - started)
+    return Timing.of(np.array(times))
+
+
 def fresh_directory(kind: str) -> Path:
     """A new directory under runs/bench/ for this benchmark run (runs never overwrite each other)."""
     stamp = time.strftime("%Y%m%d-%H%M%S")
