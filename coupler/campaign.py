@@ -42,7 +42,9 @@ PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dic
         "predictions": Required(list)}
 MODEL = {"runs": Required(list), "set": []}
 PREDICTION = {"model": Required(str), "reference": Required(str), "switch_time": Required(float), "set": [],
-              "fmu": False}   # true: the model exported as an FMU serves the solid (checked against its ROM twin)
+              "fmu": False,   # true: the model exported as an FMU serves the solid (checked against its ROM twin)
+              "label": "",    # the run's name in the report (default <model>-<reference>[-fmu])
+              "twin": ""}     # fmu: the prediction it must repeat (default: same model, reference, switch time)
 
 
 @dataclass
@@ -53,6 +55,7 @@ class Prediction:
     run: SweepRun
     switch_time: float
     fmu: Path | None = None     # the exported FMU that serves the solid, if any
+    twin: str = ""
 
 
 @dataclass
@@ -96,9 +99,11 @@ def load_plan(path: str | Path, out: Path) -> Plan:
         overrides = (*fom[spec["reference"]].overrides, f"components.solid.backend={backend}",
                      f"components.solid.{backend}.{file}",
                      f"components.solid.{backend}.switch_time={spec['switch_time']!r}", *spec["set"])
-        name = f"{spec['model']}-{spec['reference']}" + ("-fmu" if fmu else "")
+        name = spec["label"] or f"{spec['model']}-{spec['reference']}" + ("-fmu" if fmu else "")
+        if name in {p.name for p in predictions}:
+            raise SceneError(f"{path}: predictions.{i} is named '{name}' like an earlier one; give it a 'label'")
         predictions.append(Prediction(name, spec["model"], spec["reference"], SweepRun(overrides),
-                                      spec["switch_time"], fmu))
+                                      spec["switch_time"], fmu, spec["twin"]))
     return Plan((base / plan["scene"]).resolve(), (base / plan["rom_config"]).resolve(), fom, models, predictions)
 
 
@@ -347,8 +352,9 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
         echo(note)
     (report / "failed.txt").write_text("".join(f"{note}\n" for note in notes))
     checks = [fmu_check(p, twin, rom_dir) for p in plan.predictions if p.fmu
-              for twin in plan.predictions if not twin.fmu and (twin.model, twin.reference, twin.switch_time) ==
-              (p.model, p.reference, p.switch_time)]
+              for twin in plan.predictions if not twin.fmu and (twin.name == p.twin if p.twin else
+                                                                (twin.model, twin.reference, twin.switch_time) ==
+                                                                (p.model, p.reference, p.switch_time))]
     checks = [line for line in checks if line]
     for line in checks:
         echo(line)

@@ -114,6 +114,9 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
      "models.m.runs names 'b', which is not in [fom]"),
     ('scene = "x.toml"\nrom_config = "y.toml"\n[fom]\na = []\n[models]\nm = { runs = ["a"] }\n'
      '[[predictions]]\nmodel = "n"\nreference = "a"\nswitch_time = 1.0', "predictions.0.model is 'n'"),
+    ('scene = "x.toml"\nrom_config = "y.toml"\n[fom]\na = []\n[models]\nm = { runs = ["a"] }\n'
+     '[[predictions]]\nmodel = "m"\nreference = "a"\nswitch_time = 1.0\n'
+     '[[predictions]]\nmodel = "m"\nreference = "a"\nswitch_time = 2.0', "predictions.1 is named 'm-a' like an earlier one"),
 ])
 def test_a_campaign_file_naming_unknown_runs_or_models_is_refused(tmp_path, text, message):
     plan = tmp_path / "c.toml"
