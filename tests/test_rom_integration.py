@@ -140,6 +140,16 @@ def test_report_refuses_a_reference_that_ran_another_scene(fom, model, tmp_path)
     assert not (tmp_path / "report" / "report.json").exists()
 
 
+def test_a_reference_that_never_reached_the_maximum_serves_either_on_max_iterations(fom, model, tmp_path):
+    rom_run(tmp_path / "rom", model, TRAIN_END, "coupling.on_max_iterations=accept")   # the reference: "fail"
+    with RunResults(fom) as reference:
+        assert reference.windows.iterations.max() < 50
+    done = cosim("report", f"{tmp_path / 'rom'}={fom}", "--out", str(tmp_path / "report"))
+    assert done.returncode == 0, done.stderr
+    (row,) = json.loads((tmp_path / "report" / "report.json").read_text())["runs"]
+    assert 0 < row["monitor_error"] < 5e-3
+
+
 def test_global_input_scaling_beats_per_mode_scaling_on_tube_snapshots(fom):
     config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={END}"])
     F, U, _, _ = read_snapshots(fom / "results.h5", config["snapshots"])
