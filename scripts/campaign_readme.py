@@ -31,6 +31,32 @@ def _pct(value: float, digits: int = 2) -> str:
     return f"{100 * value:.{digits}f} %"
 
 
+def _until_failure(campaign: Path, row: dict[str, str], fom: list[dict[str, str]]) -> str:
+    """A failed ROM-FOM run over the windows it served before failing: interface displacement error and
+    coupling iterations against the FOM-FOM run of the same Reynolds number."""
+    import numpy as np
+    from cosim.results import RunResults
+    path = campaign / "rom" / "runs" / row["name"] / "results.h5"
+    if not path.is_file():
+        return "  (no results recorded)"
+    with RunResults(path) as run:
+        reynolds = float(run.scene["flow"]["reynolds"])
+        reference = next((f for f in fom if f.get("flow.reynolds") and float(f["flow.reynolds"]) == reynolds), None)
+        if reference is None:
+            return "  (no FOM-FOM run at its Reynolds number)"
+        with RunResults(campaign / "fom" / "runs" / reference["name"] / "results.h5") as ref:
+            n = len(run.windows.time)
+            served = run.windows.time[:n] > float(row["switch_time"]) + 1e-9
+            u, u_ref = run.fields()["displacement"], ref.fields()["displacement"]
+            u, u_ref_all = u.reshape(len(u), -1), u_ref.reshape(len(u_ref), -1)
+            e = np.linalg.norm(u - u_ref_all[:n], axis=1)[served] / np.linalg.norm(u_ref_all, axis=1).mean()
+            iterations = run.windows.iterations[served].sum() / ref.windows.iterations[:n][served].sum() - 1
+            fallback = int(run.attributes.get("rom_fallback_windows", 0))
+    return (f"  before failing it served {int(served.sum())} windows: interface displacement error {_pct(e.mean())} "
+            f"on average ({_pct(e.max())} at most) of the FOM-FOM mean norm, iterations {100 * iterations:+.1f} %, "
+            f"{fallback} windows fell back")
+
+
 def summary(campaign: Path, calls: Path | None) -> list[str]:
     report_file = campaign / "report" / "report.json"
     report = json.loads(report_file.read_text())["runs"] if report_file.is_file() else []
@@ -70,6 +96,8 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
                 lines.append(f"ROM-FOM {r['model']} against {r['reference']} from {float(r['switch_time']):g} s: "
                              f"{r['windows_converged']} windows converged, {float(r['mean_iterations']):.3f} "
                              f"iterations/window, {float(r['wall_seconds']) / 60:.0f} min; {state}")
+                if r["failure"]:
+                    lines.append(_until_failure(campaign, r, fom))
     qr = lu = None
     if calls:
         medians = json.loads(calls.read_text())["median_seconds"]
