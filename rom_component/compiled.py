@@ -20,7 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from cosim.errors import CosimError
-from rom_component.fmu_export import HEADERS, SOURCE, compile_binary, fmi_headers, model_guid, resource_bytes
+from rom_component.fmu_export import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
 from rom_component.online import OnlineRom
 
 
@@ -38,9 +38,7 @@ def library_path() -> Path:
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
         sources = Path(tmp)
-        (sources / SOURCE.name).write_bytes(SOURCE.read_bytes())
-        for header in HEADERS:
-            (sources / header).write_bytes((fmi_headers() / header).read_bytes())
+        write_sources(sources)
         built = sources / target.name
         compile_binary(sources, built)
         os.replace(built, target)    # atomic: processes building at once all end with a whole library

@@ -127,6 +127,13 @@ def fmi_headers() -> Path:
     return Path(fmpy.__file__).parent / "c-code"
 
 
+def write_sources(folder: Path) -> None:
+    """The C source and the FMI 2.0 headers it includes, into ``folder``."""
+    shutil.copy(SOURCE, folder / SOURCE.name)
+    for header in HEADERS:
+        shutil.copy(fmi_headers() / header, folder / header)
+
+
 def compile_binary(sources: Path, target: Path) -> None:
     """Build the linux64 binary: plain flags suffice, the source fixes its floating-point contract."""
     compiler = os.environ.get("CC", "cc")
@@ -155,9 +162,7 @@ def export_fmu(model: str | Path, out: str | Path, components_per_node: int | No
         root = Path(tmp)
         for folder in ("sources", "resources", "binaries/linux64"):
             (root / folder).mkdir(parents=True)
-        shutil.copy(SOURCE, root / "sources" / SOURCE.name)
-        for header in HEADERS:
-            shutil.copy(fmi_headers() / header, root / "sources" / header)
+        write_sources(root / "sources")
         (root / "resources" / "rom.bin").write_bytes(resource_bytes(rom, guid, components))
         (root / "modelDescription.xml").write_bytes(model_description(rom, guid, components))
         if metadata.get("variables"):   # the meshes the solid declared, for the coupler's mappings
