@@ -36,7 +36,7 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.schema import Required, validate
-from coupler.sweep import TABLE, SweepRun, SweepTable, check_runs, run_one, setting_keys
+from coupler.sweep import TABLE, SweepRun, SweepTable, check_runs, run_one, scene_fingerprint, setting_keys
 
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "models": Required(dict),
         "predictions": Required(list)}
@@ -183,8 +183,9 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     out = Path(out).resolve()
     plan = load_plan(campaign, out)
     check_runs(str(plan.scene), [*plan.fom.values(), *(p.run for p in plan.predictions)])
-    fom_table = SweepTable(out / "fom" / TABLE, setting_keys(list(plan.fom.values())))
-    rom_table = SweepTable(out / "rom" / TABLE, ["model", "reference", "switch_time"])
+    scene = scene_fingerprint(plan.scene)
+    fom_table = SweepTable(out / "fom" / TABLE, setting_keys(list(plan.fom.values())), scene)
+    rom_table = SweepTable(out / "rom" / TABLE, ["model", "reference", "switch_time"], scene)
     fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
     rom_dir = {p.name: out / "rom" / "runs" / p.run.name for p in plan.predictions}
     started = time.perf_counter()

@@ -10,7 +10,9 @@ on an existing scheduler given by address, so a sweep spans as many machines as 
 converged, mean and max coupling iterations, measured contraction per iteration, the failure
 class (diverged, stalled, max-iterations, non-finite, component-error) and message, wall time); a
 rerun of the same sweep skips the runs that have a row. Run names are derived from the
-overrides, so the same run keeps its name across reruns and machines.
+overrides, so the same run keeps its name across reruns and machines; ``DIR/sweep.scene`` holds
+the scene's fingerprint, and a directory whose runs were made with other scene data is refused
+(comments and layout of the scene file aside), so a changed scene never mixes with old runs.
 
 Only references to this module's function and plain strings cross Dask's wire; results come
 back as plain dicts of numbers and strings.
@@ -21,8 +23,10 @@ from __future__ import annotations
 import csv
 import hashlib
 import itertools
+import json
 import shlex
 import time
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -34,6 +38,16 @@ from cosim.errors import SceneError
 COLUMNS = ["name", "windows_converged", "windows_total", "mean_iterations", "max_iterations", "contraction",
            "failure", "failure_message", "wall_seconds"]
 TABLE = "sweep.csv"
+FINGERPRINT = "sweep.scene"
+
+
+def scene_fingerprint(scene_path: str | Path) -> str:
+    """SHA-256 of a scene file's data (its comments and layout aside)."""
+    try:
+        raw = tomllib.loads(Path(scene_path).read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise SceneError(f"scene '{scene_path}': {exc}") from None
+    return hashlib.sha256(json.dumps(raw, sort_keys=True, default=str).encode()).hexdigest()
 
 
 @dataclass(frozen=True)
@@ -170,9 +184,10 @@ def contraction(per_window: list) -> float:
 
 
 class SweepTable:
-    """``DIR/sweep.csv``: one row per finished run, appended and flushed as runs finish."""
+    """``DIR/sweep.csv``: one row per finished run, appended and flushed as runs finish; with a scene
+    ``fingerprint``, a table whose rows were made with another version of the scene is refused."""
 
-    def __init__(self, path: Path, setting_keys: list[str]):
+    def __init__(self, path: Path, setting_keys: list[str], fingerprint: str | None = None):
         self.path = path
         self.columns = [*COLUMNS[:1], *setting_keys, *COLUMNS[1:]]
         self.done: dict[str, dict[str, str]] = {}
@@ -187,6 +202,14 @@ class SweepTable:
             path.parent.mkdir(parents=True, exist_ok=True)
             with open(path, "w", newline="") as stream:
                 csv.writer(stream).writerow(self.columns)
+        if fingerprint is not None:
+            stamp = path.with_name(FINGERPRINT)
+            made_with = stamp.read_text().strip() if stamp.is_file() else None
+            if self.done and made_with not in (None, fingerprint):
+                raise SceneError(f"'{path.parent}' holds runs made with other scene data (the scene changed "
+                                 f"since they ran); use another --out")
+            if made_with != fingerprint:
+                stamp.write_text(fingerprint + "\n")
 
     def forget(self, names: set[str]) -> None:
         """Drop the rows of these runs (they will run again), rewriting the table."""
@@ -227,7 +250,7 @@ def run_sweep(scene_path: str, runs: list[SweepRun], out: str | Path, workers: i
     """
     out = Path(out)
     check_runs(scene_path, runs)
-    table = SweepTable(out / TABLE, keys or setting_keys(runs))
+    table = SweepTable(out / TABLE, keys or setting_keys(runs), scene_fingerprint(scene_path))
     pending = [run for run in runs if run.name not in table.done]
     if not pending:
         return table.path

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from coupler.sweep import SweepRun, file_runs, grid_runs, run_sweep
+from coupler.sweep import SweepRun, SweepTable, file_runs, grid_runs, run_sweep, scene_fingerprint
 from cosim.cli import main
 from cosim.errors import SceneError
 
@@ -127,3 +127,22 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_runs(tmp_path):
     after = rows(out)
     assert len(after) == 4 and all(after[name] == done[name] for name in done)
     assert all((out / "runs" / name / "results.h5").stat().st_mtime_ns == stamps[name] for name in done)
+
+
+def test_a_sweep_directory_refuses_runs_of_a_changed_scene_but_not_of_a_recommented_one(tmp_path, capsys):
+    scene = tmp_path / "tube.toml"
+    text = TUBE_SCENE.read_text()
+    scene.write_text(text)
+    out = tmp_path / "sweep"
+    table = SweepTable(out / "sweep.csv", ["inlet.h"], scene_fingerprint(scene))
+    table.add(SweepRun(("inlet.h=4",)), {"windows_converged": 5, "failure": ""})
+    scene.write_text("# a new comment, and the same data laid out again\n" + text + "\n\n")
+    assert scene_fingerprint(scene) == scene_fingerprint(TUBE_SCENE)
+    assert "run-" in next(iter(SweepTable(out / "sweep.csv", ["inlet.h"], scene_fingerprint(scene)).done))
+    scene.write_text(text.replace("max_iterations = ", "max_iterations = 1", 1))
+    assert scene_fingerprint(scene) != scene_fingerprint(TUBE_SCENE)
+    code = main(["sweep", str(scene), "--grid", "inlet.h=4,6", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "holds runs made with other scene data" in err and str(out) in err
+    assert len(rows(out)) == 1 and not (out / "runs").exists()
