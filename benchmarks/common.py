@@ -16,7 +16,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def machine() -> str:
-    """CPU model, cores, Python and OS of this machine."""
+    """CPU model, cores, Python and OS of this machine, and its load when the benchmark starts (runs that
+    share the cores slow every timing)."""
     cpu = "unknown CPU"
     try:
         for line in open("/proc/cpuinfo"):
@@ -25,7 +26,9 @@ def machine() -> str:
                 break
     except OSError:
         pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {platform.system()} {platform.release()}"
+    load = os.getloadavg()[0]
+    return (f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {platform.system()} "
+            f"{platform.release()}, load average {load:.1f} at start")
 
 
 @dataclass
