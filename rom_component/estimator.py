@@ -4,7 +4,10 @@ Snapshots are rows (scikit-learn convention): F (m, N) interface forces, U (m, N
 displacements. Encoder: centred POD of F with ``n_force_modes`` modes. Decoder:
 centred POD of U with ``n_disp_modes`` modes, linear or with a quadratic manifold.
 Regression from scaled reduced forces to reduced displacements: thin-plate-spline
-RBF or a BIC-sparse quadratic polynomial.
+RBF or a BIC-sparse quadratic polynomial. With ``secant_weight`` > 0 and the window of each
+snapshot (``fit(F, U, windows=...)``, rows of a window in call order), the polynomial also fits the
+differences between consecutive sub-iterations of a window: the solid's response along the
+directions the coupling explores, which fitting the levels alone leaves free.
 """
 
 from __future__ import annotations
@@ -32,7 +35,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
 
     def __init__(self, n_force_modes: int = 3, n_disp_modes: int = 9, decoder: str = "linear",
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
-                 rbf_smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard"):
+                 rbf_smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard",
+                 secant_weight: float = 0.0):
         self.n_force_modes = n_force_modes
         self.n_disp_modes = n_disp_modes
         self.decoder = decoder
@@ -42,6 +46,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.rbf_smoothing = rbf_smoothing
         self.quadratic_modes = quadratic_modes
         self.feature_scaling = feature_scaling
+        self.secant_weight = secant_weight
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -63,16 +68,26 @@ class SolidRom(RegressorMixin, BaseEstimator):
         if isinstance(self.quadratic_modes, bool) or not isinstance(self.quadratic_modes, numbers.Integral) \
                 or self.quadratic_modes < 0:
             raise ValueError(f"quadratic_modes must be an integer >= 0 (0: all), got {self.quadratic_modes!r}")
-        for name in ("manifold_regularization", "rbf_smoothing"):
+        for name in ("manifold_regularization", "rbf_smoothing", "secant_weight"):
             value = getattr(self, name)
             if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        if self.secant_weight > 0 and self.regressor != "poly":
+            raise ValueError(f"secant_weight applies to the poly regressor, not {self.regressor!r}")
 
-    def fit(self, X: np.ndarray, y: np.ndarray) -> "SolidRom":
-        """Fit on force rows ``X`` and displacement rows ``y``."""
+    def fit(self, X: np.ndarray, y: np.ndarray, windows: np.ndarray | None = None) -> "SolidRom":
+        """Fit on force rows ``X`` and displacement rows ``y``; ``windows``: the window of each row (rows of
+        one window in call order), needed with ``secant_weight`` > 0."""
         self._check_params()
         F, U = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=np.float64,
                              ensure_min_samples=2)
+        pairs = None
+        if self.secant_weight > 0:
+            if windows is None or len(windows) != len(F):
+                raise ValueError(f"secant_weight > 0 needs the window of each of the {len(F)} snapshots")
+            windows = np.asarray(windows)
+            first = np.flatnonzero(windows[1:] == windows[:-1])
+            pairs = (first, first + 1)            # consecutive sub-iterations of one window
         self.single_output_ = U.ndim == 1
         U = U[:, None] if self.single_output_ else U
         self.n_force_modes_ = min(self.n_force_modes, len(F) - 1, F.shape[1])
@@ -90,8 +105,9 @@ class SolidRom(RegressorMixin, BaseEstimator):
         Zf = (F - self.f_mean_) @ self.Phi_f_
         self.scaling_ = Scaling(self.input_scaling).fit(Zf)
         X = self.scaling_(Zf)
-        self.regression_ = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes,
-                                           self.feature_scaling).fit(X, Zu)
+        regression = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes, self.feature_scaling)
+        self.regression_ = (regression.fit(X, Zu) if pairs is None else
+                            regression.fit(X, Zu, pairs=pairs, pair_weight=self.secant_weight))
         self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
 

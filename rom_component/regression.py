@@ -126,7 +126,11 @@ class SparseQuadraticRegression:
         self.quadratic_modes = quadratic_modes
         self.feature_scaling = feature_scaling
 
-    def fit(self, X: np.ndarray, Y: np.ndarray) -> "SparseQuadraticRegression":
+    def fit(self, X: np.ndarray, Y: np.ndarray, pairs: tuple[np.ndarray, np.ndarray] | None = None,
+            pair_weight: float = 0.0) -> "SparseQuadraticRegression":
+        """Least squares on the rows (X, Y); with ``pairs`` (a, b) of row indices, also on the differences
+        Y[b] - Y[a] against X[b] - X[a], weighted so that their squared sum is ``pair_weight`` times that
+        of the centred rows, per output."""
         from sklearn.linear_model import LassoLarsIC
         self.n_inputs = X.shape[1]
         q = self.n_inputs if self.quadratic_modes <= 0 else min(self.quadratic_modes, self.n_inputs)
@@ -148,10 +152,20 @@ class SparseQuadraticRegression:
         if len(X) <= n_terms + 1:  # the BIC needs a noise estimate the data cannot give
             noise = max(float(np.var(Ys)) * 1e-6, 1e-12)
         coefficients = np.zeros((n_terms, Y.shape[1]))
-        for k in range(Y.shape[1]):
-            model = LassoLarsIC(criterion="bic", fit_intercept=True, noise_variance=noise)
-            model.fit(Phi, Ys[:, k])
-            coefficients[:, k] = model.coef_
+        if pairs is not None and len(pairs[0]) and pair_weight > 0:
+            a, b = pairs
+            dPhi, dY = Phi[b] - Phi[a], Ys[b] - Ys[a]      # the intercept cancels in a difference
+            steps = np.sum(dY ** 2, axis=0)
+            weights = np.sqrt(pair_weight * np.sum(Ys ** 2, axis=0) / np.where(steps > 0, steps, 1.0))
+            for k in range(Y.shape[1]):     # Phi and Ys are centred: no intercept to fit
+                model = LassoLarsIC(criterion="bic", fit_intercept=False, noise_variance=noise)
+                model.fit(np.vstack([Phi, weights[k] * dPhi]), np.concatenate([Ys[:, k], weights[k] * dY[:, k]]))
+                coefficients[:, k] = model.coef_
+        else:
+            for k in range(Y.shape[1]):
+                model = LassoLarsIC(criterion="bic", fit_intercept=True, noise_variance=noise)
+                model.fit(Phi, Ys[:, k])
+                coefficients[:, k] = model.coef_
         self.coefficients = coefficients
         self.n_selected = (coefficients != 0).sum(axis=0)
         return self

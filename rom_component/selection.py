@@ -73,23 +73,30 @@ def energy_choice(F: np.ndarray, U: np.ndarray, energy: float = 0.9999) -> tuple
 
 def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence[int],
                   disp_modes: Sequence[int], test_fraction: float = 0.2, seed: int = 0,
-                  energy: float = 0.9999, groups: np.ndarray | None = None, tolerance: float = 0.0) -> SelectionTable:
+                  energy: float = 0.9999, groups: np.ndarray | None = None, tolerance: float = 0.0,
+                  windows: np.ndarray | None = None) -> SelectionTable:
     """Hold-out error of ``estimator`` for every (r_f, r_u) of the grid.
 
     Without ``groups`` the test set is a random ``test_fraction`` of the snapshots; with them (the
     window of each snapshot) it is a random ``test_fraction`` of whole windows, so that no sub-iteration
     of a test window, nearly equal to its converged call, is in the training set. The table's ``chosen``
-    pair has the fewest modes whose error is within ``tolerance`` (relative) of the best.
+    pair has the fewest modes whose error is within ``tolerance`` (relative) of the best. ``windows`` (the
+    window of each snapshot, for an estimator that fits sub-iteration steps) go to ``fit`` with the training
+    snapshots, which then keep their order.
     """
     if groups is None:
-        F_train, F_test, U_train, U_test = train_test_split(F, U, test_size=test_fraction, random_state=seed)
+        train, test = train_test_split(np.arange(len(F)), test_size=test_fraction, random_state=seed)
     else:
         train, test = next(GroupShuffleSplit(1, test_size=test_fraction, random_state=seed).split(F, U, groups))
-        F_train, F_test, U_train, U_test = F[train], F[test], U[train], U[test]
+    if windows is not None:
+        train = np.sort(train)
+    F_train, F_test, U_train, U_test = F[train], F[test], U[train], U[test]
+    fit_params = {} if windows is None else {"windows": windows[train]}
     errors = np.full((len(disp_modes), len(force_modes)), np.nan)
     for j, r_f in enumerate(force_modes):
         for i, r_u in enumerate(disp_modes):
-            model = clone(estimator).set_params(n_force_modes=r_f, n_disp_modes=r_u).fit(F_train, U_train)
+            model = clone(estimator).set_params(n_force_modes=r_f, n_disp_modes=r_u).fit(F_train, U_train,
+                                                                                          **fit_params)
             errors[i, j] = np.linalg.norm(U_test - model.predict(F_test), axis=1).mean()
     scale = np.linalg.norm(U_test - U_train.mean(axis=0), axis=1).mean()
     i, j = np.unravel_index(np.nanargmin(errors), errors.shape)

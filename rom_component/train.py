@@ -33,7 +33,10 @@ CONFIG = {
     "model": {"n_force_modes": 3, "n_disp_modes": 9, "decoder": "linear", "regressor": "rbf",
               "input_scaling": "global", "manifold_regularization": 1e-6, "rbf_smoothing": 0.0,
               "quadratic_modes": 0,    # poly: products of the leading quadratic_modes reduced forces only (0: all)
-              "feature_scaling": "standard"},   # poly: each term to unit variance, or "global": one scale for all
+              "feature_scaling": "standard",   # poly: each term to unit variance, or "global": one scale for all
+              # poly: also fit the steps between a window's sub-iterations, their squared sum weighted to this
+              # fraction of the levels' (0: levels only)
+              "secant_weight": Value(0.0, low=0.0)},
     "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
     "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],
@@ -152,7 +155,8 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
             split_started = time.perf_counter()
             tables[split] = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
                                           selection["test_fraction"], selection["seed"], selection["energy"],
-                                          windows if split == "windows" else None, selection["tolerance"])
+                                          windows if split == "windows" else None, selection["tolerance"],
+                                          windows if params["secant_weight"] > 0 else None)
             echo(tables[split].format())
             echo(f"cross-validation time (split by {split}): {time.perf_counter() - split_started:.2f} s")
         table = tables[selection["split"]]
@@ -162,7 +166,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     elif selection["choose"] == "energy":
         params["n_force_modes"], params["n_disp_modes"] = energy_choice(F, U, selection["energy"])
     fit_started = time.perf_counter()
-    model = SolidRom(**params).fit(F, U)
+    model = SolidRom(**params).fit(F, U, windows=windows if params["secant_weight"] > 0 else None)
     fit_seconds = time.perf_counter() - fit_started
     params["n_force_modes"], params["n_disp_modes"] = model.modes   # as used (capped by the data)
     U_fit = model.predict(F)

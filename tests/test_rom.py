@@ -216,3 +216,40 @@ def test_the_chosen_modes_are_the_fewest_within_the_tolerance_of_the_best():
     assert table.chosen == (20, 5) and "chosen (fewest modes within 100% of the best): r_f = 20, r_u = 5" in table.format()
     table.tolerance = 0.25                                           # 5.1e-4: r_f = 30 at r_u = 5
     assert table.chosen == (30, 5)
+
+
+def test_secant_weight_trades_level_error_for_the_response_along_sub_iteration_steps():
+    # along the trajectory the third force direction moves as the cube of the first, and the solid answers
+    # the first with a cubic the polynomial lacks: levels alone blame the third direction for it. Fitting
+    # the steps between sub-iterations too, on new windows of the same process: the steps' error falls as
+    # the weight grows, and the levels' error rises
+    def sample(seed, amplitude):
+        rng = np.random.default_rng(seed)
+        steps = 0.02 * 0.5 ** np.arange(4)[None, :, None] * rng.standard_normal((120, 4, 6))
+        F = (amplitude * levels[:, None, :] + steps).reshape(-1, 6)
+        return F, F @ G.T + np.outer((F @ basis[:, 0]) ** 3, C)
+
+    rng = np.random.default_rng(3)
+    basis = np.linalg.qr(rng.standard_normal((6, 6)))[0]
+    G, C = rng.standard_normal((6, 6)), rng.standard_normal(6)
+    a, b = np.sin(np.linspace(0, 6 * np.pi, 120)), np.cos(np.linspace(0, 6 * np.pi, 120))
+    levels = np.outer(a, basis[:, 0]) + np.outer(b, basis[:, 1]) + np.outer(0.3 * a ** 3, basis[:, 2])
+    windows = np.repeat(np.arange(120), 4)
+    (F, U), (F_new, U_new) = sample(4, 1.0), sample(5, 1.1)
+    first = np.flatnonzero(windows[1:] == windows[:-1])
+
+    def errors(weight):
+        model = SolidRom(n_force_modes=6, n_disp_modes=6, regressor="poly", decoder="linear", quadratic_modes=1,
+                         feature_scaling="global", secant_weight=weight).fit(F, U, windows=windows)
+        P = model.predict(F_new)
+        step, step_rom = U_new[first + 1] - U_new[first], P[first + 1] - P[first]
+        return (np.median(np.linalg.norm(step_rom - step, axis=1) / np.linalg.norm(step, axis=1)),
+                np.linalg.norm(P - U_new, axis=1).mean() / np.linalg.norm(U_new, axis=1).mean())
+
+    (step0, level0), (step1, level1), (step3, level3) = errors(0.0), errors(1.0), errors(3.0)
+    assert step3 < step1 < 0.7 * step0
+    assert level0 < level1 < level3
+    with pytest.raises(ValueError, match="needs the window of each of the 480 snapshots"):
+        SolidRom(regressor="poly", secant_weight=1.0).fit(F, U)
+    with pytest.raises(ValueError, match="secant_weight applies to the poly regressor"):
+        SolidRom(regressor="rbf", secant_weight=1.0).fit(F, U, windows=windows)

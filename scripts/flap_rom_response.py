@@ -1,0 +1,76 @@
+"""How a double-flap ROM answers a change of force, against the Kratos solid it replaces.
+
+For each POD force mode phi_k of the model, the response (u(f0 + h phi_k) - u(f0 - h phi_k)) / 2h on the
+interface of the ROM and of the Kratos solid at a recorded force f0: its size ratio (ROM / solid) and the
+cosine of the angle between the two. The coupling's sub-iterations step in every direction, so a ROM that
+answers weak modes with large gains of its own makes the loop learn directions the solid does not have.
+
+Usage: python scripts/flap_rom_response.py MODEL RESULTS [--window N]
+  MODEL: a trained double-flap model (.npz); RESULTS: a double-flap run's results.h5 (f0: the last call
+  of window N, default the middle window)
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from cosim.results import RunResults  # noqa: E402
+from rom_component import persistence  # noqa: E402
+
+
+def responses(model: Path, results: Path, window: int | None) -> list[tuple[int, float, float]]:
+    from solid_component.kratos import KratosSolid
+    rom = persistence.load(model, "reproducible")
+    arrays, _ = persistence.load_arrays(model)
+    modes = arrays["Phi_f"]
+    with RunResults(results) as run:
+        calls = run.calls("solid")
+        window = int(np.median(calls.window)) if window is None else window
+        f0 = np.ravel(calls.inputs["force"][np.flatnonzero(calls.window == window)[-1]])
+    solid = KratosSolid()
+    solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008},
+                       "mesh": str(ROOT / "scenes" / "double_flap" / "solid.mdpa"), "linear_solver": "sparse_lu"})
+    try:
+        def fom(f: np.ndarray) -> np.ndarray:
+            return np.ravel(solid.step(0.0, 0.008, {"force": f.reshape(-1, 2)})["displacement"]).copy()
+
+        h = 1e-3 * np.linalg.norm(f0)
+        rows = []
+        for k in range(modes.shape[1]):
+            d = h * modes[:, k]
+            j_fom = (fom(f0 + d) - fom(f0 - d)) / (2 * h)
+            j_rom = (rom(f0 + d) - rom(f0 - d)) / (2 * h)
+            rows.append((k, float(np.linalg.norm(j_rom) / np.linalg.norm(j_fom)),
+                         float(j_fom @ j_rom / (np.linalg.norm(j_fom) * np.linalg.norm(j_rom)))))
+    finally:
+        solid.close()
+    print(f"model {model}, f0: the last call of window {window} of {results}")
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("model", type=Path)
+    parser.add_argument("results", type=Path)
+    parser.add_argument("--window", type=int)
+    args = parser.parse_args()
+    rows = responses(args.model, args.results, args.window)
+    print(f"{'mode':>4} {'|J_rom phi| / |J_fom phi|':>26} {'cos(J_rom phi, J_fom phi)':>26}")
+    for k, ratio, cosine in rows:
+        print(f"{k + 1:>4} {ratio:>26.2f} {cosine:>26.3f}")
+    for lo, hi in ((0, 15), (15, 30), (30, len(rows))):
+        part = rows[lo:hi]
+        if part:
+            print(f"modes {lo + 1}-{hi}: median ratio {np.median([r[1] for r in part]):.2f}, "
+                  f"median cos {np.median([r[2] for r in part]):.3f}")
+
+
+if __name__ == "__main__":
+    main()
