@@ -188,6 +188,9 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     rom_table = SweepTable(out / "rom" / TABLE, ["model", "reference", "switch_time"], scene)
     fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
     rom_dir = {p.name: out / "rom" / "runs" / p.run.name for p in plan.predictions}
+    names = out / "rom" / "predictions.json"     # which prediction each run of the ROM table is
+    known = json.loads(names.read_text()) if names.is_file() else {}
+    names.write_text(json.dumps({**known, **{p.run.name: p.name for p in plan.predictions}}, indent=1) + "\n")
     started = time.perf_counter()
     from dask.distributed import Client, LocalCluster, as_completed
 

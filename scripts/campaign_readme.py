@@ -89,11 +89,14 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
                          f"cross-validation {PAPER['cv_s']} s, 8-core laptop)")
         lines.append("; ".join(parts))
     rom_table = campaign / "rom" / "sweep.csv"
+    names_file = campaign / "rom" / "predictions.json"
+    names = json.loads(names_file.read_text()) if names_file.is_file() else {}
     if rom_table.is_file():
         with open(rom_table, newline="") as stream:
             for r in csv.DictReader(stream):
                 state = f"failed ({r['failure']}): {r['failure_message'][:110]}" if r["failure"] else "finished"
-                lines.append(f"ROM-FOM {r['model']} against {r['reference']} from {float(r['switch_time']):g} s: "
+                name = names.get(r["name"], r["model"])
+                lines.append(f"ROM-FOM {name} against {r['reference']} from {float(r['switch_time']):g} s: "
                              f"{r['windows_converged']} windows converged, {float(r['mean_iterations']):.3f} "
                              f"iterations/window, {float(r['wall_seconds']) / 60:.0f} min; {state}")
                 if r["failure"]:

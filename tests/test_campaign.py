@@ -78,6 +78,12 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
         assert (out / "models" / name).stat().st_size > 5_000
     report = json.loads((out / "report/report.json").read_text())["runs"]
     assert [Path(r["run"]).name for r in report] == [p.run.name for p in load_plan(plan, out).predictions if not p.fmu]
+    # each ROM-FOM run is named by its prediction, also in the README summary
+    names = json.loads((out / "rom/predictions.json").read_text())
+    assert sorted(names[row["name"]] for row in rom) == sorted(p.name for p in load_plan(plan, out).predictions)
+    summary = subprocess.run([sys.executable, str(ROOT / "scripts/campaign_readme.py"), str(out)],
+                             capture_output=True, text=True, check=True).stdout
+    assert "ROM-FOM a-mu1-fmu against mu1 from 6 s: 70 windows converged" in summary
     # the FMU of model a served the solid in the third run, bit for bit as the Python ROM in the first
     check = (out / "report/fmu_check.txt").read_text()
     assert check.startswith("a-mu1-fmu against a-mu1 over the first 70 windows (of 80)")
