@@ -36,7 +36,8 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.schema import Required, validate
-from coupler.sweep import TABLE, SweepRun, SweepTable, check_runs, run_one, scene_fingerprint, setting_keys
+from coupler.sweep import (TABLE, SweepRun, SweepTable, check_runs, finished_row, run_one, scene_fingerprint,
+                           setting_keys)
 
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "models": Required(dict),
         "predictions": Required(list)}
@@ -206,6 +207,7 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                 if folder[name].is_dir():
                     folder[name].rename(folder[name].with_name(f"{folder[name].name}.failed-{time.time_ns()}"))
             table.forget({run.name for run in failed_runs.values()})
+    _adopt_finished(plan, fom_table, rom_table, fom_dir, rom_dir, current, echo)
     failed_fom = {name for name, run in plan.fom.items() if fom_table.done.get(run.name, {}).get("failure")}
     trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
     # the campaign keeps its own queue: a task is queued once its inputs exist, and handed to Dask only
@@ -303,6 +305,26 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     failed.update({name: fom_table.done[run.name]["failure_message"] for name, run in plan.fom.items()
                    if fom_table.done.get(run.name, {}).get("failure")})
     return write_campaign_report(plan, out, fom_dir, rom_dir, failed, echo)
+
+
+def _adopt_finished(plan: Plan, fom_table: SweepTable, rom_table: SweepTable, fom_dir: dict[str, Path],
+                    rom_dir: dict[str, Path], current: set[str], echo: Callable[[str], None]) -> None:
+    """Rows for runs that finished but whose rows were never written (the campaign stopped between the two);
+    a ROM-FOM run only if it is newer than its model, which is current."""
+    for name, run in plan.fom.items():
+        row = None if run.name in fom_table.done else finished_row(fom_dir[name])
+        if row is not None:
+            fom_table.add(run, row)
+            echo(f"fom {name}: had finished; its row is taken from its run")
+    for p in plan.predictions:
+        results, model = rom_dir[p.name] / "results.h5", plan.models[p.model]["path"]
+        if p.run.name in rom_table.done or p.model not in current or not results.is_file() \
+                or results.stat().st_mtime_ns < model.stat().st_mtime_ns:
+            continue
+        row = finished_row(rom_dir[p.name])
+        if row is not None:
+            rom_table.add(p.run, {"model": p.model, "reference": p.reference, "switch_time": p.switch_time, **row})
+            echo(f"rom {p.name}: had finished; its row is taken from its run")
 
 
 def fmu_check(fmu: Prediction, twin: Prediction, rom_dir: dict[str, Path]) -> str:

@@ -137,7 +137,6 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
     from coupler.run import run_scene
     from cosim.errors import (ComponentError, ConvergenceError, CosimError, DivergenceError, NonFiniteOutput,
                               StalledError)
-    from cosim.results import RunResults
     from cosim.scene import load_scene
 
     started = time.perf_counter()
@@ -156,6 +155,23 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
         failure, message = "component-error", str(exc)
     except CosimError as exc:
         failure, message = "error", str(exc)
+    return _row(out_dir, failure, message, failed_residuals, time.perf_counter() - started)
+
+
+def finished_row(out_dir: str | Path) -> dict[str, Any] | None:
+    """The table row of the run that finished in ``out_dir`` (its ``status.json`` says so), else None: a run
+    whose row was never written (the sweep stopped between the two) is taken as it is, not run again."""
+    try:
+        status = json.loads((Path(out_dir) / "status.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if status.get("state") != "finished":
+        return None
+    return _row(out_dir, "", "", [], float(status.get("wall_seconds", float("nan"))))
+
+
+def _row(out_dir: str | Path, failure: str, message: str, failed_residuals: list, wall_seconds: float) -> dict:
+    from cosim.results import RunResults
     row = {"windows_converged": 0, "windows_total": 0, "mean_iterations": float("nan"), "max_iterations": 0,
            "contraction": contraction([failed_residuals])}
     results = Path(out_dir) / "results.h5"
@@ -171,8 +187,7 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
             per_window = [norm[window == w] for w in np.unique(window)]
             per_window.append(np.asarray(failed_residuals))
             row["contraction"] = contraction(per_window)
-    row.update(failure=failure, failure_message=message.replace("\n", " "),
-               wall_seconds=time.perf_counter() - started)
+    row.update(failure=failure, failure_message=message.replace("\n", " "), wall_seconds=wall_seconds)
     return row
 
 
@@ -251,6 +266,10 @@ def run_sweep(scene_path: str, runs: list[SweepRun], out: str | Path, workers: i
     out = Path(out)
     check_runs(scene_path, runs)
     table = SweepTable(out / TABLE, keys or setting_keys(runs), scene_fingerprint(scene_path))
+    for run in runs:
+        row = None if run.name in table.done else finished_row(out / "runs" / run.name)
+        if row is not None:
+            table.add(run, row)
     pending = [run for run in runs if run.name not in table.done]
     if not pending:
         return table.path

@@ -113,6 +113,27 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     assert all(now[name] == before[name] for name in now if name not in a_runs)               # b's did not
     assert (out / "models/a.fmu").stat().st_mtime_ns > (out / "models/a.npz").stat().st_mtime_ns   # exported again
     assert (out / "report/fmu_check.txt").read_text().strip().endswith(": bit-identical")
+    # rows lost (the campaign stopped between a run's end and its row): finished runs are taken as they are,
+    # except ROM-FOM runs older than their model, which run again
+    def lose_rows():
+        for table in ("fom/sweep.csv", "rom/sweep.csv"):
+            (out / table).write_text((out / table).read_text().splitlines()[0] + "\n")
+
+    stamps = {name: (out / "rom/runs" / name / "results.h5").stat().st_mtime_ns for name in now}
+    lose_rows()
+    fourth = campaign(plan, out)
+    assert fourth.returncode == 0, fourth.stderr
+    assert "fom mu1: had finished; its row is taken from its run" in fourth.stdout
+    assert {r["name"]: r["windows_converged"] for r in rows(out / "rom/sweep.csv")} == \
+        {name: row["windows_converged"] for name, row in now.items()}
+    assert all((out / "rom/runs" / name / "results.h5").stat().st_mtime_ns == stamps[name] for name in now)
+    newer = max(stamps.values()) + 1_000_000_000
+    os.utime(out / "models/ab.npz", ns=(newer, newer))
+    lose_rows()
+    fifth = campaign(plan, out)
+    assert fifth.returncode == 0, fifth.stderr
+    assert [name for name in now if (out / "rom/runs" / name / "results.h5").stat().st_mtime_ns != stamps[name]] == \
+        [predictions[1].run.name]                                            # ab's prediction ran again
 
 
 @pytest.mark.parametrize("text, message", [

@@ -1,6 +1,7 @@
 """Sweeps on Dask: run lists, the table, resuming, failure classes, a scheduler and workers as processes."""
 
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -146,3 +147,25 @@ def test_a_sweep_directory_refuses_runs_of_a_changed_scene_but_not_of_a_recommen
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert "holds runs made with other scene data" in err and str(out) in err
     assert len(rows(out)) == 1 and not (out / "runs").exists()
+
+
+def test_a_run_that_finished_without_its_row_is_taken_as_it_is_and_a_stopped_one_runs_again(tmp_path):
+    # the sweep stopped after one run had finished but before its row was written, and midway through another
+    out = tmp_path / "sweep"
+    runs = grid_runs(["inlet.h=4,6"], SHORT)
+    run_sweep(str(TUBE_SCENE), runs, out, workers=1, progress=False)
+    table = rows(out)
+    finished, stopped = (out / "runs" / run.name for run in runs)
+    stamp = (finished / "results.h5").stat().st_mtime_ns
+    header = (out / "sweep.csv").read_text().splitlines()[0]
+    (out / "sweep.csv").write_text(header + "\n")                           # both rows lost
+    status = json.loads((stopped / "status.json").read_text())
+    (stopped / "status.json").write_text(json.dumps({**status, "state": "running"}))
+    stopped_stamp = (stopped / "results.h5").stat().st_mtime_ns
+    run_sweep(str(TUBE_SCENE), runs, out, workers=1, progress=False)
+    again = rows(out)
+    same = [key for key in table[runs[0].name] if key != "wall_seconds"]   # the run's own wall, not the task's
+    assert [again[runs[0].name][k] for k in same] == [table[runs[0].name][k] for k in same]   # not run again
+    assert (finished / "results.h5").stat().st_mtime_ns == stamp
+    assert (stopped / "results.h5").stat().st_mtime_ns != stopped_stamp    # run again from its beginning
+    assert again[runs[1].name]["windows_converged"] == table[runs[1].name]["windows_converged"] == "5"
