@@ -222,9 +222,12 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
             queue: list[tuple[int, int, str, str, Any, tuple]] = []
             capacity = max(sum(client.nthreads().values()), 1)
 
+            starting = True    # the first tasks are all queued before any is handed out, so priorities hold
+
             def submit(kind: str, name: str, function, *args, priority: int) -> None:
                 heapq.heappush(queue, (-priority, len(jobs) + len(queue), kind, name, function, args))
-                dispatch()
+                if not starting:
+                    dispatch()
 
             def dispatch() -> None:
                 while queue and sum(not f.done() for f in jobs) < capacity:
@@ -271,31 +274,35 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                     submit("fom", name, run_one, str(plan.scene), list(run.overrides), str(fom_dir[name]),
                            priority=2 if name in trained_on else 0)
             submit_ready_predictions()
+            starting = False
+            dispatch()
             for future in pending:
                 kind, name = jobs[future]
-                dispatch()
-                if future.status == "error":
-                    echo(f"{kind} {name}: failed: {future.exception()}")
-                    continue
-                result = future.result()
-                if kind == "fom":
-                    fom_table.add(plan.fom[name], result)
-                    if result["failure"]:
-                        failed_fom.add(name)
-                    submit_ready_models()
-                elif kind == "model":
-                    current.add(name)
-                    echo(f"model {name}: trained in {result['seconds']:.1f} s (cross-validation "
-                         f"{result['cv_seconds']:.1f} s, fit {result['fit_seconds']:.2f} s), r_f = {result['modes']}")
-                    submit_ready_predictions()
-                    continue
-                else:
-                    p = next(p for p in plan.predictions if p.name == name)
-                    rom_table.add(p.run, {"model": p.model, "reference": p.reference,
-                                          "switch_time": p.switch_time,
-                                          **result})
-                echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
-                     f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
+                try:   # the finished task's follow-ups are queued before its worker is handed the next task
+                    if future.status == "error":
+                        echo(f"{kind} {name}: failed: {future.exception()}")
+                        continue
+                    result = future.result()
+                    if kind == "fom":
+                        fom_table.add(plan.fom[name], result)
+                        if result["failure"]:
+                            failed_fom.add(name)
+                        submit_ready_models()
+                    elif kind == "model":
+                        current.add(name)
+                        echo(f"model {name}: trained in {result['seconds']:.1f} s (cross-validation "
+                             f"{result['cv_seconds']:.1f} s, fit {result['fit_seconds']:.2f} s), r_f = {result['modes']}")
+                        submit_ready_predictions()
+                        continue
+                    else:
+                        p = next(p for p in plan.predictions if p.name == name)
+                        rom_table.add(p.run, {"model": p.model, "reference": p.reference,
+                                              "switch_time": p.switch_time,
+                                              **result})
+                    echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
+                         f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
+                finally:
+                    dispatch()
     finally:
         if cluster is not None:
             cluster.close()

@@ -130,12 +130,18 @@ def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:port) instead")
     parser.add_argument("--retry-failed", action="store_true",
                         help="run the ROM-FOM runs that failed once more (after a change to the scene, say)")
+    parser.add_argument("--status", action="store_true",
+                        help="say where each run and model of the campaign in --out stands, and run nothing")
 
 
 def _campaign(args: argparse.Namespace) -> int:
     from coupler.campaign import run_campaign
     from cosim.errors import SceneError
 
+    if args.status:
+        from coupler.campaign_status import campaign_status
+        print("\n".join(campaign_status(args.campaign, args.out)))
+        return 0
     if args.workers < 1:
         raise SceneError(f"--workers is {args.workers}; allowed: an integer >= 1")
     report = run_campaign(args.campaign, args.out, args.workers, args.scheduler, retry_failed=args.retry_failed)

@@ -189,3 +189,40 @@ def test_a_model_may_train_on_a_failed_run_only_up_to_its_training_end(tmp_path)
     assert _training_end(config, ["snapshots.t_max=3.0"]) == 3.0        # the model's own override wins
     assert _training_end(tmp_path / "rom.toml", ["model.n_force_modes=4"]) == 1.0
     assert _end_time(tmp_path / "no-run") == 0.0                        # a run without results holds no data
+
+
+def test_the_runs_a_model_trains_on_go_first_even_when_listed_last(tmp_path):
+    plan = tmp_path / "campaign.toml"
+    plan.write_text(f"""
+scene = "{ROOT}/scenes/tube_fom.toml"
+rom_config = "{ROOT}/scenes/tube_rom.toml"
+[fom]
+reference = ["time.end=3.0", "tube.stiffness_factor=1.1"]
+training = ["time.end=3.0"]
+[models]
+a = {{ runs = ["training"], set = ["snapshots.t_max=2.0", "selection.table=false"] }}
+[[predictions]]
+model = "a"
+reference = "reference"
+switch_time = 2.0
+""")
+    done = subprocess.run([sys.executable, "-m", "cosim", "campaign", str(plan), "--out", str(tmp_path / "out"),
+                           "--workers", "1"], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    order = [line.split(":")[0] for line in done.stdout.splitlines()
+             if line.startswith(("fom ", "model ", "rom "))]
+    # one worker: the training run, its model and the ROM-FOM run before the reference-only run
+    assert order == ["fom training", "model a", "rom a-reference", "fom reference"], done.stdout
+    # --status reads where everything stands; a run whose process is gone shows as stopped midway
+    out = tmp_path / "out"
+    rom_dir = next((out / "rom/runs").iterdir())
+    (out / "rom/sweep.csv").write_text((out / "rom/sweep.csv").read_text().splitlines()[0] + "\n")
+    (rom_dir / "status.json").write_text(json.dumps({"state": "running", "pid": 2 ** 22 + 7, "updated": 0,
+                                                     "windows_total": 30, "windows_completed": 12, "time": 1.2}))
+    status = subprocess.run([sys.executable, "-m", "cosim", "campaign", str(plan), "--out", str(out), "--status"],
+                            cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert status.returncode == 0, status.stderr
+    lines = status.stdout.splitlines()
+    assert lines[0].startswith("FOM-FOM reference") and "finished, 30/30 windows converged" in lines[0]
+    assert lines[2].split() == ["model", "a", "trained"]
+    assert lines[3].startswith("ROM-FOM a-reference") and "stopped midway at 12/30 windows" in lines[3]
