@@ -276,8 +276,18 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
             submit_ready_predictions()
             starting = False
             dispatch()
+
+            def refresh_report() -> None:   # the report so far, over the ROM-FOM runs and references finished
+                done = {name for name, run in plan.fom.items() if run.name in fom_table.done} | \
+                       {p.name for p in plan.predictions if p.run.name in rom_table.done}
+                write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table),
+                                      lambda line: None, done)
+
+            if any(p.run.name in rom_table.done for p in plan.predictions):
+                refresh_report()
             for future in pending:
                 kind, name = jobs[future]
+                refresh = kind == "rom" and future.status != "error"
                 try:   # the finished task's follow-ups are queued before its worker is handed the next task
                     if future.status == "error":
                         echo(f"{kind} {name}: failed: {future.exception()}")
@@ -303,15 +313,22 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                          f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
                 finally:
                     dispatch()
+                if refresh:
+                    refresh_report()
     finally:
         if cluster is not None:
             cluster.close()
     echo(f"campaign runs finished in {time.perf_counter() - started:.0f} s")
+    return write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table), echo)
+
+
+def _failures(plan: Plan, fom_table: SweepTable, rom_table: SweepTable) -> dict[str, str]:
+    """The failed runs (FOM-FOM by name, ROM-FOM by prediction) and their messages."""
     failed = {p.name: rom_table.done[p.run.name]["failure_message"] for p in plan.predictions
               if rom_table.done.get(p.run.name, {}).get("failure")}
     failed.update({name: fom_table.done[run.name]["failure_message"] for name, run in plan.fom.items()
                    if fom_table.done.get(run.name, {}).get("failure")})
-    return write_campaign_report(plan, out, fom_dir, rom_dir, failed, echo)
+    return failed
 
 
 def _adopt_finished(plan: Plan, fom_table: SweepTable, rom_table: SweepTable, fom_dir: dict[str, Path],
@@ -361,13 +378,17 @@ def fmu_check(fmu: Prediction, twin: Prediction, rom_dir: dict[str, Path]) -> st
 
 
 def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_dir: dict[str, Path],
-                          failed: dict[str, str], echo: Callable[[str], None] = print) -> Path:
+                          failed: dict[str, str], echo: Callable[[str], None] = print,
+                          finished: set[str] | None = None) -> Path:
     """``cosim report`` over every ROM prediction whose run and reference finished (the failed ones are listed
-    in ``report/failed.txt``), and the FMU runs checked against their twins (``report/fmu_check.txt``)."""
+    in ``report/failed.txt``), and the FMU runs checked against their twins (``report/fmu_check.txt``);
+    ``finished``: the names of the runs (FOM and prediction) that have finished, if not all have."""
     pairs, labels, notes = [], [], []
     for p in plan.predictions:
         if p.fmu:
             continue   # checked against its twin below (fmu_check.txt), which the report carries
+        if finished is not None and not {p.name, p.reference} <= finished:
+            continue   # still to run, or running
         run, reference = rom_dir[p.name] / "results.h5", fom_dir[p.reference] / "results.h5"
         for name in (p.name, p.reference):
             if name in failed:
@@ -385,9 +406,10 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
         echo(note)
     (report / "failed.txt").write_text("".join(f"{note}\n" for note in notes))
     checks = [fmu_check(p, twin, rom_dir) for p in plan.predictions if p.fmu
-              for twin in plan.predictions if not twin.fmu and (twin.name == p.twin if p.twin else
-                                                                (twin.model, twin.reference, twin.switch_time) ==
-                                                                (p.model, p.reference, p.switch_time))]
+              and (finished is None or p.name in finished)
+              for twin in plan.predictions if not twin.fmu and (finished is None or twin.name in finished)
+              and (twin.name == p.twin if p.twin else
+                   (twin.model, twin.reference, twin.switch_time) == (p.model, p.reference, p.switch_time))]
     checks = [line for line in checks if line]
     for line in checks:
         echo(line)
@@ -395,4 +417,6 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
     if pairs:
         for line in _command(["report", *pairs, "--out", str(report), *labels]):
             echo(line)
+    else:
+        (report / "report.json").unlink(missing_ok=True)    # none finished (again): no table from before
     return report

@@ -226,3 +226,13 @@ switch_time = 2.0
     assert lines[0].startswith("FOM-FOM reference") and "finished, 30/30 windows converged" in lines[0]
     assert lines[2].split() == ["model", "a", "trained"]
     assert lines[3].startswith("ROM-FOM a-reference") and "stopped midway at 12/30 windows" in lines[3]
+    # the report while runs are still going: only pairs whose run and reference have both finished
+    from coupler.campaign import write_campaign_report
+    loaded = load_plan(plan, out)
+    fom_dir = {name: out / "fom/runs" / run.name for name, run in loaded.fom.items()}
+    rom_dir = {p.name: out / "rom/runs" / p.run.name for p in loaded.predictions}
+    write_campaign_report(loaded, out, fom_dir, rom_dir, {}, lambda line: None, {"training", "a-reference"})
+    assert not (out / "report/report.json").exists()        # its reference is not in: no table
+    write_campaign_report(loaded, out, fom_dir, rom_dir, {}, lambda line: None,
+                          {"training", "reference", "a-reference"})
+    assert [r["label"] for r in json.loads((out / "report/report.json").read_text())["runs"]] == ["a-reference"]
