@@ -49,9 +49,9 @@ set = ["time.end=7.0"]
 """
 
 
-def campaign(path: Path, out: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "cosim", "campaign", str(path), "--out", str(out), "--workers", "2"],
-                          cwd=ROOT, capture_output=True, text=True, timeout=600)
+def campaign(path: Path, out: Path, *options: str, workers: int = 2) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "cosim", "campaign", str(path), "--out", str(out),
+                           "--workers", str(workers), *options], cwd=ROOT, capture_output=True, text=True, timeout=600)
 
 
 def rows(path: Path) -> list[dict[str, str]]:
@@ -172,8 +172,7 @@ set = ["components.solid.rom.on_out_of_range='fail'", "components.solid.rom.rang
     (first,) = rows(out / "rom/sweep.csv")
     assert first["failure"] == "component-error" and "outside the training range" in first["failure_message"]
     assert campaign(plan, out).returncode == 0 and rows(out / "rom/sweep.csv") == [first]   # a failure stays done
-    retry = subprocess.run([sys.executable, "-m", "cosim", "campaign", str(plan), "--out", str(out), "--retry-failed"],
-                           cwd=ROOT, capture_output=True, text=True, timeout=600)
+    retry = campaign(plan, out, "--retry-failed")
     assert retry.returncode == 0, retry.stderr
     (second,) = rows(out / "rom/sweep.csv")
     assert second["name"] == first["name"] and second["wall_seconds"] != first["wall_seconds"]   # it ran again
@@ -206,8 +205,7 @@ model = "a"
 reference = "reference"
 switch_time = 2.0
 """)
-    done = subprocess.run([sys.executable, "-m", "cosim", "campaign", str(plan), "--out", str(tmp_path / "out"),
-                           "--workers", "1"], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    done = campaign(plan, tmp_path / "out", workers=1)
     assert done.returncode == 0, done.stderr
     order = [line.split(":")[0] for line in done.stdout.splitlines()
              if line.startswith(("fom ", "model ", "rom "))]
@@ -219,8 +217,7 @@ switch_time = 2.0
     (out / "rom/sweep.csv").write_text((out / "rom/sweep.csv").read_text().splitlines()[0] + "\n")
     (rom_dir / "status.json").write_text(json.dumps({"state": "running", "pid": 2 ** 22 + 7, "updated": 0,
                                                      "windows_total": 30, "windows_completed": 12, "time": 1.2}))
-    status = subprocess.run([sys.executable, "-m", "cosim", "campaign", str(plan), "--out", str(out), "--status"],
-                            cwd=ROOT, capture_output=True, text=True, timeout=120)
+    status = campaign(plan, out, "--status")
     assert status.returncode == 0, status.stderr
     lines = status.stdout.splitlines()
     assert lines[0].startswith("FOM-FOM reference") and "finished, 30/30 windows converged" in lines[0]
