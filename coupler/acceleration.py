@@ -2,7 +2,8 @@
 
 Every method sees, per iteration, the iterate ``x`` that went into the map and the
 result ``x_tilde = H(x)`` (``observe``), and proposes the next iterate
-(``next_iterate``). ``start_window``/``end_window`` bracket each time window.
+(``next_iterate``). ``start_window``/``end_window`` bracket each time window;
+``map_changed`` says that a participant's backend changed (ROM and full-order solver).
 
 - ``ConstantRelaxation``: x + omega r, with r = x_tilde - x.
 - ``Aitken``: dynamic relaxation (Irons and Tuck), omega reset to at most the
@@ -54,6 +55,11 @@ class Acceleration:
     def end_window(self) -> None:
         pass
 
+    def map_changed(self) -> None:
+        """A participant's backend changed (ROM and full-order solver): the map x -> H(x) is another one.
+
+        Called before the first ``observe`` under the new map; what was learnt of the old map goes."""
+
 
 @ACCELERATIONS.register("constant")
 class ConstantRelaxation(Acceleration):
@@ -91,6 +97,10 @@ class Aitken(Acceleration):
                 self.omega = -self.omega * float(self._r_previous @ dr) / denominator
         self._r_previous = r
         return self.x + self.omega * r
+
+    def map_changed(self) -> None:
+        self._r_previous = None
+        self.omega = np.sign(self.omega) * min(abs(self.omega), self.initial) or self.initial
 
 
 @ACCELERATIONS.register("iqn-ils")
@@ -149,6 +159,7 @@ class IQNILS(Acceleration):
         self.columns_filtered = 0
         self.stale_step_ratio = stale_step_ratio
         self.stale_windows = 0
+        self.maps_changed = 0
         self._last_norm = 0.0
 
     def start_window(self) -> None:
@@ -247,6 +258,17 @@ class IQNILS(Acceleration):
         while len(self._windows) > 1:
             self._windows.pop()
 
+    def map_changed(self) -> None:
+        """Every column, reused or of this window, and the difference that would span the change go: a
+        secant of the old map mixed into the least squares steers the new one wrong (the double flap's
+        ROM 3 diverged in the window after a ROM window the solid FOM had finished with the ROM's columns)."""
+        self.maps_changed += 1
+        self._windows.clear()
+        self._windows.appendleft(([], []))
+        self._drop_previous = False
+        self._r_previous = self._xt_previous = None
+        self._last_norm = 0.0
+
     def _stale(self, proposal: np.ndarray, r: np.ndarray) -> bool:
         """The first update of a window, built on reused columns, that jumps far beyond the residual.
 
@@ -336,6 +358,10 @@ class IQNIMVJ(IQNILS):
             if self.jacobian is None:
                 return Wm @ pinv_r
             return self.jacobian @ r + (Wm - self.jacobian @ Vm) @ pinv_r
+
+    def map_changed(self) -> None:
+        super().map_changed()
+        self.jacobian, self.windows_since_restart = None, 0
 
     def next_iterate(self) -> np.ndarray:
         r = self.x_tilde - self.x

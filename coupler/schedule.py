@@ -4,7 +4,9 @@ switch time, then its ROM. Only stateless (quasi-static) backends can be switche
 With a ``fallback`` (the full-order backend, kept running), a call the ROM flags as out of its
 training range (local ``rom_out_of_range``) is computed again by the full-order backend,
 whose outputs are used, and the full-order backend serves the rest of that window; the
-windows where that happened are counted."""
+windows where that happened are counted. ``backend_changed`` says whether the last call was served
+by another backend than the call before it (the coupling scheme then tells its acceleration that
+the map changed)."""
 
 from __future__ import annotations
 
@@ -50,6 +52,8 @@ class BackendSchedule:
         self.can_get_and_set_state = False
         self.repeats_steps = any(proxy.repeats_steps for _, proxy in self.stages)
         self._sent: ComponentProxy | None = None
+        self._served: ComponentProxy | None = None   # the backend whose outputs the last call returned
+        self.backend_changed = False
 
     def active(self, t: float) -> ComponentProxy:
         """The backend serving the window that starts at ``t``."""
@@ -81,6 +85,11 @@ class BackendSchedule:
             t, dt, inputs = self._sent_inputs
             self.fallback_windows.add(t)
             outputs = {**outputs, **self.fallback.step(t, dt, inputs)}   # the ROM's trust stays on record
+            served = self.fallback
+        else:
+            served = self._sent
+        self.backend_changed = self._served is not None and served is not self._served
+        self._served = served
         return outputs
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> dict[str, np.ndarray]:

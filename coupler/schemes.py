@@ -183,8 +183,11 @@ class CouplingScheme:
         self._residuals = []
 
     def _observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
-        """Hand one iterate to the acceleration and keep its residual norm."""
+        """Hand one iterate to the acceleration and keep its residual norm; a participant whose backend
+        changed (ROM and solid FOM) changed the map."""
         self._residuals.append(float(np.linalg.norm(x_tilde - x)))
+        if any(getattr(proxy, "backend_changed", False) for proxy in (self.first, self.second)):
+            self.acceleration.map_changed()
         self.acceleration.observe(x, x_tilde)
 
     def _next_iterate(self, accelerated: Sequence[str]) -> dict[str, np.ndarray]:

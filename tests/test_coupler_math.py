@@ -311,3 +311,43 @@ def test_iqn_ils_drops_reused_columns_when_the_map_changes():
     stale, iterations = results[2.0]
     assert stale >= 1 and max(iterations) < 199
     assert results[0.0][0] == 0      # with the check off nothing is dropped
+
+
+def switched_window(acceleration, A, B, b, switch_after, tell, limit=200):
+    """One window of x = H(x): H(x) = A x + b for the first ``switch_after`` calls, then B x + b (a ROM's
+    window the solid FOM finishes). ``tell``: call ``map_changed`` at the switch. Iterations after it."""
+    x = np.zeros(len(b))
+    acceleration.start_window()
+    for k in range(1, limit):
+        if k == switch_after + 1 and tell:
+            acceleration.map_changed()
+        x_tilde = (A if k <= switch_after else B) @ x + b
+        acceleration.observe(x, x_tilde)
+        if k > switch_after and np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
+            return k - switch_after
+        x = acceleration.next_iterate()
+    return None
+
+
+@pytest.mark.parametrize("kind", ["iqn-ils", "iqn-imvj"])
+def test_a_changed_map_starts_the_quasi_newton_afresh(kind):
+    """Columns of the old map (and the difference spanning the change) mixed into the least squares cost the
+    quasi-Newton its n + 1 property on the new map; told of the change, it keeps it."""
+    from coupler.acceleration import IQNIMVJ
+    rng = np.random.default_rng(11)
+    n = 10
+    Q = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    A = Q @ np.diag(rng.uniform(-3.0, -0.2, n)) @ Q.T
+    B = A + 0.5 * rng.standard_normal((n, n)) / np.sqrt(n)        # the other backend: near, not equal
+    b = rng.standard_normal(n)
+    make = (lambda: IQNILS(0.1, reused_time_windows=2, filter="none")) if kind == "iqn-ils" else (lambda: IQNIMVJ(0.1, filter="none"))
+    told, blind = make(), make()
+    for acceleration in (told, blind):          # a window of the old map first: reused columns / a Jacobian
+        switched_window(acceleration, A, A, b, 0, False)
+        acceleration.end_window()
+    after_told = switched_window(told, A, B, b, 4, True)
+    after_blind = switched_window(blind, A, B, b, 4, False)
+    assert after_told is not None and after_told <= n + 2
+    assert after_blind is None or after_blind > n + 2
+    if kind == "iqn-ils":
+        assert told.maps_changed == 1 and blind.maps_changed == 0
