@@ -27,6 +27,7 @@ from cosim.schema import Positive, Value
 
 ACCELERATIONS = Registry("acceleration")
 FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
+MAP_CHANGES = ("drop-span", "drop-all")
 COMMON = {"data": []}   # the data items accelerated (default: the scheme's choice)
 RELAXATION = Value(0.5, low=0.0, high=1.0, low_open=True)
 
@@ -130,20 +131,30 @@ class IQNILS(Acceleration):
                 # reused columns go stale (the map changed): they are dropped when a window's first update,
                 # built on them, is longer than this many residuals, or when an update makes the residual
                 # worse (0: never)
-                "stale_step_ratio": Value(2.0, low=0.0)}
+                "stale_step_ratio": Value(2.0, low=0.0),
+                # a participant's backend changed (ROM and solid FOM): "drop-span" drops the difference that
+                # spans the change, "drop-all" every column too (a relaxation step follows: it diverges where
+                # plain Gauss-Seidel does, as on the double flap)
+                "on_map_change": "drop-span"}
 
     @staticmethod
     def check_settings(settings: dict, where: str, source: str) -> None:
+        prefix = f"{source + ': ' if source else ''}'{where}"
         if settings["filter"] not in FILTERS:
-            raise SceneError(f"{source + ': ' if source else ''}'{where}.filter' is {settings['filter']!r}; "
-                             f"allowed: {', '.join(FILTERS)}")
+            raise SceneError(f"{prefix}.filter' is {settings['filter']!r}; allowed: {', '.join(FILTERS)}")
+        if settings["on_map_change"] not in MAP_CHANGES:
+            raise SceneError(f"{prefix}.on_map_change' is {settings['on_map_change']!r}; "
+                             f"allowed: {', '.join(MAP_CHANGES)}")
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
-                 block_sizes: list[int] | None = None) -> None:
+                 on_map_change: str = "drop-span", block_sizes: list[int] | None = None) -> None:
         super().__init__()
         if filter not in FILTERS:
             raise ValueError(f"filter {filter!r} not in {FILTERS}")
+        if on_map_change not in MAP_CHANGES:
+            raise ValueError(f"on_map_change {on_map_change!r} not in {MAP_CHANGES}")
+        self.on_map_change = on_map_change
         self.initial = initial_relaxation
         self.max_columns = max_used_iterations
         self.reused = reused_time_windows
@@ -259,15 +270,16 @@ class IQNILS(Acceleration):
             self._windows.pop()
 
     def map_changed(self) -> None:
-        """Every column, reused or of this window, and the difference that would span the change go: a
-        secant of the old map mixed into the least squares steers the new one wrong (the double flap's
-        ROM 3 diverged in the window after a ROM window the solid FOM had finished with the ROM's columns)."""
+        """No column spans the change (its difference would mix the two maps' outputs); with
+        ``on_map_change = "drop-all"`` every column of the old map goes too, and the next update is a
+        relaxation step."""
         self.maps_changed += 1
-        self._windows.clear()
-        self._windows.appendleft(([], []))
-        self._drop_previous = False
         self._r_previous = self._xt_previous = None
-        self._last_norm = 0.0
+        if self.on_map_change == "drop-all":
+            self._windows.clear()
+            self._windows.appendleft(([], []))
+            self._drop_previous = False
+            self._last_norm = 0.0
 
     def _stale(self, proposal: np.ndarray, r: np.ndarray) -> bool:
         """The first update of a window, built on reused columns, that jumps far beyond the residual.
@@ -326,11 +338,13 @@ class IQNIMVJ(IQNILS):
 
     SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50), "filter": "qr2",
                 "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
-                "restart_windows": Value(0, low=0)}
+                "restart_windows": Value(0, low=0), "on_map_change": "drop-span"}   # drop-all: the Jacobian too
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, filter: str = "qr2",
-                 filter_limit: float = 1e-3, restart_windows: int = 0, block_sizes: list[int] | None = None) -> None:
-        super().__init__(initial_relaxation, max_used_iterations, 1, filter, filter_limit, 0.0, None)
+                 filter_limit: float = 1e-3, restart_windows: int = 0, on_map_change: str = "drop-span",
+                 block_sizes: list[int] | None = None) -> None:
+        super().__init__(initial_relaxation, max_used_iterations, 1, filter, filter_limit, stale_step_ratio=0.0,
+                         on_map_change=on_map_change)
         self.jacobian: np.ndarray | None = None
         self.restart_windows = restart_windows
         self.windows_since_restart = 0
@@ -361,7 +375,8 @@ class IQNIMVJ(IQNILS):
 
     def map_changed(self) -> None:
         super().map_changed()
-        self.jacobian, self.windows_since_restart = None, 0
+        if self.on_map_change == "drop-all":
+            self.jacobian, self.windows_since_restart = None, 0
 
     def next_iterate(self) -> np.ndarray:
         r = self.x_tilde - self.x

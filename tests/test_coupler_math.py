@@ -331,8 +331,9 @@ def switched_window(acceleration, A, B, b, switch_after, tell, limit=200):
 
 @pytest.mark.parametrize("kind", ["iqn-ils", "iqn-imvj"])
 def test_a_changed_map_starts_the_quasi_newton_afresh(kind):
-    """Columns of the old map (and the difference spanning the change) mixed into the least squares cost the
-    quasi-Newton its n + 1 property on the new map; told of the change, it keeps it."""
+    """The difference spanning a change of map (a ROM's window the solid FOM finishes) mixes the two maps'
+    outputs: kept, it stalls the quasi-Newton on the new map; dropped, the old map's columns still help
+    (the maps are near); with every column dropped it has its n + 1 property on the new map."""
     from coupler.acceleration import IQNIMVJ
     rng = np.random.default_rng(11)
     n = 10
@@ -340,14 +341,21 @@ def test_a_changed_map_starts_the_quasi_newton_afresh(kind):
     A = Q @ np.diag(rng.uniform(-3.0, -0.2, n)) @ Q.T
     B = A + 0.5 * rng.standard_normal((n, n)) / np.sqrt(n)        # the other backend: near, not equal
     b = rng.standard_normal(n)
-    make = (lambda: IQNILS(0.1, reused_time_windows=2, filter="none")) if kind == "iqn-ils" else (lambda: IQNIMVJ(0.1, filter="none"))
-    told, blind = make(), make()
-    for acceleration in (told, blind):          # a window of the old map first: reused columns / a Jacobian
-        switched_window(acceleration, A, A, b, 0, False)
+
+    def make(policy):
+        if kind == "iqn-ils":
+            return IQNILS(0.1, reused_time_windows=2, filter="none", on_map_change=policy)
+        return IQNIMVJ(0.1, filter="none", on_map_change=policy)
+
+    after = {}
+    for policy, tell in (("drop-all", True), ("drop-span", True), ("blind", False)):
+        acceleration = make("drop-span" if policy == "blind" else policy)
+        switched_window(acceleration, A, A, b, 0, False)   # a window of the old map first: reused columns / Jacobian
         acceleration.end_window()
-    after_told = switched_window(told, A, B, b, 4, True)
-    after_blind = switched_window(blind, A, B, b, 4, False)
-    assert after_told is not None and after_told <= n + 2
-    assert after_blind is None or after_blind > n + 2
-    if kind == "iqn-ils":
-        assert told.maps_changed == 1 and blind.maps_changed == 0
+        after[policy] = switched_window(acceleration, A, B, b, 4, tell)
+        assert acceleration.maps_changed == int(tell)
+    assert after["drop-all"] is not None and after["drop-all"] <= n + 2
+    assert after["drop-span"] is not None and after["drop-span"] <= 2 * n
+    assert after["blind"] is None or after["blind"] > 2 * n
+    with pytest.raises(ValueError, match="on_map_change 'forget' not in"):
+        IQNILS(0.1, on_map_change="forget")
