@@ -1,0 +1,90 @@
+"""Where a ROM-FOM run's extra coupling iterations go, window by window, against its FOM-FOM reference.
+
+Over the windows that end after ``--after`` (the ROM's served windows) and that both runs completed:
+- the coupling residual ||H(x) - x|| at each iteration over the window's first, median per iteration;
+- the accumulated iterations of both, over all those windows and over the "clean" ones (neither a
+  fallback window, where the solid FOM took over from the ROM, nor the window after one), and the
+  histogram of the per-window difference.
+
+Usage: python scripts/flap_iterations.py ROM_RUN FOM_RUN [--after 3.0] [--last WINDOW]
+  ROM_RUN, FOM_RUN: run directories (or their results.h5); --last: only windows up to this one
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from cosim.results import RunResults  # noqa: E402
+
+
+def window_residuals(run: RunResults) -> dict[int, np.ndarray]:
+    """Coupling residual norms per window (windows numbered from 1)."""
+    window, norm = run.residuals()
+    order = np.argsort(window, kind="stable")
+    window, norm = window[order], norm[order]
+    starts = np.flatnonzero(np.r_[True, window[1:] != window[:-1]])
+    return {int(w): part for w, part in zip(window[starts], np.split(norm, starts[1:]))}
+
+
+def fallback_windows(run: RunResults) -> set[int]:
+    """Windows in which a call of the ROM was flagged out of range (the solid FOM took the rest)."""
+    if "solid" not in run.recorded():
+        return set()
+    calls = run.calls("solid")
+    flag = calls.outputs.get("rom_out_of_range")
+    return set() if flag is None else {int(w) for w in np.unique(calls.window[flag[:, 0] > 0])}
+
+
+def compare(rom_path: Path, fom_path: Path, after: float, last: int | None = None) -> list[str]:
+    with RunResults(rom_path) as rom, RunResults(fom_path) as fom:
+        ends = fom.windows.time                                   # end time of window k at index k - 1
+        rom_res, fom_res = window_residuals(rom), window_residuals(fom)
+        served = sorted(w for w in set(rom_res) & set(fom_res)
+                        if ends[w - 1] > after + 1e-9 * max(1.0, after) and (last is None or w <= last))
+        if not served:
+            raise SystemExit(f"no window of both runs ends after t = {after:g} s")
+        fell_back = fallback_windows(rom)
+        rom_its = np.array([len(rom_res[w]) for w in served])
+        fom_its = np.array([len(fom_res[w]) for w in served])
+    clean = np.array([w not in fell_back and w - 1 not in fell_back for w in served])
+    lines = [f"{len(served)} windows after t = {after:g} s (windows {served[0]}-{served[-1]}); "
+             f"{sum(w in fell_back for w in served)} fell back; {int(clean.sum())} clean (no fallback in it "
+             f"or the window before)",
+             "iteration   residual / first, median: ROM-FOM (windows)   FOM-FOM (windows)"]
+    for k in range(int(max(rom_its.max(), fom_its.max()))):
+        ratio = [np.median([res[w][k] / res[w][0] for w in served if len(res[w]) > k]) if
+                 any(len(res[w]) > k for w in served) else np.nan for res in (rom_res, fom_res)]
+        counts = [sum(len(res[w]) > k for w in served) for res in (rom_res, fom_res)]
+        if min(counts) < 3:
+            break
+        lines.append(f"{k + 1:>9d}   {ratio[0]:>27.2e} ({counts[0]:>4d})   {ratio[1]:>10.2e} ({counts[1]:>4d})")
+    for label, keep in (("all", np.ones_like(clean)), ("clean", clean)):
+        a, b = int(rom_its[keep].sum()), int(fom_its[keep].sum())
+        if b:
+            lines.append(f"iterations over the {label} windows: ROM-FOM {a}, FOM-FOM {b} ({100 * (a / b - 1):+.2f} %)")
+    values, counts = np.unique(rom_its[clean] - fom_its[clean], return_counts=True)
+    lines.append("per clean window, ROM-FOM minus FOM-FOM iterations: "
+                 + ", ".join(f"{v:+d}: {c}" for v, c in zip(values.tolist(), counts.tolist())))
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("rom_run")
+    parser.add_argument("fom_run")
+    parser.add_argument("--after", type=float, default=3.0, help="windows ending after this time (s)")
+    parser.add_argument("--last", type=int, help="windows up to this one only")
+    args = parser.parse_args(argv)
+    print("\n".join(compare(Path(args.rom_run), Path(args.fom_run), args.after, args.last)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
