@@ -247,6 +247,17 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
     assert rows["fallback"]["rom_fallback_windows"] > 0 and rows["warn"]["rom_fallback_windows"] == 0
     assert rows["fallback"]["displacement_error"]["mean"] < 0.01 < rows["warn"]["displacement_error"]["mean"]
     assert (tmp_path / "report" / "error_vs_trust_warn.png").stat().st_size > 10_000
+    # scripts/flap_iterations.py counts the same windows and iterations as the runs' own records
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from flap_iterations import compare
+    lines = compare(tmp_path / "fallback", tmp_path / "fom_x4", 0.1)
+    with RunResults(tmp_path / "fom_x4") as reference, RunResults(tmp_path / "fallback") as fell_back:
+        after = reference.windows.time > 0.1 + 1e-9
+        served, fallbacks = int(after.sum()), fell_back.attributes["rom_fallback_windows"]
+        totals = fell_back.windows.iterations[after].sum(), reference.windows.iterations[after].sum()
+    assert lines[0].startswith(f"{served} windows after t = 0.1 s") and f"; {fallbacks} fell back;" in lines[0]
+    assert f"iterations over the all windows: ROM-FOM {totals[0]}, FOM-FOM {totals[1]} " in "\n".join(lines)
+    assert lines[2].split()[:2] == ["1", "1.00e+00"]
 
 
 def test_the_trust_value_inside_and_outside_a_known_envelope():
