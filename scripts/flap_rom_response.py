@@ -5,7 +5,11 @@ interface of the ROM and of the Kratos solid at a recorded force f0: its size ra
 cosine of the angle between the two. The coupling's sub-iterations step in every direction, so a ROM that
 answers weak modes with large gains of its own makes the loop learn directions the solid does not have.
 
-Usage: python scripts/flap_rom_response.py MODEL RESULTS [--window N]
+With ``--steps``: instead, along each step between the window's sub-iterations (the directions the
+coupling actually moves the force in), the relative error of the ROM's directional response against the
+solid's, ||J_rom d - J_fom d|| / ||J_fom d||.
+
+Usage: python scripts/flap_rom_response.py MODEL RESULTS [--window N] [--steps]
   MODEL: a trained double-flap model (.npz); RESULTS: a double-flap run's results.h5 (f0: the last call
   of window N, default the middle window)
 """
@@ -25,15 +29,23 @@ from cosim.results import RunResults  # noqa: E402
 from rom_component import persistence  # noqa: E402
 
 
-def responses(model: Path, results: Path, window: int | None) -> list[tuple[int, float, float]]:
+def responses(model: Path, results: Path, window: int | None,
+              steps: bool = False) -> list[tuple[int, float, float]] | list[float]:
+    """Per force mode: (mode index, size ratio ROM / solid, cosine); with ``steps``: per sub-iteration step of
+    the window, the relative error of the ROM's response along it."""
     from solid_component.kratos import KratosSolid
     rom = persistence.load(model, "reproducible")
     arrays, _ = persistence.load_arrays(model)
-    modes = arrays["Phi_f"]
     with RunResults(results) as run:
         calls = run.calls("solid")
         window = int(np.median(calls.window)) if window is None else window
-        f0 = np.ravel(calls.inputs["force"][np.flatnonzero(calls.window == window)[-1]])
+        forces = calls.inputs["force"][np.flatnonzero(calls.window == window)].reshape(-1, arrays["Phi_f"].shape[0])
+    f0 = forces[-1]
+    if steps:
+        moves = np.diff(forces, axis=0)
+        directions = moves / np.linalg.norm(moves, axis=1, keepdims=True)
+    else:
+        directions = arrays["Phi_f"].T
     solid = KratosSolid()
     solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008},
                        "mesh": str(ROOT / "scenes" / "double_flap" / "solid.mdpa"), "linear_solver": "sparse_lu"})
@@ -43,12 +55,14 @@ def responses(model: Path, results: Path, window: int | None) -> list[tuple[int,
 
         h = 1e-3 * np.linalg.norm(f0)
         rows = []
-        for k in range(modes.shape[1]):
-            d = h * modes[:, k]
-            j_fom = (fom(f0 + d) - fom(f0 - d)) / (2 * h)
-            j_rom = (rom(f0 + d) - rom(f0 - d)) / (2 * h)
-            rows.append((k, float(np.linalg.norm(j_rom) / np.linalg.norm(j_fom)),
-                         float(j_fom @ j_rom / (np.linalg.norm(j_fom) * np.linalg.norm(j_rom)))))
+        for k, d in enumerate(directions):
+            j_fom = (fom(f0 + h * d) - fom(f0 - h * d)) / (2 * h)
+            j_rom = (rom(f0 + h * d) - rom(f0 - h * d)) / (2 * h)
+            if steps:
+                rows.append(float(np.linalg.norm(j_rom - j_fom) / np.linalg.norm(j_fom)))
+            else:
+                rows.append((k, float(np.linalg.norm(j_rom) / np.linalg.norm(j_fom)),
+                             float(j_fom @ j_rom / (np.linalg.norm(j_fom) * np.linalg.norm(j_rom)))))
     finally:
         solid.close()
     print(f"model {model}, f0: the last call of window {window} of {results}")
@@ -60,7 +74,13 @@ def main() -> None:
     parser.add_argument("model", type=Path)
     parser.add_argument("results", type=Path)
     parser.add_argument("--window", type=int)
+    parser.add_argument("--steps", action="store_true", help="along the window's sub-iteration steps instead")
     args = parser.parse_args()
+    if args.steps:
+        errors = responses(args.model, args.results, args.window, steps=True)
+        print("relative error of the ROM's response along each sub-iteration step: "
+              + " ".join(f"{e:.2f}" for e in errors) + f"; median {np.median(errors):.3f}")
+        return
     rows = responses(args.model, args.results, args.window)
     print(f"{'mode':>4} {'|J_rom phi| / |J_fom phi|':>26} {'cos(J_rom phi, J_fom phi)':>26}")
     for k, ratio, cosine in rows:
