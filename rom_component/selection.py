@@ -29,10 +29,9 @@ class SelectionTable:
     n_test: int
     split: str = "snapshots"
     tolerance: float = 0.0      # chosen: the fewest modes whose error is within (1 + tolerance) of the best
-    force_cap: int = 0          # chosen: at most this many force modes (0: no cap)
 
     @property
-    def within_tolerance(self) -> tuple[int, int]:
+    def chosen(self) -> tuple[int, int]:
         """(r_f, r_u) with the fewest force modes, then displacement modes, within the tolerance of the best."""
         limit = np.nanmin(self.errors) * (1.0 + self.tolerance)
         for j, r_f in sorted(enumerate(self.force_modes), key=lambda item: item[1]):
@@ -40,12 +39,6 @@ class SelectionTable:
                 if self.errors[i, j] <= limit:
                     return r_f, r_u
         return self.best
-
-    @property
-    def chosen(self) -> tuple[int, int]:
-        """``within_tolerance`` with r_f at most ``force_cap`` (which need not be on the grid)."""
-        r_f, r_u = self.within_tolerance
-        return (self.force_cap, r_u) if 0 < self.force_cap < r_f else (r_f, r_u)
 
     def error_at(self, r_f: int, r_u: int) -> float:
         return float(self.errors[self.disp_modes.index(r_u), self.force_modes.index(r_f)])
@@ -61,12 +54,10 @@ class SelectionTable:
         lines.append(f"best: r_f = {r_f}, r_u = {r_u}, eps = {self.error_at(r_f, r_u):.3e} "
                      f"({self.relative[self.disp_modes.index(r_u), self.force_modes.index(r_f)]:.2%})")
         if self.tolerance > 0:
-            c_f, c_u = self.within_tolerance
+            c_f, c_u = self.chosen
             lines.append(f"chosen (fewest modes within {self.tolerance:.0%} of the best): r_f = {c_f}, r_u = {c_u}, "
                          f"eps = {self.error_at(c_f, c_u):.3e} "
                          f"({self.relative[self.disp_modes.index(c_u), self.force_modes.index(c_f)]:.2%})")
-        if 0 < self.force_cap < self.within_tolerance[0]:
-            lines.append(f"chosen: r_f = {self.force_cap} (at most the force's energy criterion), r_u = {self.chosen[1]}")
         if e_f in self.force_modes and e_u in self.disp_modes:
             lines.append(f"energy criterion: r_f = {e_f}, r_u = {e_u}, eps = {self.error_at(e_f, e_u):.3e} "
                          f"({self.error_at(e_f, e_u) / self.error_at(r_f, r_u):.1f} x the best)")
@@ -83,7 +74,7 @@ def energy_choice(F: np.ndarray, U: np.ndarray, energy: float = 0.9999) -> tuple
 def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence[int],
                   disp_modes: Sequence[int], test_fraction: float = 0.2, seed: int = 0,
                   energy: float = 0.9999, groups: np.ndarray | None = None, tolerance: float = 0.0,
-                  windows: np.ndarray | None = None, cap_at_energy: bool = False) -> SelectionTable:
+                  windows: np.ndarray | None = None) -> SelectionTable:
     """Hold-out error of ``estimator`` for every (r_f, r_u) of the grid.
 
     Without ``groups`` the test set is a random ``test_fraction`` of the snapshots; with them (the
@@ -91,9 +82,7 @@ def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence
     of a test window, nearly equal to its converged call, is in the training set. The table's ``chosen``
     pair has the fewest modes whose error is within ``tolerance`` (relative) of the best. ``windows`` (the
     window of each snapshot, for an estimator that fits sub-iteration steps) go to ``fit`` with the training
-    snapshots, which then keep their order. ``cap_at_energy``: the chosen r_f is at most the force's energy
-    criterion (force modes beyond it move with the strong ones along the training trajectory, so the
-    regression gives them gains of their own, which the hold-out cannot see).
+    snapshots, which then keep their order.
     """
     if groups is None:
         train, test = train_test_split(np.arange(len(F)), test_size=test_fraction, random_state=seed)
@@ -111,7 +100,6 @@ def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence
             errors[i, j] = np.linalg.norm(U_test - model.predict(F_test), axis=1).mean()
     scale = np.linalg.norm(U_test - U_train.mean(axis=0), axis=1).mean()
     i, j = np.unravel_index(np.nanargmin(errors), errors.shape)
-    by_energy = energy_choice(F_train, U_train, energy)
     return SelectionTable(list(force_modes), list(disp_modes), errors, errors / scale,
-                          (force_modes[j], disp_modes[i]), by_energy, len(F_train), len(F_test),
-                          "snapshots" if groups is None else "windows", tolerance, by_energy[0] if cap_at_energy else 0)
+                          (force_modes[j], disp_modes[i]), energy_choice(F_train, U_train, energy),
+                          len(F_train), len(F_test), "snapshots" if groups is None else "windows", tolerance)

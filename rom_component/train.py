@@ -43,9 +43,7 @@ CONFIG = {
                   "disp_modes": [1, 3, 5, 7, 9, 11, 13], "test_fraction": 0.2, "seed": 0, "energy": 0.9999,
                   "split": "snapshots", "compare_splits": False,
                   # choose = "holdout": the fewest modes whose hold-out error is within this fraction of the best
-                  "tolerance": Value(0.0, low=0.0),
-                  # choose = "holdout": r_f at most the force's energy criterion (weak modes get gains of their own)
-                  "cap_force_modes_at_energy": False},
+                  "tolerance": Value(0.0, low=0.0)},
 }
 
 
@@ -158,8 +156,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
             tables[split] = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
                                           selection["test_fraction"], selection["seed"], selection["energy"],
                                           windows if split == "windows" else None, selection["tolerance"],
-                                          windows if params["secant_weight"] > 0 else None,
-                                          selection["cap_force_modes_at_energy"])
+                                          windows if params["secant_weight"] > 0 else None)
             echo(tables[split].format())
             echo(f"cross-validation time (split by {split}): {time.perf_counter() - split_started:.2f} s")
         table = tables[selection["split"]]
