@@ -34,7 +34,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from cosim.errors import SceneError
+from cosim.errors import CosimError, SceneError
 from cosim.schema import Required, validate
 from coupler.sweep import (TABLE, SweepRun, SweepTable, check_runs, finished_row, run_one, scene_fingerprint,
                            setting_keys)
@@ -280,8 +280,11 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
             def refresh_report() -> None:   # the report so far, over the ROM-FOM runs and references finished
                 done = {name for name, run in plan.fom.items() if run.name in fom_table.done} | \
                        {p.name for p in plan.predictions if p.run.name in rom_table.done}
-                write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table),
-                                      lambda line: None, done)
+                try:   # a side product: the runs go on whatever it says
+                    write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table),
+                                          lambda line: None, done)
+                except CosimError as exc:
+                    echo(f"warning: the interim report failed (the runs go on): {exc}")
 
             if any(p.run.name in rom_table.done for p in plan.predictions):
                 refresh_report()

@@ -128,6 +128,19 @@ def test_scene_plot_hooks_are_registered_and_keep_to_their_scene(tmp_path):
     assert stress_strain(Other(), Other(), tmp_path) == []
 
 
+def test_how_a_change_of_backend_is_treated_may_differ_only_from_a_reference_that_never_changed_backend(
+        fom, model, tmp_path):
+    """A FOM-FOM reference (recorded with either value, or before the setting existed) ran the same under any
+    ``on_map_change``; a ROM-FOM reference did not."""
+    rom_run(tmp_path / "rom", model, TRAIN_END, "coupling.acceleration.on_map_change=drop-all")
+    rom_run(tmp_path / "rom_span", model, TRAIN_END)
+    done = cosim("report", f"{tmp_path / 'rom'}={fom}", "--out", str(tmp_path / "report"))
+    assert done.returncode == 0, done.stderr
+    done = cosim("report", f"{tmp_path / 'rom'}={tmp_path / 'rom_span'}", "--out", str(tmp_path / "report2"))
+    assert done.returncode == 2
+    assert "coupling.acceleration.on_map_change is 'drop-span' there and 'drop-all' here" in done.stderr
+
+
 def test_report_refuses_a_reference_that_ran_another_scene(fom, model, tmp_path):
     other = tmp_path / "fom_mu2"
     run_scene(load_scene(TUBE_SCENE, [f"time.end={END}", "inlet.f=0.9", "inlet.h=4"]), other, progress=False)
