@@ -233,3 +233,38 @@ switch_time = 2.0
     write_campaign_report(loaded, out, fom_dir, rom_dir, {}, lambda line: None,
                           {"training", "reference", "a-reference"})
     assert [r["label"] for r in json.loads((out / "report/report.json").read_text())["runs"]] == ["a-reference"]
+
+
+def test_a_failing_interim_report_does_not_stop_the_runs(tmp_path):
+    """The first prediction ran another scene than its reference (the report refuses it): the campaign warns after
+    that run, runs the next, and only then says the report failed."""
+    plan = tmp_path / "campaign.toml"
+    plan.write_text(f"""
+scene = "{ROOT}/scenes/tube_fom.toml"
+rom_config = "{ROOT}/scenes/tube_rom.toml"
+
+[fom]
+mu1 = ["time.end=8.0"]
+
+[models]
+a = {{ runs = ["mu1"], set = ["snapshots.t_max=6.0", "selection.table=false"] }}
+
+[[predictions]]
+model = "a"
+reference = "mu1"
+switch_time = 6.0
+set = ["coupling.max_iterations=40"]
+
+[[predictions]]
+model = "a"
+reference = "mu1"
+switch_time = 7.0
+label = "later"
+""")
+    out = tmp_path / "out"
+    done = campaign(plan, out, workers=1)
+    assert done.returncode == 2
+    assert "warning: the interim report failed (the runs go on)" in done.stdout
+    assert "coupling.max_iterations is 90 there and 40 here" in done.stderr
+    rom = rows(out / "rom/sweep.csv")
+    assert len(rom) == 2 and all(row["failure"] == "" and row["windows_converged"] == "80" for row in rom)
