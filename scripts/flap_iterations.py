@@ -3,8 +3,8 @@
 Over the windows that end after ``--after`` (the ROM's served windows) and that both runs completed:
 - the coupling residual ||H(x) - x|| at each iteration over the window's first, median per iteration;
 - the accumulated iterations of both, over all those windows and over the "clean" ones (neither a
-  fallback window, where the solid FOM took over from the ROM, nor the window after one), and the
-  histogram of the per-window difference.
+  fallback window, where the solid FOM took over from the ROM, nor the window after one), the
+  histogram of the per-window difference, and at which iteration the fallback windows fell back.
 
 Usage: python scripts/flap_iterations.py ROM_RUN FOM_RUN [--after 3.0] [--last WINDOW]
   ROM_RUN, FOM_RUN: run directories (or their results.h5); --last: only windows up to this one
@@ -33,13 +33,17 @@ def window_residuals(run: RunResults) -> dict[int, np.ndarray]:
     return {int(w): part for w, part in zip(window[starts], np.split(norm, starts[1:]))}
 
 
-def fallback_windows(run: RunResults) -> set[int]:
-    """Windows in which a call of the ROM was flagged out of range (the solid FOM took the rest)."""
+def fallback_windows(run: RunResults) -> dict[int, int]:
+    """Windows in which a call of the ROM was flagged out of range (the solid FOM took the rest), each with the
+    iteration of its first flagged call."""
     if "solid" not in run.recorded():
-        return set()
+        return {}
     calls = run.calls("solid")
     flag = calls.outputs.get("rom_out_of_range")
-    return set() if flag is None else {int(w) for w in np.unique(calls.window[flag[:, 0] > 0])}
+    if flag is None:
+        return {}
+    flagged = flag[:, 0] > 0
+    return {int(w): int(calls.iteration[flagged & (calls.window == w)].min()) for w in np.unique(calls.window[flagged])}
 
 
 def compare(rom_path: Path, fom_path: Path, after: float, last: int | None = None) -> list[str]:
@@ -69,6 +73,11 @@ def compare(rom_path: Path, fom_path: Path, after: float, last: int | None = Non
         a, b = int(rom_its[keep].sum()), int(fom_its[keep].sum())
         if b:
             lines.append(f"iterations over the {label} windows: ROM-FOM {a}, FOM-FOM {b} ({100 * (a / b - 1):+.2f} %)")
+    first = [fell_back[w] for w in served if w in fell_back]
+    if first:
+        values, counts = np.unique(first, return_counts=True)
+        lines.append("fallback windows by the iteration of the first call out of range: "
+                     + ", ".join(f"{v}: {c}" for v, c in zip(values.tolist(), counts.tolist())))
     values, counts = np.unique(rom_its[clean] - fom_its[clean], return_counts=True)
     lines.append("per clean window, ROM-FOM minus FOM-FOM iterations: "
                  + ", ".join(f"{v:+d}: {c}" for v, c in zip(values.tolist(), counts.tolist())))
