@@ -55,12 +55,15 @@ def compare(rom_path: Path, fom_path: Path, after: float, last: int | None = Non
         if not served:
             raise SystemExit(f"no window of both runs ends after t = {after:g} s")
         fell_back = fallback_windows(rom)
+        solid = rom.scene.get("components", {}).get("solid", {})
+        falls_back = solid.get("backend") != "rom" or solid.get("rom", {}).get("on_out_of_range") == "fallback"
         rom_its = np.array([len(rom_res[w]) for w in served])
         fom_its = np.array([len(fom_res[w]) for w in served])
     clean = np.array([w not in fell_back and w - 1 not in fell_back for w in served])
     lines = [f"{len(served)} windows after t = {after:g} s (windows {served[0]}-{served[-1]}); "
-             f"{sum(w in fell_back for w in served)} fell back; {int(clean.sum())} clean (no fallback in it "
-             f"or the window before)",
+             f"{sum(w in fell_back for w in served)} " + ("fell back" if falls_back else
+                                                          "had a call out of range (served by the ROM all the same)")
+             + f"; {int(clean.sum())} clean (neither such a window nor the one after)",
              "iteration   residual / first, median: ROM-FOM (windows)   FOM-FOM (windows)"]
     for k in range(int(max(rom_its.max(), fom_its.max()))):
         ratio = [np.median([res[w][k] / res[w][0] for w in served if len(res[w]) > k]) if
@@ -76,7 +79,7 @@ def compare(rom_path: Path, fom_path: Path, after: float, last: int | None = Non
     first = [fell_back[w] for w in served if w in fell_back]
     if first:
         values, counts = np.unique(first, return_counts=True)
-        lines.append("fallback windows by the iteration of the first call out of range: "
+        lines.append("windows with a call out of range, by the iteration of the first such call: "
                      + ", ".join(f"{v}: {c}" for v, c in zip(values.tolist(), counts.tolist())))
     values, counts = np.unique(rom_its[clean] - fom_its[clean], return_counts=True)
     lines.append("per clean window, ROM-FOM minus FOM-FOM iterations: "
