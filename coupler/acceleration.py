@@ -86,6 +86,10 @@ class Aitken(Acceleration):
 
     def start_window(self) -> None:
         super().start_window()
+        self.map_changed()
+
+    def map_changed(self) -> None:
+        """Forget the last residual; omega back to at most the initial relaxation (as in each new window)."""
         self._r_previous = None
         self.omega = np.sign(self.omega) * min(abs(self.omega), self.initial) or self.initial
 
@@ -98,10 +102,6 @@ class Aitken(Acceleration):
                 self.omega = -self.omega * float(self._r_previous @ dr) / denominator
         self._r_previous = r
         return self.x + self.omega * r
-
-    def map_changed(self) -> None:
-        self._r_previous = None
-        self.omega = np.sign(self.omega) * min(abs(self.omega), self.initial) or self.initial
 
 
 @ACCELERATIONS.register("iqn-ils")
@@ -276,8 +276,7 @@ class IQNILS(Acceleration):
         self.maps_changed += 1
         self._r_previous = self._xt_previous = None
         if self.on_map_change == "drop-all":
-            self._windows.clear()
-            self._windows.appendleft(([], []))
+            self._windows = deque([([], [])])
             self._drop_previous = False
             self._last_norm = 0.0
 

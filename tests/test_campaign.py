@@ -54,6 +54,18 @@ def campaign(path: Path, out: Path, *options: str, workers: int = 2) -> subproce
                            "--workers", str(workers), *options], cwd=ROOT, capture_output=True, text=True, timeout=600)
 
 
+def one_run_plan(end: float, predictions: str) -> str:
+    """A campaign of one FOM run (``mu1``, to ``end``) and one model (``a``, on t <= 6), with ``predictions``."""
+    return f"""
+scene = "{ROOT}/scenes/tube_fom.toml"
+rom_config = "{ROOT}/scenes/tube_rom.toml"
+[fom]
+mu1 = ["time.end={end}"]
+[models]
+a = {{ runs = ["mu1"], set = ["snapshots.t_max=6.0", "selection.table=false"] }}
+{predictions}"""
+
+
 def rows(path: Path) -> list[dict[str, str]]:
     with open(path, newline="") as stream:
         return list(csv.DictReader(stream))
@@ -154,19 +166,13 @@ def test_a_campaign_file_naming_unknown_runs_or_models_is_refused(tmp_path, text
 
 def test_retry_failed_reruns_a_failed_prediction_and_keeps_the_failed_run_beside(tmp_path):
     plan = tmp_path / "campaign.toml"
-    plan.write_text(f"""
-scene = "{ROOT}/scenes/tube_fom.toml"
-rom_config = "{ROOT}/scenes/tube_rom.toml"
-[fom]
-mu1 = ["time.end=7.0"]
-[models]
-a = {{ runs = ["mu1"], set = ["snapshots.t_max=6.0", "selection.table=false"] }}
+    plan.write_text(one_run_plan(7.0, """
 [[predictions]]
 model = "a"
 reference = "mu1"
 switch_time = 6.0
 set = ["components.solid.rom.on_out_of_range='fail'", "components.solid.rom.range_margin=0.0"]
-""")
+"""))
     out = tmp_path / "out"
     assert campaign(plan, out).returncode == 0
     (first,) = rows(out / "rom/sweep.csv")
@@ -239,16 +245,7 @@ def test_a_failing_interim_report_does_not_stop_the_runs(tmp_path):
     """The first prediction ran another scene than its reference (the report refuses it): the campaign warns after
     that run, runs the next, and only then says the report failed."""
     plan = tmp_path / "campaign.toml"
-    plan.write_text(f"""
-scene = "{ROOT}/scenes/tube_fom.toml"
-rom_config = "{ROOT}/scenes/tube_rom.toml"
-
-[fom]
-mu1 = ["time.end=8.0"]
-
-[models]
-a = {{ runs = ["mu1"], set = ["snapshots.t_max=6.0", "selection.table=false"] }}
-
+    plan.write_text(one_run_plan(8.0, """
 [[predictions]]
 model = "a"
 reference = "mu1"
@@ -260,7 +257,7 @@ model = "a"
 reference = "mu1"
 switch_time = 7.0
 label = "later"
-""")
+"""))
     out = tmp_path / "out"
     done = campaign(plan, out, workers=1)
     assert done.returncode == 2
