@@ -16,7 +16,9 @@ Every run is the sweep's ``run_one`` (``coupler.sweep``) on a Dask worker, with 
 finished (or failed after the model's ``snapshots.t_max``) and a ROM-FOM run starts as soon as its model
 exists (and its reference has not failed): independent runs share the workers. A
 rerun skips finished runs and models (a model is retrained when its configuration changed); a run that
-was stopped midway starts again from its beginning. The report of every prediction goes to
+was stopped midway starts again from its beginning. A run directory that is run again is kept beside, as
+``<run>.failed-<time>`` (``--retry-failed``), ``<run>.stale-<time>`` (its model changed) or
+``<run>.stopped-<time>``. The report of every prediction goes to
 ``DIR/report/``, the training logs (hold-out tables, timings) to ``DIR/models/<name>.log``.
 Training and the report are the ``cosim train`` and ``cosim report`` subcommands, found through
 the command registry like any other, so the coupler imports no ROM code.
@@ -204,8 +206,7 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                                      (fom_table, plan.fom, fom_dir)):
             failed_runs = {name: run for name, run in named.items() if table.done.get(run.name, {}).get("failure")}
             for name in failed_runs:
-                if folder[name].is_dir():
-                    folder[name].rename(folder[name].with_name(f"{folder[name].name}.failed-{time.time_ns()}"))
+                _set_aside(folder[name], "failed")
             table.forget({run.name for run in failed_runs.values()})
     _adopt_finished(plan, fom_table, rom_table, fom_dir, rom_dir, current, echo)
     failed_fom = {name for name, run in plan.fom.items() if fom_table.done.get(run.name, {}).get("failure")}
@@ -261,6 +262,7 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                         continue
                     submitted_runs.add(p.name)
                     model = plan.models[p.model]["path"]
+                    _set_aside(rom_dir[p.name], _why_again(rom_dir[p.name]))
                     if p.fmu and (not p.fmu.is_file() or p.fmu.stat().st_mtime_ns < model.stat().st_mtime_ns):
                         echo(_command(["export-fmu", str(model), "--out", str(p.fmu)])[-1])
                     submit("rom", p.name, run_one, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
@@ -271,6 +273,7 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
             submit_ready_models()
             for name, run in plan.fom.items():
                 if run.name not in fom_table.done:
+                    _set_aside(fom_dir[name], _why_again(fom_dir[name]))
                     submit("fom", name, run_one, str(plan.scene), list(run.overrides), str(fom_dir[name]),
                            priority=2 if name in trained_on else 0)
             submit_ready_predictions()
@@ -323,6 +326,17 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
             cluster.close()
     echo(f"campaign runs finished in {time.perf_counter() - started:.0f} s")
     return write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table), echo)
+
+
+def _why_again(run_dir: Path) -> str:
+    """Why a run directory that exists is run again: it finished with a model since changed, or stopped midway."""
+    return "stale" if finished_row(run_dir) is not None else "stopped"
+
+
+def _set_aside(run_dir: Path, reason: str) -> None:
+    """Keep a run that is about to run again beside, as ``<run>.<reason>-<time>``: no run overwrites another."""
+    if run_dir.is_dir():
+        run_dir.rename(run_dir.with_name(f"{run_dir.name}.{reason}-{time.time_ns()}"))
 
 
 def _failures(plan: Plan, fom_table: SweepTable, rom_table: SweepTable) -> dict[str, str]:

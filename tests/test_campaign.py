@@ -122,6 +122,9 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     predictions = load_plan(plan, out).predictions
     a_runs = {predictions[0].run.name, predictions[2].run.name}           # a's ROM and FMU predictions
     assert now.keys() == before.keys() and all(now[name] != before[name] for name in a_runs)   # ran again
+    for name in a_runs:   # the runs of the former model are kept beside, not overwritten
+        (kept,) = (out / "rom/runs").glob(f"{name}.stale-*")
+        assert (kept / "results.h5").stat().st_size > 0
     assert all(now[name] == before[name] for name in now if name not in a_runs)               # b's did not
     assert (out / "models/a.fmu").stat().st_mtime_ns > (out / "models/a.npz").stat().st_mtime_ns   # exported again
     assert (out / "report/fmu_check.txt").read_text().strip().endswith(": bit-identical")
@@ -146,6 +149,7 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     assert fifth.returncode == 0, fifth.stderr
     assert [name for name in now if (out / "rom/runs" / name / "results.h5").stat().st_mtime_ns != stamps[name]] == \
         [predictions[1].run.name]                                            # ab's prediction ran again
+    assert len(list((out / "rom/runs").glob(f"{predictions[1].run.name}.stale-*"))) == 1
 
 
 @pytest.mark.parametrize("text, message", [
@@ -239,6 +243,12 @@ switch_time = 2.0
     write_campaign_report(loaded, out, fom_dir, rom_dir, {}, lambda line: None,
                           {"training", "reference", "a-reference"})
     assert [r["label"] for r in json.loads((out / "report/report.json").read_text())["runs"]] == ["a-reference"]
+    # the run stopped midway runs again from its beginning; what it had computed is kept beside
+    again = campaign(plan, out, workers=1)
+    assert again.returncode == 0, again.stderr
+    (kept,) = (out / "rom/runs").glob(f"{rom_dir['a-reference'].name}.stopped-*")
+    assert json.loads((kept / "status.json").read_text())["windows_completed"] == 12
+    assert json.loads((rom_dir["a-reference"] / "status.json").read_text())["state"] == "finished"
 
 
 def test_a_failing_interim_report_does_not_stop_the_runs(tmp_path):
