@@ -2,7 +2,8 @@
 
 One line per FOM-FOM run, model and ROM-FOM run: finished (with its table row's figures) or failed, running
 (windows done, simulated time, how long ago its ``status.json`` changed), stopped midway (its process is gone:
-a rerun starts it again), or waiting, and for a model whether it is trained on its runs' present results.
+a rerun starts it again), or waiting, and for a model whether it is trained on its runs' present results; a
+ROM-FOM run of an earlier model says so (a rerun runs it again and keeps it beside).
 """
 
 from __future__ import annotations
@@ -62,10 +63,12 @@ def campaign_status(campaign: str | Path, out: str | Path) -> list[str]:
     fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
     lines = [f"FOM-FOM {name:<22}{run.name}  {run_state(fom_dir[name], fom_rows.get(run.name))}"
              for name, run in plan.fom.items()]
+    current = set()
     for name, spec in plan.models.items():
         sources = [str(fom_dir[run] / "results.h5") for run in spec["runs"]]
         if _model_is_current(spec["path"], _model_key(sources, str(plan.rom_config), spec["set"])):
             state = "trained"
+            current.add(name)
         elif spec["path"].is_file():
             state = "out of date (its configuration or runs changed): a rerun trains it again"
         else:
@@ -73,6 +76,12 @@ def campaign_status(campaign: str | Path, out: str | Path) -> list[str]:
             state = f"waiting for {', '.join(waiting)}" if waiting else "not trained yet"
         lines.append(f"model   {name:<22}{state}")
     for p in plan.predictions:
-        state = run_state(out / "rom" / "runs" / p.run.name, rom_rows.get(p.run.name))
+        run_dir, model = out / "rom" / "runs" / p.run.name, plan.models[p.model]["path"]
+        state = run_state(run_dir, rom_rows.get(p.run.name))
+        older = (run_dir / "results.h5").is_file() and model.is_file() and \
+            (run_dir / "results.h5").stat().st_mtime_ns < model.stat().st_mtime_ns
+        if (p.model not in current or (older and p.run.name not in rom_rows)) and state != "waiting" \
+                and not state.startswith("running"):
+            state = f"{state.split(' (')[0]} with an earlier model (a rerun runs it again, keeping this run beside)"
         lines.append(f"ROM-FOM {p.name:<22}{p.run.name}  {state}")
     return lines

@@ -113,6 +113,9 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     # a changed model configuration retrains that model and reruns its prediction only
     plan.write_text(CAMPAIGN.format(root=ROOT).replace('"snapshots.t_max=6.0", "selection.table=false"',
                                                        '"snapshots.t_max=5.0", "selection.table=false"'))
+    status = campaign(plan, out, "--status").stdout.splitlines()
+    assert [line.split()[1] for line in status if "with an earlier model (a rerun runs it again" in line] == \
+        ["a-mu1", "a-mu1-fmu"], status                                    # model a's two runs, not ab's
     third = campaign(plan, out)
     assert third.returncode == 0, third.stderr
     assert (out / "models/a.npz").stat().st_mtime_ns != stamp
