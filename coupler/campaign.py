@@ -17,7 +17,7 @@ finished (or failed after the model's ``snapshots.t_max``) and a ROM-FOM run sta
 exists (and its reference has not failed): independent runs share the workers. A
 rerun skips finished runs and models (a model is retrained when its configuration changed); a run that
 was stopped midway starts again from its beginning. A run directory that is run again is kept beside, as
-``<run>.failed-<time>`` (``--retry-failed``), ``<run>.stale-<time>`` (its model changed) or
+``<run>.failed-<time>`` (``--retry-failed``), ``<run>.stale-<time>`` (it ended, and its model changed since) or
 ``<run>.stopped-<time>``. The report of every prediction goes to
 ``DIR/report/``, the training logs (hold-out tables, timings) to ``DIR/models/<name>.log``.
 Training and the report are the ``cosim train`` and ``cosim report`` subcommands, found through
@@ -329,8 +329,13 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
 
 
 def _why_again(run_dir: Path) -> str:
-    """Why a run directory that exists is run again: it finished with a model since changed, or stopped midway."""
-    return "stale" if finished_row(run_dir) is not None else "stopped"
+    """Why a run directory that exists is run again: it ended (finished or failed) with a model since changed, or
+    it stopped midway."""
+    try:
+        state = json.loads((run_dir / "status.json").read_text()).get("state")
+    except (OSError, ValueError):
+        state = None
+    return "stale" if state in ("finished", "failed") else "stopped"
 
 
 def _set_aside(run_dir: Path, reason: str) -> None:

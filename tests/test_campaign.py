@@ -278,3 +278,18 @@ label = "later"
     assert "coupling.max_iterations is 90 there and 40 here" in done.stderr
     rom = rows(out / "rom/sweep.csv")
     assert len(rom) == 2 and all(row["failure"] == "" and row["windows_converged"] == "80" for row in rom)
+
+
+@pytest.mark.parametrize("state, kept_as", [("finished", "stale"), ("failed", "stale"), ("running", "stopped"),
+                                            (None, "stopped")])
+def test_a_run_that_runs_again_is_kept_beside_named_by_why(tmp_path, state, kept_as):
+    from coupler.campaign import _set_aside, _why_again
+    run = tmp_path / "run-1"
+    run.mkdir()
+    if state:
+        (run / "status.json").write_text(json.dumps({"state": state}))
+    _set_aside(run, _why_again(run))
+    (kept,) = tmp_path.iterdir()
+    assert not run.exists() and kept.name.startswith(f"run-1.{kept_as}-")
+    _set_aside(run, "stale")        # nothing there: nothing to keep
+    assert list(tmp_path.iterdir()) == [kept]
