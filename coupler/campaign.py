@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import heapq
 import json
+import shutil
 import time
 import tomllib
 from dataclasses import dataclass
@@ -422,8 +423,10 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
             labels += ["--label", f"{rom_dir[p.name]}={p.name}", "--label", f"{fom_dir[p.reference]}={p.reference}"]
         else:
             notes.append(f"{p.name}: left out ({'its run' if not run.is_file() else 'its reference'} has no results)")
-    report = out / "report"
-    report.mkdir(parents=True, exist_ok=True)
+    # written whole into a fresh directory, which then replaces the last report: no figure of a run that is no
+    # longer in it (run again with a changed model, say) stays behind; the runs themselves are all kept
+    report = out / f"report.partial-{time.time_ns()}"
+    report.mkdir(parents=True)
     for note in notes:
         echo(note)
     (report / "failed.txt").write_text("".join(f"{note}\n" for note in notes))
@@ -439,6 +442,8 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
     if pairs:
         for line in _command(["report", *pairs, "--out", str(report), *labels]):
             echo(line)
-    else:
-        (report / "report.json").unlink(missing_ok=True)    # none finished (again): no table from before
-    return report
+    final = out / "report"
+    if final.is_dir():
+        shutil.rmtree(final)
+    report.rename(final)
+    return final

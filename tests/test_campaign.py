@@ -241,8 +241,11 @@ switch_time = 2.0
     loaded = load_plan(plan, out)
     fom_dir = {name: out / "fom/runs" / run.name for name, run in loaded.fom.items()}
     rom_dir = {p.name: out / "rom/runs" / p.run.name for p in loaded.predictions}
+    (out / "report/tips_gone.png").write_bytes(b"a figure of a run no longer in the report")
     write_campaign_report(loaded, out, fom_dir, rom_dir, {}, lambda line: None, {"training", "a-reference"})
     assert not (out / "report/report.json").exists()        # its reference is not in: no table
+    assert not (out / "report/tips_gone.png").exists()      # the report is written whole, nothing left from before
+    assert not list(out.glob("report.partial-*"))
     write_campaign_report(loaded, out, fom_dir, rom_dir, {}, lambda line: None,
                           {"training", "reference", "a-reference"})
     assert [r["label"] for r in json.loads((out / "report/report.json").read_text())["runs"]] == ["a-reference"]
