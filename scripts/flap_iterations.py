@@ -4,7 +4,10 @@ Over the windows that end after ``--after`` (the ROM's served windows) and that 
 - the coupling residual ||H(x) - x|| at each iteration over the window's first, median per iteration;
 - the accumulated iterations of both, over all those windows and over the "clean" ones (neither a
   fallback window, where the solid FOM took over from the ROM, nor the window after one), the
-  histogram of the per-window difference, and at which iteration the fallback windows fell back.
+  histogram of the per-window difference, and at which iteration the fallback windows fell back;
+- how far the solid's inputs lie beyond the ROM's training range at each iteration (its trust value
+  ``rom_excess``, in range widths): as the ROM-FOM run recorded it, and for the FOM-FOM run's own calls
+  put through the same ROM's encoder (the ROM model named in the ROM-FOM run's scene).
 
 Usage: python scripts/flap_iterations.py ROM_RUN FOM_RUN [--after 3.0] [--last WINDOW]
   ROM_RUN, FOM_RUN: run directories (or their results.h5); --last: only windows up to this one
@@ -22,6 +25,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from cosim.results import RunResults  # noqa: E402
+from rom_component import persistence  # noqa: E402
 
 
 def window_residuals(run: RunResults) -> dict[int, np.ndarray]:
@@ -31,6 +35,33 @@ def window_residuals(run: RunResults) -> dict[int, np.ndarray]:
     window, norm = window[order], norm[order]
     starts = np.flatnonzero(np.r_[True, window[1:] != window[:-1]])
     return {int(w): part for w, part in zip(window[starts], np.split(norm, starts[1:]))}
+
+
+def call_excess(run: RunResults, model: str | Path, component: str = "solid") -> tuple[np.ndarray, np.ndarray,
+                                                                                      np.ndarray]:
+    """(window, iteration, excess) of every recorded call of ``component``: how far its input lies beyond the
+    training range of ``model`` (range widths, 0 inside), computed as the ROM's trust does."""
+    rom = persistence.load(model)
+    calls = run.calls(component)
+    inputs = calls.inputs[rom.metadata.get("input_variable", "pressure")].reshape(len(calls.window), -1)
+    envelope = rom.envelope
+    X = inputs @ rom.E.T - rom.e
+    low, high = envelope["envelope_low"], envelope["envelope_high"]
+    width = np.maximum(high - low, 1e-300)
+    excess = (np.maximum(np.maximum(low - X, X - high), 0.0) / width).max(axis=1)
+    return calls.window, calls.iteration, excess
+
+
+def _excess_by_iteration(window: np.ndarray, iteration: np.ndarray, excess: np.ndarray,
+                         served: list[int]) -> dict[int, str]:
+    keep = np.isin(window, served) & np.isfinite(excess)
+    table = {}
+    for k in np.unique(iteration[keep]):
+        e = excess[keep & (iteration == k)]
+        if len(e) >= 3:
+            table[int(k)] = (f"{np.median(e):>6.2f} {np.percentile(e, 90):>5.2f} {e.max():>6.2f} "
+                             f"{int((e > 1).sum()):>4d} ({len(e):>4d})")
+    return table
 
 
 def fallback_windows(run: RunResults) -> dict[int, int]:
@@ -84,6 +115,18 @@ def compare(rom_path: Path, fom_path: Path, after: float, last: int | None = Non
     values, counts = np.unique(rom_its[clean] - fom_its[clean], return_counts=True)
     lines.append("per clean window, ROM-FOM minus FOM-FOM iterations: "
                  + ", ".join(f"{v:+d}: {c}" for v, c in zip(values.tolist(), counts.tolist())))
+    model = solid.get("rom", {}).get("model")
+    if model and Path(model).is_file():
+        with RunResults(rom_path) as rom, RunResults(fom_path) as fom:
+            recorded = rom.calls("solid")
+            ours = _excess_by_iteration(recorded.window, recorded.iteration,
+                                        recorded.outputs["rom_excess"][:, 0], served)
+            theirs = _excess_by_iteration(*call_excess(fom, model), served)
+        lines += ["inputs beyond the ROM's training range (range widths): median, 90th percentile, largest, "
+                  "calls beyond 1 (calls)",
+                  f"iteration   {'ROM-FOM (recorded)':<32}FOM-FOM (through the same ROM's encoder)"]
+        for k in sorted(set(ours) | set(theirs)):
+            lines.append(f"{k:>9d}   {ours.get(k, '-'):<32}{theirs.get(k, '-')}")
     return lines
 
 

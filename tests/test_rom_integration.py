@@ -271,6 +271,16 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
     assert lines[0].startswith(f"{served} windows after t = 0.1 s") and f"; {fallbacks} fell back;" in lines[0]
     assert f"iterations over the all windows: ROM-FOM {totals[0]}, FOM-FOM {totals[1]} " in "\n".join(lines)
     assert lines[2].split()[:2] == ["1", "1.00e+00"]
+    # its excess beyond the training range, recomputed from a run's recorded inputs, is the ROM's own trust value
+    from flap_iterations import call_excess
+    assert any(line.startswith("inputs beyond the ROM's training range") for line in lines)
+    with RunResults(tmp_path / "fallback") as fell_back:
+        window, iteration, excess = call_excess(fell_back, model)
+        recorded = fell_back.calls("solid").outputs["rom_excess"][:, 0]
+    by_rom = np.isfinite(recorded)
+    assert by_rom.sum() > 20 and (recorded[by_rom] > 0.05).any()
+    np.testing.assert_allclose(excess[by_rom], recorded[by_rom], rtol=1e-9, atol=1e-12)
+    assert len(window) == len(iteration) == len(recorded) and iteration.min() == 1
 
 
 def test_the_trust_value_inside_and_outside_a_known_envelope():
