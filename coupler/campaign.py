@@ -214,7 +214,8 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
     # the campaign keeps its own queue: a task is queued once its inputs exist, and handed to Dask only
     # when a worker thread is free, highest priority first (models, then the FOM runs they train on, the
-    # ROM-FOM runs, the other FOM runs), so no task waits behind another on a busy worker
+    # ROM-FOM runs in the campaign file's order whenever their models trained, the other FOM runs), so no task
+    # waits behind another on a busy worker
     cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                                   host="127.0.0.1", dashboard_address=None)
     try:
@@ -226,8 +227,9 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
 
             starting = True    # the first tasks are all queued before any is handed out, so priorities hold
 
-            def submit(kind: str, name: str, function, *args, priority: int) -> None:
-                heapq.heappush(queue, (-priority, len(jobs) + len(queue), kind, name, function, args))
+            def submit(kind: str, name: str, function, *args, priority: int, order: int | None = None) -> None:
+                order = len(jobs) + len(queue) if order is None else order    # first come, first served by default
+                heapq.heappush(queue, (-priority, order, kind, name, function, args))
                 if not starting:
                     dispatch()
 
@@ -267,7 +269,7 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
                     if p.fmu and (not p.fmu.is_file() or p.fmu.stat().st_mtime_ns < model.stat().st_mtime_ns):
                         echo(_command(["export-fmu", str(model), "--out", str(p.fmu)])[-1])
                     submit("rom", p.name, run_one, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
-                           priority=1)
+                           priority=1, order=plan.predictions.index(p))   # in the campaign file's order
 
             submitted_models: set[str] = set()
             submitted_runs: set[str] = set()

@@ -296,3 +296,30 @@ def test_a_run_that_runs_again_is_kept_beside_named_by_why(tmp_path, state, kept
     assert not run.exists() and kept.name.startswith(f"run-1.{kept_as}-")
     _set_aside(run, "stale")        # nothing there: nothing to keep
     assert list(tmp_path.iterdir()) == [kept]
+
+
+def test_rom_fom_runs_go_in_the_campaign_files_order_whatever_order_their_models_trained_in(tmp_path):
+    plan = tmp_path / "campaign.toml"
+    plan.write_text(f"""
+scene = "{ROOT}/scenes/tube_fom.toml"
+rom_config = "{ROOT}/scenes/tube_rom.toml"
+[fom]
+training = ["time.end=3.0"]
+[models]
+b = {{ runs = ["training"], set = ["snapshots.t_max=2.0", "selection.table=false"] }}
+a = {{ runs = ["training"], set = ["snapshots.t_max=2.5", "selection.table=false"] }}
+[[predictions]]
+model = "a"
+reference = "training"
+switch_time = 2.5
+
+[[predictions]]
+model = "b"
+reference = "training"
+switch_time = 2.0
+""")
+    done = campaign(plan, tmp_path / "out", workers=1)
+    assert done.returncode == 0, done.stderr
+    order = [line.split(":")[0] for line in done.stdout.splitlines() if line.startswith(("fom ", "model ", "rom "))]
+    # one worker: model b trains first (listed first), but a's prediction is listed first, so it runs first
+    assert order == ["fom training", "model b", "model a", "rom a-training", "rom b-training"], done.stdout
