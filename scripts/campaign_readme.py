@@ -57,6 +57,11 @@ def _until_failure(campaign: Path, row: dict[str, str], fom: list[dict[str, str]
             f"{fallback} windows fell back")
 
 
+def _first_words(message: str, limit: int = 200) -> str:
+    """A failure message cut to its first ``limit`` characters (Kratos appends its whole C++ call stack)."""
+    return message if len(message) <= limit else message[:limit].rstrip() + " ..."
+
+
 def summary(campaign: Path, calls: Path | None) -> list[str]:
     report_file = campaign / "report" / "report.json"
     report = json.loads(report_file.read_text())["runs"] if report_file.is_file() else []
@@ -157,7 +162,7 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
         lines += ["FMU in the solid's place:"] + ["  " + line for line in check.read_text().splitlines()]
     failed = (campaign / "report" / "failed.txt")
     if failed.is_file() and failed.read_text().strip():
-        lines += ["failed:"] + ["  " + line for line in failed.read_text().splitlines()]
+        lines += ["failed:"] + ["  " + _first_words(line) for line in failed.read_text().splitlines()]
     pngs = sorted(p.name for p in (campaign / "report").glob("*.png"))
     lines.append(f"PNGs in {campaign.relative_to(ROOT) if campaign.is_relative_to(ROOT) else campaign}/report: "
                  + ", ".join(pngs))
