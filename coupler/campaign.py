@@ -331,6 +331,12 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
     return write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table), echo)
 
 
+def ran_after_model(run_dir: Path, model: Path) -> bool:
+    """Whether the ROM-FOM run in ``run_dir`` has results newer than its model file."""
+    results = run_dir / "results.h5"
+    return results.is_file() and model.is_file() and results.stat().st_mtime_ns >= model.stat().st_mtime_ns
+
+
 def _why_again(run_dir: Path) -> str:
     """Why a run directory that exists is run again: it ended (finished or failed) with a model since changed, or
     it stopped midway."""
@@ -366,9 +372,8 @@ def _adopt_finished(plan: Plan, fom_table: SweepTable, rom_table: SweepTable, fo
             fom_table.add(run, row)
             echo(f"fom {name}: had finished; its row is taken from its run")
     for p in plan.predictions:
-        results, model = rom_dir[p.name] / "results.h5", plan.models[p.model]["path"]
-        if p.run.name in rom_table.done or p.model not in current or not results.is_file() \
-                or results.stat().st_mtime_ns < model.stat().st_mtime_ns:
+        if p.run.name in rom_table.done or p.model not in current or \
+                not ran_after_model(rom_dir[p.name], plan.models[p.model]["path"]):
             continue
         row = finished_row(rom_dir[p.name])
         if row is not None:

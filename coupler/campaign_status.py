@@ -13,7 +13,7 @@ import os
 import time
 from pathlib import Path
 
-from coupler.campaign import _model_is_current, _model_key, load_plan
+from coupler.campaign import _model_is_current, _model_key, load_plan, ran_after_model
 from coupler.sweep import TABLE
 
 
@@ -78,8 +78,7 @@ def campaign_status(campaign: str | Path, out: str | Path) -> list[str]:
     for p in plan.predictions:
         run_dir, model = out / "rom" / "runs" / p.run.name, plan.models[p.model]["path"]
         state = run_state(run_dir, rom_rows.get(p.run.name))
-        older = (run_dir / "results.h5").is_file() and model.is_file() and \
-            (run_dir / "results.h5").stat().st_mtime_ns < model.stat().st_mtime_ns
+        older = (run_dir / "results.h5").is_file() and not ran_after_model(run_dir, model)
         if (p.model not in current or (older and p.run.name not in rom_rows)) and state != "waiting" \
                 and not state.startswith("running"):
             state = f"{state.split(' (')[0]} with an earlier model (a rerun runs it again, keeping this run beside)"

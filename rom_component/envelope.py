@@ -21,12 +21,18 @@ def fit_envelope(X: np.ndarray) -> dict[str, np.ndarray]:
             "envelope_precision": precision, "envelope_max_distance": np.array([max(distances.max(), 1e-300)])}
 
 
+def range_excess(X: np.ndarray, envelope: dict[str, np.ndarray]) -> np.ndarray:
+    """How far each row of reduced forces ``X`` (..., r) lies beyond the per-mode bounds, in range widths (0
+    inside): the largest over the modes."""
+    low, high = envelope["envelope_low"], envelope["envelope_high"]
+    width = np.maximum(high - low, 1e-300)
+    return np.max(np.maximum(np.maximum(low - X, X - high), 0.0) / width, axis=-1)
+
+
 def trust(x: np.ndarray, envelope: dict[str, np.ndarray]) -> tuple[float, float]:
     """(excess, distance): how far ``x`` lies beyond the per-mode bounds, in range widths (0 inside), and
     its Mahalanobis distance over the largest training distance."""
-    low, high = envelope["envelope_low"], envelope["envelope_high"]
-    width = np.maximum(high - low, 1e-300)
-    excess = float(np.max(np.maximum(np.maximum(low - x, x - high), 0.0) / width))
+    excess = float(range_excess(x, envelope))
     centred = x - envelope["envelope_mean"]
     distance = float(np.sqrt(max(centred @ envelope["envelope_precision"] @ centred, 0.0)))
     return excess, distance / float(envelope["envelope_max_distance"][0])

@@ -26,6 +26,7 @@ sys.path.insert(0, str(ROOT))
 
 from cosim.results import RunResults  # noqa: E402
 from rom_component import persistence  # noqa: E402
+from rom_component.envelope import range_excess  # noqa: E402
 
 
 def window_residuals(run: RunResults) -> dict[int, np.ndarray]:
@@ -44,12 +45,7 @@ def call_excess(run: RunResults, model: str | Path, component: str = "solid") ->
     rom = persistence.load(model)
     calls = run.calls(component)
     inputs = calls.inputs[rom.metadata.get("input_variable", "pressure")].reshape(len(calls.window), -1)
-    envelope = rom.envelope
-    X = inputs @ rom.E.T - rom.e
-    low, high = envelope["envelope_low"], envelope["envelope_high"]
-    width = np.maximum(high - low, 1e-300)
-    excess = (np.maximum(np.maximum(low - X, X - high), 0.0) / width).max(axis=1)
-    return calls.window, calls.iteration, excess
+    return calls.window, calls.iteration, range_excess(inputs @ rom.E.T - rom.e, rom.envelope)
 
 
 def _excess_by_iteration(window: np.ndarray, iteration: np.ndarray, excess: np.ndarray,

@@ -203,6 +203,13 @@ def test_a_model_may_train_on_a_failed_run_only_up_to_its_training_end(tmp_path)
     assert _end_time(tmp_path / "no-run") == 0.0                        # a run without results holds no data
 
 
+def task_order(plan: Path, out: Path) -> tuple[list[str], subprocess.CompletedProcess]:
+    """The order in which a one-worker campaign ran its tasks ("fom NAME", "model NAME", "rom NAME")."""
+    done = campaign(plan, out, workers=1)
+    assert done.returncode == 0, done.stderr
+    return [line.split(":")[0] for line in done.stdout.splitlines() if line.startswith(("fom ", "model ", "rom "))], done
+
+
 def test_the_runs_a_model_trains_on_go_first_even_when_listed_last(tmp_path):
     plan = tmp_path / "campaign.toml"
     plan.write_text(f"""
@@ -218,10 +225,7 @@ model = "a"
 reference = "reference"
 switch_time = 2.0
 """)
-    done = campaign(plan, tmp_path / "out", workers=1)
-    assert done.returncode == 0, done.stderr
-    order = [line.split(":")[0] for line in done.stdout.splitlines()
-             if line.startswith(("fom ", "model ", "rom "))]
+    order, done = task_order(plan, tmp_path / "out")
     # one worker: the training run, its model and the ROM-FOM run before the reference-only run
     assert order == ["fom training", "model a", "rom a-reference", "fom reference"], done.stdout
     # --status reads where everything stands; a run whose process is gone shows as stopped midway
@@ -318,8 +322,6 @@ model = "b"
 reference = "training"
 switch_time = 2.0
 """)
-    done = campaign(plan, tmp_path / "out", workers=1)
-    assert done.returncode == 0, done.stderr
-    order = [line.split(":")[0] for line in done.stdout.splitlines() if line.startswith(("fom ", "model ", "rom "))]
+    order, done = task_order(plan, tmp_path / "out")
     # one worker: model b trains first (listed first), but a's prediction is listed first, so it runs first
     assert order == ["fom training", "model b", "model a", "rom a-training", "rom b-training"], done.stdout
