@@ -134,13 +134,15 @@ def write_sources(folder: Path) -> None:
         shutil.copy(fmi_headers() / header, folder / header)
 
 
-def compile_binary(sources: Path, target: Path) -> None:
-    """Build the linux64 binary: plain flags suffice, the source fixes its floating-point contract."""
+def compile_binary(sources: Path, target: Path, defines: tuple[str, ...] = ()) -> None:
+    """Build the linux64 binary: plain flags suffice, the source fixes its floating-point contract.
+
+    ``defines``: preprocessor names to set (``SOLID_ROM_SCALAR``: no vector types, same results)."""
     compiler = os.environ.get("CC", "cc")
     if shutil.which(compiler) is None:
         raise CosimError(f"export-fmu needs a C compiler; '{compiler}' was not found (set CC)")
     command = [compiler, "-std=c99", "-O3", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
-               str(sources / SOURCE.name), "-o", str(target)]
+               *(f"-D{name}" for name in defines), str(sources / SOURCE.name), "-o", str(target)]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise CosimError(f"compiling the FMU binary failed:\n{done.stderr}")

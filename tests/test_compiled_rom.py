@@ -14,6 +14,7 @@ from cosim.scene import load_scene
 from rom_component import compiled, persistence
 from rom_component.component import RomSolid
 from rom_component.estimator import SolidRom
+from rom_component.fmu_export import compile_binary, write_sources
 
 from tests.conftest import TUBE_SCENE, children_of
 from tests.test_flap_rom import calls  # noqa: F401  (the module's fixture)
@@ -36,14 +37,35 @@ def test_compiled_calls_are_bit_identical_in_and_out_of_range(models, name):  # 
     assert_same_calls(path, np.vstack([F[:40] * 1.003, F[:10] * 3.0 - 1.0]))   # the last ones far out of range
 
 
-def test_compiled_calls_are_bit_identical_on_the_double_flap(calls, tmp_path):  # noqa: F811
+def flap_model(calls, folder):  # noqa: F811
+    """A ROM of the double flap's sizes (r_f = 45: 11 groups of 4 encoder rows and one more; 530 outputs: 33
+    blocks of 16 and 2 more), its path and the forces to call it with, the last ten beyond the training data."""
     F, U, _, _ = calls
     rom = SolidRom(n_force_modes=45, n_disp_modes=9, decoder="quadratic", regressor="poly", quadratic_modes=4,
                    feature_scaling="global").fit(F[::2], U[::2])
-    path = persistence.save(tmp_path / "flap.npz", rom.online_arrays(), {"regressor": "poly",
-                                                                           "params": rom.get_params()})
+    path = persistence.save(folder / "flap.npz", rom.online_arrays(), {"regressor": "poly",
+                                                                         "params": rom.get_params()})
     out_of_range = F[1:200:20] + 0.3 * (F[1:200:20] - F.mean(axis=0))
-    assert_same_calls(path, np.vstack([F[1:400:4], out_of_range]))
+    return path, np.vstack([F[1:400:4], out_of_range])
+
+
+def test_compiled_calls_are_bit_identical_on_the_double_flap(calls, tmp_path):  # noqa: F811
+    assert_same_calls(*flap_model(calls, tmp_path))
+
+
+def test_the_scalar_build_gives_the_vector_builds_bits(calls, tmp_path, monkeypatch):  # noqa: F811
+    path, F = flap_model(calls, tmp_path)
+    vector = persistence.load(path, "compiled")
+    sources = tmp_path / "sources"
+    sources.mkdir()
+    write_sources(sources)
+    compile_binary(sources, tmp_path / "scalar.so", ("SOLID_ROM_SCALAR",))
+    monkeypatch.setattr(compiled, "library_path", lambda: tmp_path / "scalar.so")
+    scalar, reference = persistence.load(path, "compiled"), persistence.load(path)
+    assert scalar._lib._name != vector._lib._name
+    for f in F:
+        assert scalar(f).tobytes() == vector(f).tobytes() == reference(f).tobytes()
+        assert scalar.reduced.tobytes() == vector.reduced.tobytes()
 
 
 def test_the_library_is_built_once_per_source_and_a_missing_compiler_is_named(models, tmp_path, monkeypatch):  # noqa: F811

@@ -20,7 +20,9 @@
  * Every sum runs in the order of OnlineRom(arithmetic="reproducible") (numpy's pairwise row
  * sums, sequential short sums, the logarithm rom_log below), so results are bit-identical to
  * the Python ROM whatever the compiler flags: the pragmas forbid contracting a * b + c into a
- * fused multiply-add, and the binary needs no libm.
+ * fused multiply-add, and the binary needs no libm. With GCC or clang the long sums run on vector
+ * types (four rows of the encoder at once, sixteen outputs of the decoder at once); each lane does
+ * the scalar code's operations in its order, so -DSOLID_ROM_SCALAR builds give the same bits.
  * The ROM is stateless; an FMU state is a copy of inputs, outputs and time. The FMI 2.0
  * Co-Simulation state machine is enforced; a call out of turn returns fmi2Error with a message.
  */
@@ -75,7 +77,7 @@ typedef struct {
     int state;
     int dirty;                /* inputs set since the outputs were computed */
     Model model;
-    double *inputs, *outputs, *x, *z, *reduced, *scratch, *quad;
+    double *inputs, *outputs, *x, *z, *reduced, *quad, *scratch;   /* scratch: n_out */
     double time;
     State *states;
     char *buffer;             /* the resource file, all arrays point into it */
@@ -323,13 +325,134 @@ HOT static double pairwise_dot(const double *row, const double *v, int32_t n) {
     }
 }
 
+/* Vector forms of the hot sums, with GCC's and clang's vector types where available: each lane does the
+ * scalar code's operations in the scalar code's order (IEEE products and sums, no contraction), so the
+ * results are the same bits; the vectors only keep the partial sums in registers. */
+#if defined(__GNUC__) && !defined(SOLID_ROM_SCALAR)
+typedef double vec4 __attribute__((vector_size(32), aligned(8), may_alias));
+#define VECTOR_SUMS 1
+#endif
+
+#ifdef VECTOR_SUMS
+/* pairwise_dot of four rows (stride apart) with one v: per row the same operations in the same order, the four
+ * rows interleaved so that their independent sums overlap in the pipeline instead of waiting on each other */
+HOT static void pairwise_dot4(const double *row, size_t stride, const double *v, int32_t n, double out[4]) {
+    int32_t k;
+    if (n < 8) {
+        for (k = 0; k < 4; k++) out[k] = pairwise_dot(row + k * stride, v, n);
+    } else if (n <= 128) {
+        int32_t i, j;
+        vec4 lo[4], hi[4];
+        const vec4 v_lo = *(const vec4 *)v, v_hi = *(const vec4 *)(v + 4);
+        for (k = 0; k < 4; k++) {
+            lo[k] = *(const vec4 *)(row + k * stride) * v_lo;
+            hi[k] = *(const vec4 *)(row + k * stride + 4) * v_hi;
+        }
+        for (i = 8; i < n - (n % 8); i += 8) {
+            const vec4 a = *(const vec4 *)(v + i), b = *(const vec4 *)(v + i + 4);
+            for (k = 0; k < 4; k++) {
+                lo[k] += *(const vec4 *)(row + k * stride + i) * a;
+                hi[k] += *(const vec4 *)(row + k * stride + i + 4) * b;
+            }
+        }
+        for (k = 0; k < 4; k++) {
+            const double *rk = row + k * stride;
+            double res = ((lo[k][0] + lo[k][1]) + (lo[k][2] + lo[k][3])) + ((hi[k][0] + hi[k][1]) + (hi[k][2] + hi[k][3]));
+            for (j = i; j < n; j++) res += rk[j] * v[j];
+            out[k] = res;
+        }
+    } else {
+        int32_t n2 = n / 2;
+        double first[4], second[4];
+        n2 -= n2 % 8;
+        pairwise_dot4(row, stride, v, n2, first);
+        pairwise_dot4(row + n2, stride, v + n2, n - n2, second);
+        for (k = 0; k < 4; k++) out[k] = first[k] + second[k];
+    }
+}
+
+#endif
+
+/* out[k] = pairwise_dot(rows[k], v) for count rows of length n, stride apart */
+HOT static void pairwise_dots(const double *rows, size_t stride, const double *v, int32_t n, int32_t count,
+                              double *out) {
+    int32_t k = 0;
+#ifdef VECTOR_SUMS
+    for (; k + 4 <= count; k += 4) pairwise_dot4(rows + (size_t)k * stride, stride, v, n, out + k);
+#endif
+    for (; k < count; k++) out[k] = pairwise_dot(rows + (size_t)k * stride, v, n);
+}
+
+/* the decoder, u = A u~ summed sequentially over r_u, + base, + (B q(u~) summed sequentially over the quadratic
+ * terms), as OnlineRom sums them; with vector sums, 16 outputs at a time keep their partial sums in registers
+ * while the columns stream past */
+HOT static void decode(const Model *m, const double *reduced, const double *quad, double *out, double *scratch) {
+    int32_t a, q, o;
+#ifdef VECTOR_SUMS
+    int32_t o0, j;
+    (void)scratch;
+    for (o0 = 0; o0 + 16 <= m->n_out; o0 += 16) {
+        vec4 s[4], t[4];
+        const double *col = m->At + o0;
+        for (j = 0; j < 4; j++) s[j] = *(const vec4 *)(col + 4 * j) * reduced[0];
+        for (a = 1; a < m->r_u; a++) {
+            const double r = reduced[a];
+            col = m->At + (size_t)a * m->n_out + o0;
+            for (j = 0; j < 4; j++) s[j] += *(const vec4 *)(col + 4 * j) * r;
+        }
+        for (j = 0; j < 4; j++) s[j] += *(const vec4 *)(m->base + o0 + 4 * j);
+        if (m->decoder == 1) {
+            col = m->Bt + o0;
+            for (j = 0; j < 4; j++) t[j] = *(const vec4 *)(col + 4 * j) * quad[0];
+            for (q = 1; q < m->n_quad; q++) {
+                const double w = quad[q];
+                col = m->Bt + (size_t)q * m->n_out + o0;
+                for (j = 0; j < 4; j++) t[j] += *(const vec4 *)(col + 4 * j) * w;
+            }
+            for (j = 0; j < 4; j++) s[j] += t[j];
+        }
+        for (j = 0; j < 4; j++) *(vec4 *)(out + o0 + 4 * j) = s[j];
+    }
+    for (o = o0; o < m->n_out; o++) {     /* the last n_out % 16 outputs */
+        double s = m->At[o] * reduced[0], t;
+        for (a = 1; a < m->r_u; a++) s = s + m->At[(size_t)a * m->n_out + o] * reduced[a];
+        s = s + m->base[o];
+        if (m->decoder == 1) {
+            t = m->Bt[o] * quad[0];
+            for (q = 1; q < m->n_quad; q++) t = t + m->Bt[(size_t)q * m->n_out + o] * quad[q];
+            s = s + t;
+        }
+        out[o] = s;
+    }
+#else
+    /* outputs in the inner loop, so that the compiler vectorises across them without changing any sum */
+    const double *col = m->At;
+    for (o = 0; o < m->n_out; o++) out[o] = col[o] * reduced[0];
+    for (a = 1; a < m->r_u; a++) {
+        const double r = reduced[a];
+        col = m->At + (size_t)a * m->n_out;
+        for (o = 0; o < m->n_out; o++) out[o] = out[o] + col[o] * r;
+    }
+    for (o = 0; o < m->n_out; o++) out[o] = out[o] + m->base[o];
+    if (m->decoder == 1) {
+        for (o = 0; o < m->n_out; o++) scratch[o] = m->Bt[o] * quad[0];
+        for (q = 1; q < m->n_quad; q++) {
+            const double w = quad[q];
+            col = m->Bt + (size_t)q * m->n_out;
+            for (o = 0; o < m->n_out; o++) scratch[o] = scratch[o] + col[o] * w;
+        }
+        for (o = 0; o < m->n_out; o++) out[o] = out[o] + scratch[o];
+    }
+#endif
+}
+
 /* the interface path, operation for operation as OnlineRom(arithmetic="reproducible") */
 HOT static void evaluate(Instance *inst) {
     const Model *m = &inst->model;
     const int32_t width = m->m + m->r_f + 1;
-    int32_t i, k, a, o;
-    for (k = 0; k < m->r_f; k++)
-        inst->x[k] = pairwise_dot(m->E + (size_t)k * m->n_in, inst->inputs, m->n_in) - m->e[k];
+    int32_t i, k, a;
+    pairwise_dots(m->E, (size_t)m->n_in, inst->inputs, m->n_in, m->r_f, inst->x);
+    for (k = 0; k < m->r_f; k++) inst->x[k] = inst->x[k] - m->e[k];
     if (m->regressor == 0) {
         for (i = 0; i < m->m; i++) {
             const double *c = m->centres + (size_t)i * m->r_f;
@@ -342,35 +465,13 @@ HOT static void evaluate(Instance *inst) {
     }
     for (k = 0; k < m->r_f; k++) inst->z[m->m + k] = inst->x[k];
     inst->z[m->m + m->r_f] = 1.0;
-    for (a = 0; a < m->r_u; a++)
-        inst->reduced[a] = pairwise_dot(m->H + (size_t)a * width, inst->z, width);
+    pairwise_dots(m->H, (size_t)width, inst->z, width, m->r_u, inst->reduced);
     if (m->decoder == 1) {
         int32_t q = 0, b;
         for (a = 0; a < m->r_u; a++)
             for (b = a; b < m->r_u; b++) inst->quad[q++] = inst->reduced[a] * inst->reduced[b];
     }
-    /* decoder: the sums of OnlineRom (sequential over r_u, then over the quadratic terms) with the outputs in
-     * the inner loop, so that the compiler vectorises across outputs without changing any sum */
-    {
-        double *s = inst->outputs, *t = inst->scratch;
-        const double *col = m->At;
-        for (o = 0; o < m->n_out; o++) s[o] = col[o] * inst->reduced[0];
-        for (a = 1; a < m->r_u; a++) {
-            const double r = inst->reduced[a];
-            col = m->At + (size_t)a * m->n_out;
-            for (o = 0; o < m->n_out; o++) s[o] = s[o] + col[o] * r;
-        }
-        for (o = 0; o < m->n_out; o++) s[o] = s[o] + m->base[o];
-        if (m->decoder == 1) {
-            int32_t q;
-            for (o = 0; o < m->n_out; o++) t[o] = m->Bt[o] * inst->quad[0];
-            for (q = 1; q < m->n_quad; q++) {
-                const double v = inst->quad[q], *bcol = m->Bt + (size_t)q * m->n_out;
-                for (o = 0; o < m->n_out; o++) t[o] = t[o] + bcol[o] * v;
-            }
-            for (o = 0; o < m->n_out; o++) s[o] = s[o] + t[o];
-        }
-    }
+    decode(m, inst->reduced, inst->quad, inst->outputs, inst->scratch);
     inst->dirty = 0;
 }
 
@@ -464,12 +565,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     inst->z = (double *)allocate(functions, (size_t)(m->m + m->r_f + 1), sizeof(double));
     inst->reduced = (double *)allocate(functions, (size_t)m->r_u, sizeof(double));
     inst->quad = (double *)allocate(functions, (size_t)m->n_quad, sizeof(double));
-    {
-        size_t width = (size_t)(m->m + m->r_f + 1), most = (size_t)m->n_in;
-        if (width > most) most = width;
-        if ((size_t)m->n_out > most) most = (size_t)m->n_out;
-        inst->scratch = (double *)allocate(functions, most, sizeof(double));
-    }
+    inst->scratch = (double *)allocate(functions, (size_t)m->n_out, sizeof(double));
     if (!inst->inputs || !inst->outputs || !inst->x || !inst->z || !inst->reduced || !inst->quad || !inst->scratch) {
         log_message(functions, instanceName, fmi2Error, "logStatusError", "out of memory");
         fmi2FreeInstance(inst);
