@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
+
+import pytest
 
 from benchmarks import rom_call, tube_run
 
@@ -62,3 +65,23 @@ def test_flap_rom_call_benchmark_small(capsys):
     # the compiled path is the reproducible arithmetic (asserted bit for bit inside) at a fraction of its cost
     assert calls["ROM online interface path, compiled (the FMU's C code in-process)"].median < \
         calls["ROM online interface path, reproducible arithmetic (= the FMU)"].median
+
+
+def test_flap_speedup_benchmark_small(capsys):
+    from benchmarks import flap_speedup
+    from rom_component.report import Run
+    result = flap_speedup.main(["--small"])
+    text = capsys.readouterr().out
+    assert "FOM-FOM" in text and "ROM-FOM" in text and "bound at these iterations" in text
+    row, out = result["row"], Path(result["out"])
+    reference, rom = Run.read(out / "reference"), Run.read(out / "rom")
+    assert row["predicted_windows"] == 4 and len(rom.time) == len(reference.time) == 8
+    assert row["total_speedup"] == pytest.approx(reference.wall / rom.wall, rel=1e-12)
+    # the bound priced at the run's own iterations: the fluid's compute scaled by their ratio
+    ratio = rom.iterations.sum() / reference.iterations.sum()
+    fluid, solid = row["reference_fluid_compute_s"], row["reference_solid_compute_s"]
+    served = row["predicted_range"]["solid_compute_s"]
+    expected = (fluid + solid) / (fluid * ratio + solid - served + served / row["solid"]["speedup_compute"])
+    assert result["bound_at_run_iterations"] == pytest.approx(expected, rel=1e-12)
+    assert (result["bound_at_run_iterations"] < row["total_speedup_bound"]) == (ratio > 1)
+    assert 1.0 < row["total_speedup_bound"] < (fluid + solid) / fluid    # the ROM cannot remove the fluid's cost

@@ -7,19 +7,17 @@ import os
 import numpy as np
 import pytest
 
-from coupler.run import run_scene
 from cosim.errors import ComponentError, CosimError
 from cosim.results import RunResults
-from cosim.scene import load_scene
 from rom_component import compiled, persistence
 from rom_component.component import RomSolid
 from rom_component.estimator import SolidRom
 from rom_component.fmu_export import compile_binary, write_sources
 
-from tests.conftest import TUBE_SCENE, children_of
+from tests.conftest import children_of
 from tests.test_flap_rom import calls  # noqa: F401  (the module's fixture)
 from tests.test_fmu import models  # noqa: F401  (the module's fixture)
-from tests.test_rom_integration import END, TRAIN_END, fom, model, rom_run  # noqa: F401  (fixtures)
+from tests.test_rom_integration import TRAIN_END, fom, model, rom_run  # noqa: F401  (fixtures)
 
 
 def assert_same_calls(path, F):

@@ -1,0 +1,133 @@
+"""Benchmark of the double flap's total speed-up: FOM-FOM and ROM-FOM one after the other, each alone.
+
+The campaign's walls come from runs that shared the cores with other runs, so their ratio says little. This
+runs ``scenes/double_flap.toml`` at one Reynolds number over [0, END] s twice in a row on this machine: the
+FOM-FOM reference (the baseline) and the same scene with the trained ROM in the solid's place from SWITCH s.
+It prints the load average before each run, walls, coupling iterations, the solid's sigma, and the report's
+total speed-up against its bound (T_f + T_s) / (T_f + T_s,FOM part + T_s,ROM part / sigma), over the whole
+run and over the served windows. The bound assumes the reference's coupling iterations; the last column
+prices in the run's own (the fluid's compute scaled by ROM-FOM over FOM-FOM iterations), which separates
+the cost of extra iterations from the coupler's and the machine's.
+
+Usage:
+  python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
+      --switch-time 0.8 [--end 6.0] [--rom-first] [--readme]
+  python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.common import fresh_directory, machine, rewrite_readme  # noqa: E402
+from coupler.run import run_scene  # noqa: E402
+from cosim.scene import load_scene  # noqa: E402
+from rom_component.report import Run, compare  # noqa: E402
+from rom_component.train import load_config, train  # noqa: E402
+
+SCENE = ROOT / "scenes" / "double_flap.toml"
+ROM_CONFIG = ROOT / "scenes" / "double_flap_rom.toml"
+DT = 0.008
+SMALL = {"windows": 8, "train_windows": 4, "reynolds": 250.0}
+SMALL_MODEL = ["selection.choose='fixed'", "selection.table=false", "model.n_force_modes=4", "model.n_disp_modes=3",
+               "model.quadratic_modes=0"]
+
+
+def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | None = None) -> dict:
+    """One run of the scene into ``out``: the FOM-FOM reference, or with ``rom = (model, switch_time)``."""
+    overrides = [f"flow.reynolds={reynolds!r}", f"time.end={end!r}"]
+    if rom:
+        overrides += ["components.solid.backend=rom", f"components.solid.rom.model={rom[0]}",
+                      f"components.solid.rom.switch_time={rom[1]!r}"]
+    load = os.getloadavg()[0]
+    started = time.perf_counter()
+    run_scene(load_scene(SCENE, overrides), out, progress=False)
+    return {"load_average_before": load, "seconds": time.perf_counter() - started}
+
+
+def small_model(reference: Path, out: Path) -> tuple[Path, float]:
+    """A ROM trained on the reference's first windows (the short protocol in miniature)."""
+    switch = SMALL["train_windows"] * DT
+    config = load_config(ROM_CONFIG, [f"snapshots.t_max={switch!r}", *SMALL_MODEL])
+    train(reference / "results.h5", out, config, echo=lambda *_: None)
+    return out, switch
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", help="trained ROM (.npz) for the solid's place")
+    parser.add_argument("--reynolds", type=float, help="Reynolds number of both runs")
+    parser.add_argument("--switch-time", type=float, help="the ROM takes the solid's place from this time (s)")
+    parser.add_argument("--end", type=float, default=6.0, help="end time of both runs (s)")
+    parser.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
+    parser.add_argument("--small", action="store_true", help="8 windows and a ROM trained on the first 4 (tests)")
+    parser.add_argument("--readme", action="store_true", help="rewrite the README's flap-speedup block")
+    args = parser.parse_args(argv)
+    if not args.small and (args.model is None or args.reynolds is None or args.switch_time is None):
+        parser.error("give --model, --reynolds and --switch-time, or --small")
+    out = fresh_directory("flap_speedup")
+    lines = [f"machine: {machine()}"]
+    if args.small:
+        reynolds, end = SMALL["reynolds"], SMALL["windows"] * DT
+        timings = {"reference": run_once(out / "reference", reynolds, end)}
+        model, switch = small_model(out / "reference", out / "model.npz")
+        timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch))
+    else:
+        reynolds, end, model, switch = args.reynolds, args.end, Path(args.model).resolve(), args.switch_time
+        order = ["rom", "reference"] if args.rom_first else ["reference", "rom"]
+        timings = {}
+        for kind in order:
+            timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
+    row = compare(Run.read(out / "rom"), Run.read(out / "reference"))
+    solid = row["solid"]
+    ratio = row["iterations"] / row["reference_iterations"]
+    fluid, solid_total = row["reference_fluid_compute_s"], row["reference_solid_compute_s"]
+    served = row["predicted_range"]
+    # the bound with the run's own iterations: every fluid call costs what the reference's did on average
+    served_solid, sigma = served["solid_compute_s"], solid["speedup_compute"]
+    bound_iterations = (fluid + solid_total) / (fluid * ratio + solid_total - served_solid + served_solid / sigma)
+    served_ratio = row["predicted_iterations_ratio"]
+    served_bound_iterations = (served["fluid_compute_s"] + served["solid_compute_s"]) / (
+        served["fluid_compute_s"] * served_ratio + served_solid / sigma)
+    lines += [f"double flap, Re = {reynolds:g}, [0, {end:g}] s, ROM from {switch:g} s ({row['predicted_windows']} of "
+              f"{len(Run.read(out / 'rom').time)} windows); model {model}; order: {' then '.join(timings)}",
+              f"{'run':<12}{'load before':>12}{'wall s':>9}{'iterations':>11}{'fluid compute s':>16}"
+              f"{'solid compute s':>16}"]
+    for kind, run_dir in (("reference", out / "reference"), ("rom", out / "rom")):
+        run = Run.read(run_dir)
+        solid_name = run.rom_backend or "solid"
+        others = sum(c["compute_seconds"].sum() for n, c in run.components.items() if n not in ("solid", run.rom_backend))
+        solids = sum(run.components[n]["compute_seconds"].sum() for n in {"solid", solid_name} if n in run.components)
+        lines.append(f"{'FOM-FOM' if kind == 'reference' else 'ROM-FOM':<12}{timings[kind]['load_average_before']:>12.2f}"
+                     f"{run.wall:>9.1f}{int(run.iterations.sum()):>11}{others:>16.1f}{solids:>16.1f}")
+    lines += [f"solid sigma (compute per call, FOM over ROM): {solid['speedup_compute']:.0f} "
+              f"(ROM {solid['rom_compute_median_s'] * 1e6:.0f} us median in the run, FOM {solid['fom_compute_median_s'] * 1e3:.1f} ms)",
+              f"{'':<22}{'speed-up':>10}{'bound':>8}{'ratio':>8}{'iterations':>12}{'bound at these iterations':>27}{'ratio':>8}",
+              f"{'whole run':<22}{row['total_speedup']:>10.3f}{row['total_speedup_bound']:>8.3f}"
+              f"{row['total_speedup'] / row['total_speedup_bound']:>8.1%}{ratio - 1:>+12.2%}{bound_iterations:>27.3f}"
+              f"{row['total_speedup'] / bound_iterations:>8.1%}",
+              f"{'served windows alone':<22}{served['speedup']:>10.3f}{served['bound']:>8.3f}"
+              f"{served['speedup'] / served['bound']:>8.1%}{served_ratio - 1:>+12.2%}{served_bound_iterations:>27.3f}"
+              f"{served['speedup'] / served_bound_iterations:>8.1%}",
+              f"e(t) on the full field over the served windows: mean {row['displacement_error']['mean']:.2%}, "
+              f"max {row['displacement_error']['max']:.2%}; {row['rom_fallback_windows']} windows fell back to the solid FOM"]
+    print("\n".join(lines))
+    result = {"machine": machine(), "timings": timings, "row": {k: v for k, v in row.items() if not k.startswith("_")},
+              "bound_at_run_iterations": bound_iterations, "served_bound_at_run_iterations": served_bound_iterations,
+              "out": str(out)}
+    (out / "speedup.json").write_text(json.dumps(result, indent=1, default=float))
+    if args.readme:
+        rewrite_readme("flap-speedup", lines, "python benchmarks/flap_speedup.py --model ... --readme")
+    return result
+
+
+if __name__ == "__main__":
+    main()
