@@ -52,8 +52,8 @@ def _library() -> ctypes.CDLL:
     lib.solid_rom_last_error.restype = ctypes.c_char_p
     lib.solid_rom_evaluate.restype = None
     lib.solid_rom_evaluate.argtypes = [ctypes.c_void_p] * 5
-    lib.solid_rom_trust.restype = None
-    lib.solid_rom_trust.argtypes = [ctypes.c_void_p] * 6
+    lib.solid_rom_evaluate_trust.restype = None
+    lib.solid_rom_evaluate_trust.argtypes = [ctypes.c_void_p] * 10
     lib.solid_rom_close.argtypes = [ctypes.c_void_p]
     return lib
 
@@ -78,27 +78,25 @@ class CompiledRom(OnlineRom):
         self._call = (self._lib.solid_rom_evaluate, handle, self._f.ctypes.data, self._u.ctypes.data,
                       self._x_slot.ctypes.data, self._reduced.ctypes.data)
         self._evaluate = self._compiled
-        if self.envelope is not None:
+        if self.envelope is not None:      # with an envelope, each call computes its trust too (one ctypes call)
             env = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in self.envelope.items()}
-            self._trust_out = np.empty(2)
-            self._trust_call = (self._lib.solid_rom_trust, handle, *(env[k].ctypes.data for k in (
-                "envelope_low", "envelope_high", "envelope_mean", "envelope_precision")), self._trust_out.ctypes.data)
+            self._trust_out = np.full(2, np.nan)
+            envelope = tuple(env[k].ctypes.data for k in ("envelope_low", "envelope_high", "envelope_mean",
+                                                          "envelope_precision"))
+            self._call = (self._lib.solid_rom_evaluate_trust, *self._call[1:], *envelope, self._trust_out.ctypes.data)
             self._envelope_arrays, self._max_distance = env, float(env["envelope_max_distance"][0])
 
     def _compiled(self, f: np.ndarray) -> np.ndarray:
         if np.shape(f) != self._f.shape:
             raise ValueError(f"ROM input has shape {np.shape(f)}, expected {self._f.shape}")
         self._f[:] = f
-        function, *pointers = self._call
-        function(*pointers)
+        self._call[0](*self._call[1:])
         self.reduced = self._reduced.copy()
         return self._u.copy()   # fresh arrays, as OnlineRom returns
 
     def trust(self) -> tuple[float, float]:
-        """As ``OnlineRom.trust``, summed in C (the distance may differ in its last bits)."""
+        """As ``OnlineRom.trust``, summed in C with the call (the distance may differ in its last bits)."""
         if self.envelope is None:
             return math.nan, math.nan
-        function, *pointers = self._trust_call
-        function(*pointers)
-        excess, quadratic = self._trust_out
-        return float(excess), math.sqrt(quadratic) / self._max_distance
+        excess, quadratic = self._trust_out.tolist()
+        return excess, math.sqrt(quadratic) / self._max_distance

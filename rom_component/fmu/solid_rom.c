@@ -897,4 +897,11 @@ void solid_rom_trust(void *c, const double *low, const double *high, const doubl
     out[1] = quadratic > 0.0 ? quadratic : 0.0;
 }
 
+/* solid_rom_evaluate, then solid_rom_trust of that evaluation: one call from the caller's language */
+void solid_rom_evaluate_trust(void *c, const double *f, double *u, double *x, double *reduced, const double *low,
+                              const double *high, const double *mean, const double *precision, double *out) {
+    solid_rom_evaluate(c, f, u, x, reduced);
+    solid_rom_trust(c, low, high, mean, precision, out);
+}
+
 void solid_rom_close(void *c) { fmi2FreeInstance((fmi2Component)c); }
