@@ -19,7 +19,10 @@ from rom_component.persistence import load
 
 ROM_SCHEMA = {"model": Required(str), "arithmetic": "reproducible",
               "on_out_of_range": "warn",     # "warn", "fail", or "fallback" (the full-order solid takes the call)
-              "range_margin": Value(0.05, low=0.0)}   # beyond a mode's training range by this fraction of it
+              "range_margin": Value(0.05, low=0.0),   # beyond a mode's training range by this fraction of it
+              # a window's first transient_calls calls are out of range only beyond transient_margin (the
+              # coupling's first updates overshoot and come back; the window's later calls answer to range_margin)
+              "transient_calls": Value(0, low=0), "transient_margin": Value(0.0, low=0.0)}
 ARITHMETIC = ("reproducible", "compiled", "fast")   # compiled: the FMU's C code in-process, same results
 TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
 
@@ -43,6 +46,11 @@ class RomSolid(Component):
             raise ComponentError(self.name, f"'on_out_of_range' is {prm['on_out_of_range']!r}; "
                                             "allowed: warn, fail, fallback")
         self.on_out_of_range, self.range_margin = prm["on_out_of_range"], prm["range_margin"]
+        self.transient_calls, self.transient_margin = prm["transient_calls"], prm["transient_margin"]
+        if self.transient_calls and self.transient_margin < self.range_margin:
+            raise ComponentError(self.name, f"'transient_margin' is {self.transient_margin:g}, below 'range_margin' "
+                                            f"{self.range_margin:g}: the first calls would answer to a stricter limit")
+        self._calls_in_window = 0
         self.trust_values = np.array([0.0, 0.0, 0.0])   # excess, distance, out of range (0 or 1)
         meta = self.rom.metadata
         self.input_name = meta.get("input_variable", "pressure")
@@ -87,6 +95,7 @@ class RomSolid(Component):
     def do_step(self, t: float, dt: float) -> None:
         if self._window_time is not None and t != self._window_time:
             self._keep_converged()
+        self._calls_in_window = self._calls_in_window + 1 if t == self._window_time else 1
         self._window_time = t
         self.displacement = self.rom(self.force)
         self._last_reduced = self.rom.reduced
@@ -103,12 +112,13 @@ class RomSolid(Component):
     def _check_range(self, t: float) -> None:
         """Trust of this call; out of range: a warning, an error, or (fallback) a flag the coupler acts on."""
         excess, distance = self.rom.trust()
-        out = excess > self.range_margin
+        margin = self.transient_margin if self._calls_in_window <= self.transient_calls else self.range_margin
+        out = excess > margin
         self.trust_values = np.array((excess, distance, 1.0 if out else 0.0))
         if not out:
             return
         message = (f"input outside the training range (a reduced force mode beyond the training data by more than "
-                   f"{self.range_margin:g} of its range)")
+                   f"{margin:g} of its range)")
         if self.on_out_of_range == "fail":
             raise ComponentError(self.name, message)
         if self.on_out_of_range == "warn":

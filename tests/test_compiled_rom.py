@@ -102,3 +102,23 @@ def test_a_tube_rom_fom_run_is_the_same_with_the_compiled_path(fom, model, tmp_p
         np.testing.assert_array_equal(a.windows.iterations, b.windows.iterations)
         for name in ("pressure", "section"):
             np.testing.assert_array_equal(a.fields()[name], b.fields()[name])
+
+
+def test_a_window_s_first_calls_answer_to_the_transient_margin(models):  # noqa: F811
+    path, _, F = models["qm_poly"]
+    probe = RomSolid()
+    probe.instantiate({"model": str(path), "arithmetic": "compiled"})
+    far = F[0] * 3.0 - 1.0
+    excess = probe.step(0.0, 0.01, {"force": far})["rom_excess"][0]
+    assert excess > 1.0
+    settings = {"model": str(path), "arithmetic": "compiled", "on_out_of_range": "fallback", "range_margin": 0.05,
+                "transient_calls": 2}
+    component = RomSolid()
+    component.instantiate({**settings, "transient_margin": 2.0 * excess})
+    flags = [component.step(t, 0.01, {"force": far})["rom_out_of_range"][0] for t in (0.0, 0.0, 0.0, 0.01, 0.01)]
+    assert flags == [0.0, 0.0, 1.0, 0.0, 0.0]         # the third call of a window answers to range_margin
+    strict = RomSolid()
+    strict.instantiate({**settings, "transient_margin": 0.5 * excess})
+    assert strict.step(0.0, 0.01, {"force": far})["rom_out_of_range"][0] == 1.0
+    with pytest.raises(ComponentError, match="'transient_margin' is 0.01, below 'range_margin' 0.05"):
+        RomSolid().instantiate({**settings, "transient_margin": 0.01})
