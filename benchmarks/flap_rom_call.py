@@ -6,7 +6,8 @@ Prints per-call times (median and interquartile range of repeated timings, micro
 - the ROM's offline path (estimator.predict on one row) as a baseline;
 - the ROM's online interface path (530 forces in, 530 interface displacements out: encoder, sparse
   quadratic polynomial, quadratic manifold restricted to the interface) in fast and reproducible arithmetic,
-  and compiled (the FMU's C code in-process, bit-identical to reproducible), and the ROM component's step;
+  and compiled (the FMU's C code in-process, bit-identical to reproducible; and, as a baseline, built without
+  its vector sums), and the ROM component's step;
 - the exported FMU through the fmu component (raw fmi2 calls) and, as a baseline, through fmpy;
 - unless --small, the ROM component's step inside a coupled run (Kratos fluid, the scene's settings, the
   first COUPLED windows from t = 0) from the run's own timings: its caches are cold after each fluid solve;
@@ -34,6 +35,7 @@ sys.path.insert(0, str(ROOT))
 from benchmarks.common import Timing, cold_call, fresh_directory, machine, per_call, rewrite_readme  # noqa: E402
 from cosim.component import MESH_PREFIX  # noqa: E402
 from rom_component import persistence  # noqa: E402
+from rom_component.compiled import CompiledRom  # noqa: E402
 from rom_component.component import RomSolid  # noqa: E402
 from rom_component.estimator import SolidRom  # noqa: E402
 from rom_component.fmu_export import export_fmu  # noqa: E402
@@ -134,6 +136,7 @@ def main(argv: list[str] | None = None) -> dict:
     slave = fmu.slave
     refs_in, refs_out = list(np.ravel(fmu.inputs["force"][0])), list(np.ravel(fmu.outputs["displacement"][0]))
     compiled = persistence.load(model_path, "compiled")
+    scalar = CompiledRom(*persistence.load_arrays(model_path), defines=("SOLID_ROM_SCALAR",))
     component = RomSolid()
     component.instantiate({"model": str(model_path)})
     compiled_component = RomSolid()
@@ -147,7 +150,7 @@ def main(argv: list[str] | None = None) -> dict:
         return slave.getReal(refs_out)
 
     np.testing.assert_array_equal(np.ravel(fmu.step(0.0, 0.008, {"force": force})["displacement"]), online(f))
-    assert compiled(f).tobytes() == online(f).tobytes()
+    assert compiled(f).tobytes() == online(f).tobytes() == scalar(f).tobytes()
     np.testing.assert_allclose(online(f), estimator.predict(f[None])[0, K], rtol=1e-10, atol=1e-14)
     rows = [
         ("ROM offline path: estimator.predict(one row), full field (baseline)",
@@ -155,6 +158,7 @@ def main(argv: list[str] | None = None) -> dict:
         ("ROM online interface path, fast arithmetic (BLAS)", per_call(lambda: fast(f), repeat)),
         ("ROM online interface path, reproducible arithmetic (= the FMU)", per_call(lambda: online(f), repeat)),
         ("ROM online interface path, compiled (the FMU's C code in-process)", per_call(lambda: compiled(f), repeat)),
+        ("  the same built without vector sums (-DSOLID_ROM_SCALAR, baseline)", per_call(lambda: scalar(f), repeat)),
         ("ROM component step (reproducible, input checks, trust)",
          per_call(lambda: component.step(0.0, 0.008, {"force": force}), repeat)),
         ("ROM component step (compiled, input checks, trust)",
@@ -208,7 +212,7 @@ def main(argv: list[str] | None = None) -> dict:
     medians = {label: timing.median * 1e-6 for label, timing in rows + fom_rows}
     (out / "calls.json").write_text(json.dumps({"median_seconds": medians, "machine": machine()}, indent=1))
     if args.readme:
-        rewrite_readme("flap-rom-call", lines, f"python benchmarks/flap_rom_call.py --results ... --readme")
+        rewrite_readme("flap-rom-call", lines, "python benchmarks/flap_rom_call.py --results ... --readme")
     return {"machine": machine(), "calls": dict(rows + fom_rows), "fit_seconds": fit_seconds, "flops": flops,
             "out": str(out)}
 

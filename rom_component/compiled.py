@@ -28,10 +28,10 @@ def cache_dir() -> Path:
     return Path(os.environ.get("COSIM_CACHE") or Path.home() / ".cache" / "cosim")
 
 
-def library_path() -> Path:
-    """The compiled solid_rom library for the present source and compiler, built if missing."""
+def library_path(defines: tuple[str, ...] = ()) -> Path:
+    """The compiled solid_rom library for the present source, compiler and ``defines``, built if missing."""
     compiler = os.environ.get("CC", "cc")
-    digest = hashlib.sha256(SOURCE.read_bytes() + compiler.encode()).hexdigest()[:16]
+    digest = hashlib.sha256(SOURCE.read_bytes() + compiler.encode() + " ".join(defines).encode()).hexdigest()[:16]
     target = cache_dir() / f"solid_rom-{digest}.so"
     if target.is_file():
         return target
@@ -40,13 +40,13 @@ def library_path() -> Path:
         sources = Path(tmp)
         write_sources(sources)
         built = sources / target.name
-        compile_binary(sources, built)
+        compile_binary(sources, built, defines)
         os.replace(built, target)    # atomic: processes building at once all end with a whole library
     return target
 
 
-def _library() -> ctypes.CDLL:
-    lib = ctypes.CDLL(str(library_path()))
+def _library(defines: tuple[str, ...] = ()) -> ctypes.CDLL:
+    lib = ctypes.CDLL(str(library_path(defines)))
     lib.solid_rom_open.restype = ctypes.c_void_p
     lib.solid_rom_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
     lib.solid_rom_last_error.restype = ctypes.c_char_p
@@ -61,10 +61,11 @@ def _library() -> ctypes.CDLL:
 class CompiledRom(OnlineRom):
     """``OnlineRom`` whose calls run the FMU's C code (bit-identical to ``arithmetic="reproducible"``)."""
 
-    def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]):
+    def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], defines: tuple[str, ...] = ()):
+        """``defines``: preprocessor names for the build (``SOLID_ROM_SCALAR``: no vector types, same results)."""
         super().__init__(arrays, metadata, "reproducible")
         self.arithmetic = "compiled"
-        self._lib = _library()
+        self._lib = _library(defines)
         guid = model_guid(self, 1)
         with tempfile.TemporaryDirectory() as tmp:   # the C code reads the whole file at open
             (Path(tmp) / "rom.bin").write_bytes(resource_bytes(self, guid, 1))

@@ -12,7 +12,6 @@ from cosim.results import RunResults
 from rom_component import compiled, persistence
 from rom_component.component import RomSolid
 from rom_component.estimator import SolidRom
-from rom_component.fmu_export import compile_binary, write_sources
 
 from tests.conftest import children_of
 from tests.test_flap_rom import calls  # noqa: F401  (the module's fixture)
@@ -53,14 +52,10 @@ def test_compiled_calls_are_bit_identical_on_the_double_flap(calls, tmp_path):  
 
 def test_the_scalar_build_gives_the_vector_builds_bits(calls, tmp_path, monkeypatch):  # noqa: F811
     path, F = flap_model(calls, tmp_path)
-    vector = persistence.load(path, "compiled")
-    sources = tmp_path / "sources"
-    sources.mkdir()
-    write_sources(sources)
-    compile_binary(sources, tmp_path / "scalar.so", ("SOLID_ROM_SCALAR",))
-    monkeypatch.setattr(compiled, "library_path", lambda: tmp_path / "scalar.so")
-    scalar, reference = persistence.load(path, "compiled"), persistence.load(path)
-    assert scalar._lib._name != vector._lib._name
+    monkeypatch.setenv("COSIM_CACHE", str(tmp_path / "cache"))
+    vector, reference = persistence.load(path, "compiled"), persistence.load(path)
+    scalar = compiled.CompiledRom(*persistence.load_arrays(path), defines=("SOLID_ROM_SCALAR",))
+    assert scalar._lib._name != vector._lib._name and len(list((tmp_path / "cache").iterdir())) == 2
     for f in F:
         assert scalar(f).tobytes() == vector(f).tobytes() == reference(f).tobytes()
         assert scalar.reduced.tobytes() == vector.reduced.tobytes()
