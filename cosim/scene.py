@@ -39,6 +39,8 @@ COMPONENT = {
         "arithmetic": "reproducible",
         "on_out_of_range": "warn",     # a call outside the training range: "warn", "fail", or "fallback"
         "range_margin": Value(0.05, low=0.0),   # (the full-order solid, kept running, takes such calls)
+        # a window's first transient_calls calls are out of range only beyond transient_margin
+        "transient_calls": Value(0, low=0), "transient_margin": Value(0.0, low=0.0),
     },
     "fmu": {                # any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)
         "entry": "solid_component.fmu:FmuSolid",
