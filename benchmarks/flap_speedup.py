@@ -13,6 +13,7 @@ Usage:
   python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
       --switch-time 0.8 [--end 6.0] [--rom-first] [--readme]
   python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
+  python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-...  the table of an earlier run again
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ import os
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -70,11 +73,20 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
     parser.add_argument("--small", action="store_true", help="8 windows and a ROM trained on the first 4 (tests)")
     parser.add_argument("--readme", action="store_true", help="rewrite the README's flap-speedup block")
+    parser.add_argument("--report", help="print (and with --readme write) the table of this earlier run's directory")
     args = parser.parse_args(argv)
-    if not args.small and (args.model is None or args.reynolds is None or args.switch_time is None):
-        parser.error("give --model, --reynolds and --switch-time, or --small")
+    if not (args.small or args.report) and (args.model is None or args.reynolds is None or args.switch_time is None):
+        parser.error("give --model, --reynolds and --switch-time, or --small, or --report")
+    if args.report:      # the machine's load then: the table's column "load before" (the machine line's is of now)
+        out = Path(args.report)
+        earlier = json.loads((out / "speedup.json").read_text())
+        rom = Run.read(out / "rom")
+        rom_table = rom.scene["components"][rom.participant]["rom"]
+        return tabulate(out, machine().split(", load average")[0], earlier["timings"],
+                        float(rom.scene["flow"]["reynolds"]), float(rom.scene["time"]["end"]),
+                        float(rom_table["switch_time"]), rom_table["model"], args.readme)
+    machine_line = machine()
     out = fresh_directory("flap_speedup")
-    lines = [f"machine: {machine()}"]
     if args.small:
         reynolds, end = SMALL["reynolds"], SMALL["windows"] * DT
         timings = {"reference": run_once(out / "reference", reynolds, end)}
@@ -86,6 +98,13 @@ def main(argv: list[str] | None = None) -> dict:
         timings = {}
         for kind in order:
             timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
+    return tabulate(out, machine_line, timings, reynolds, end, switch, str(model), args.readme)
+
+
+def tabulate(out: Path, machine_line: str, timings: dict, reynolds: float, end: float, switch: float, model: str,
+             readme: bool) -> dict:
+    """Print the table of the two runs in ``out``, write speedup.json; with ``readme`` the README block too."""
+    lines = [f"machine: {machine_line}"]
     row = compare(Run.read(out / "rom"), Run.read(out / "reference"))
     solid = row["solid"]
     ratio = row["iterations"] / row["reference_iterations"]
@@ -100,14 +119,18 @@ def main(argv: list[str] | None = None) -> dict:
     lines += [f"double flap, Re = {reynolds:g}, [0, {end:g}] s, ROM from {switch:g} s ({row['predicted_windows']} of "
               f"{len(Run.read(out / 'rom').time)} windows); model {model}; order: {' then '.join(timings)}",
               f"{'run':<12}{'load before':>12}{'wall s':>9}{'iterations':>11}{'fluid compute s':>16}"
-              f"{'solid compute s':>16}"]
+              f"{'solid compute s':>16}   fluid ms per call: before the switch (the same work in both runs), after"]
+    served_windows = Run.read(out / "rom").predicted()
     for kind, run_dir in (("reference", out / "reference"), ("rom", out / "rom")):
         run = Run.read(run_dir)
         solid_name = run.rom_backend or "solid"
         others = sum(c["compute_seconds"].sum() for n, c in run.components.items() if n not in ("solid", run.rom_backend))
         solids = sum(run.components[n]["compute_seconds"].sum() for n in {"solid", solid_name} if n in run.components)
+        per_call = run.components["fluid"]["compute_seconds"] * 1e3
+        after = served_windows[np.repeat(np.arange(len(run.iterations)), run.iterations)]
         lines.append(f"{'FOM-FOM' if kind == 'reference' else 'ROM-FOM':<12}{timings[kind]['load_average_before']:>12.2f}"
-                     f"{run.wall:>9.1f}{int(run.iterations.sum()):>11}{others:>16.1f}{solids:>16.1f}")
+                     f"{run.wall:>9.1f}{int(run.iterations.sum()):>11}{others:>16.1f}{solids:>16.1f}"
+                     f"   {per_call[~after].mean():.1f}, {per_call[after].mean():.1f}")
     lines += [f"solid sigma (compute per call, FOM over ROM): {solid['speedup_compute']:.0f} "
               f"(ROM {solid['rom_compute_median_s'] * 1e6:.0f} us median in the run, FOM {solid['fom_compute_median_s'] * 1e3:.1f} ms)",
               f"{'':<22}{'speed-up':>10}{'bound':>8}{'ratio':>8}{'iterations':>12}{'bound at these iterations':>27}{'ratio':>8}",
@@ -120,12 +143,13 @@ def main(argv: list[str] | None = None) -> dict:
               f"e(t) on the full field over the served windows: mean {row['displacement_error']['mean']:.2%}, "
               f"max {row['displacement_error']['max']:.2%}; {row['rom_fallback_windows']} windows fell back to the solid FOM"]
     print("\n".join(lines))
-    result = {"machine": machine(), "timings": timings, "row": {k: v for k, v in row.items() if not k.startswith("_")},
+    result = {"machine": machine_line, "timings": timings, "reynolds": reynolds, "end": end, "switch_time": switch,
+              "model": model, "row": {k: v for k, v in row.items() if not k.startswith("_")},
               "bound_at_run_iterations": bound_iterations, "served_bound_at_run_iterations": served_bound_iterations,
               "out": str(out)}
     (out / "speedup.json").write_text(json.dumps(result, indent=1, default=float))
-    if args.readme:
-        rewrite_readme("flap-speedup", lines, "python benchmarks/flap_speedup.py --model ... --readme")
+    if readme:
+        rewrite_readme("flap-speedup", lines, "python benchmarks/flap_speedup.py --model ... --readme, or --report DIR --readme")
     return result
 
 

@@ -85,3 +85,5 @@ def test_flap_speedup_benchmark_small(capsys):
     assert result["bound_at_run_iterations"] == pytest.approx(expected, rel=1e-12)
     assert (result["bound_at_run_iterations"] < row["total_speedup_bound"]) == (ratio > 1)
     assert 1.0 < row["total_speedup_bound"] < (fluid + solid) / fluid    # the ROM cannot remove the fluid's cost
+    again = flap_speedup.main(["--report", str(out)])          # the table of the recorded runs, again
+    assert again["row"]["total_speedup"] == row["total_speedup"] and again["switch_time"] == pytest.approx(4 * 0.008)
