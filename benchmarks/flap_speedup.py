@@ -25,15 +25,13 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import fresh_directory, machine, rewrite_readme  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
-from rom_component.report import Run, compare  # noqa: E402
+from rom_component.report import Run, call_windows, compare  # noqa: E402
 from rom_component.train import load_config, train  # noqa: E402
 
 SCENE = ROOT / "scenes" / "double_flap.toml"
@@ -79,12 +77,8 @@ def main(argv: list[str] | None = None) -> dict:
         parser.error("give --model, --reynolds and --switch-time, or --small, or --report")
     if args.report:      # the machine's load then: the table's column "load before" (the machine line's is of now)
         out = Path(args.report)
-        earlier = json.loads((out / "speedup.json").read_text())
-        rom = Run.read(out / "rom")
-        rom_table = rom.scene["components"][rom.participant]["rom"]
-        return tabulate(out, machine().split(", load average")[0], earlier["timings"],
-                        float(rom.scene["flow"]["reynolds"]), float(rom.scene["time"]["end"]),
-                        float(rom_table["switch_time"]), rom_table["model"], args.readme)
+        timings = json.loads((out / "speedup.json").read_text())["timings"]
+        return tabulate(out, machine().split(", load average")[0], timings, args.readme)
     machine_line = machine()
     out = fresh_directory("flap_speedup")
     if args.small:
@@ -98,14 +92,17 @@ def main(argv: list[str] | None = None) -> dict:
         timings = {}
         for kind in order:
             timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
-    return tabulate(out, machine_line, timings, reynolds, end, switch, str(model), args.readme)
+    return tabulate(out, machine_line, timings, args.readme)
 
 
-def tabulate(out: Path, machine_line: str, timings: dict, reynolds: float, end: float, switch: float, model: str,
-             readme: bool) -> dict:
+def tabulate(out: Path, machine_line: str, timings: dict, readme: bool) -> dict:
     """Print the table of the two runs in ``out``, write speedup.json; with ``readme`` the README block too."""
     lines = [f"machine: {machine_line}"]
-    row = compare(Run.read(out / "rom"), Run.read(out / "reference"))
+    runs = {"reference": Run.read(out / "reference"), "rom": Run.read(out / "rom")}
+    rom_table = runs["rom"].scene["components"][runs["rom"].participant]["rom"]
+    reynolds, end = float(runs["rom"].scene["flow"]["reynolds"]), float(runs["rom"].scene["time"]["end"])
+    switch, model = float(rom_table["switch_time"]), rom_table["model"]
+    row = compare(runs["rom"], runs["reference"])
     solid = row["solid"]
     ratio = row["iterations"] / row["reference_iterations"]
     fluid, solid_total = row["reference_fluid_compute_s"], row["reference_solid_compute_s"]
@@ -117,17 +114,16 @@ def tabulate(out: Path, machine_line: str, timings: dict, reynolds: float, end: 
     served_bound_iterations = (served["fluid_compute_s"] + served["solid_compute_s"]) / (
         served["fluid_compute_s"] * served_ratio + served_solid / sigma)
     lines += [f"double flap, Re = {reynolds:g}, [0, {end:g}] s, ROM from {switch:g} s ({row['predicted_windows']} of "
-              f"{len(Run.read(out / 'rom').time)} windows); model {model}; order: {' then '.join(timings)}",
+              f"{len(runs['rom'].time)} windows); model {model}; order: {' then '.join(timings)}",
               f"{'run':<12}{'load before':>12}{'wall s':>9}{'iterations':>11}{'fluid compute s':>16}"
               f"{'solid compute s':>16}   fluid ms per call: before the switch (the same work in both runs), after"]
-    served_windows = Run.read(out / "rom").predicted()
-    for kind, run_dir in (("reference", out / "reference"), ("rom", out / "rom")):
-        run = Run.read(run_dir)
+    served_windows = runs["rom"].predicted()
+    for kind, run in runs.items():
         solid_name = run.rom_backend or "solid"
         others = sum(c["compute_seconds"].sum() for n, c in run.components.items() if n not in ("solid", run.rom_backend))
         solids = sum(run.components[n]["compute_seconds"].sum() for n in {"solid", solid_name} if n in run.components)
         per_call = run.components["fluid"]["compute_seconds"] * 1e3
-        after = served_windows[np.repeat(np.arange(len(run.iterations)), run.iterations)]
+        after = served_windows[call_windows(run)]
         lines.append(f"{'FOM-FOM' if kind == 'reference' else 'ROM-FOM':<12}{timings[kind]['load_average_before']:>12.2f}"
                      f"{run.wall:>9.1f}{int(run.iterations.sum()):>11}{others:>16.1f}{solids:>16.1f}"
                      f"   {per_call[~after].mean():.1f}, {per_call[after].mean():.1f}")

@@ -180,5 +180,6 @@ def check_inputs(component: Component, values: Mapping[str, np.ndarray],
             raise ComponentError(component.name, f"'{name}' is not an input (inputs: {', '.join(shapes)})")
         shape = shapes[name]
         shape = (shape,) if isinstance(shape, int) else tuple(shape)
-        if np.shape(value) != shape:
-            raise ComponentError(component.name, f"input '{name}' has shape {np.shape(value)}, expected {shape}")
+        actual = value.shape if isinstance(value, np.ndarray) else np.shape(value)
+        if actual != shape:
+            raise ComponentError(component.name, f"input '{name}' has shape {actual}, expected {shape}")

@@ -76,15 +76,15 @@ class CompiledRom(OnlineRom):
         self._finalizer = weakref.finalize(self, self._lib.solid_rom_close, handle)
         # fixed buffers, their addresses taken once; the C code writes the reduced forces where trust() reads
         self._f, self._u, self._reduced = np.empty(self.n_inputs), np.empty(self.n_outputs), np.empty(len(self.reduced))
-        self._call = (self._lib.solid_rom_evaluate, handle, self._f.ctypes.data, self._u.ctypes.data,
-                      self._x_slot.ctypes.data, self._reduced.ctypes.data)
+        buffers = (handle, self._f.ctypes.data, self._u.ctypes.data, self._x_slot.ctypes.data, self._reduced.ctypes.data)
+        self._call = (self._lib.solid_rom_evaluate, *buffers)
         self._evaluate = self._compiled
         if self.envelope is not None:      # with an envelope, each call computes its trust too (one ctypes call)
             env = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in self.envelope.items()}
             self._trust_out = np.full(2, np.nan)
-            envelope = tuple(env[k].ctypes.data for k in ("envelope_low", "envelope_high", "envelope_mean",
-                                                          "envelope_precision"))
-            self._call = (self._lib.solid_rom_evaluate_trust, *self._call[1:], *envelope, self._trust_out.ctypes.data)
+            self._call = (self._lib.solid_rom_evaluate_trust, *buffers,
+                          *(env[k].ctypes.data for k in ("envelope_low", "envelope_high", "envelope_mean",
+                                                         "envelope_precision")), self._trust_out.ctypes.data)
             self._envelope_arrays, self._max_distance = env, float(env["envelope_max_distance"][0])
 
     def _compiled(self, f: np.ndarray) -> np.ndarray:

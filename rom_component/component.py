@@ -80,11 +80,9 @@ class RomSolid(Component):
         return self.mesh_nodes
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
-        value = values.get(self.input_name)
-        if len(values) != 1 or getattr(value, "shape", None) != self.input_shape:   # else the checks name the fault
-            check_inputs(self, values, {self.input_name: self.input_shape})
-        if value is not None:
-            self.force = value.reshape(-1) if isinstance(value, np.ndarray) else np.ravel(value)
+        check_inputs(self, values, {self.input_name: self.input_shape})
+        if self.input_name in values:
+            self.force = np.ravel(values[self.input_name])
 
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         known = {self.output_name: self.displacement.reshape(self.output_shape),

@@ -251,7 +251,7 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
             "rom_roundtrip_per_call_s": float(rom["roundtrip_seconds"].mean()),
             "speedup_compute": float(sigma), "speedup_roundtrip": float(sigma_rt)}
         # the bound for this run's schedule: the ROM replaces the solid FOM in the predicted windows only
-        in_predicted = predicted[_call_windows(reference)]      # per call of a once-per-iteration component
+        in_predicted = predicted[call_windows(reference)]      # per call of a once-per-iteration component
         solid_predicted = float(fom["compute_seconds"][in_predicted].sum()) \
             if len(fom["compute_seconds"]) == reference.iterations.sum() else solid_total
         result["total_speedup"] = reference.wall / run.wall
@@ -271,7 +271,7 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
     return result
 
 
-def _call_windows(run: Run) -> np.ndarray:
+def call_windows(run: Run) -> np.ndarray:
     """The window (0-based) of each call of a component called once per coupling iteration."""
     return np.repeat(np.arange(len(run.iterations)), run.iterations)
 
