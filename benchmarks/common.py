@@ -71,6 +71,21 @@ def cold_call(function: Callable[[], object], repeat: int = 15, flush_mb: int = 
     return Timing.of(np.array(times))
 
 
+def idle_call(function: Callable[[], object], repeat: int = 15, idle_seconds: float = 0.01) -> Timing:
+    """Time of one call of ``function`` after ``idle_seconds`` of the caller spinning on the clock (busy, no
+    data touched): what the machine itself does to the caches between two calls, without another process's
+    data (in a coupled run the ROM waits 0.2-0.3 s for the fluid between calls)."""
+    times = []
+    for _ in range(repeat):
+        until = time.perf_counter() + idle_seconds
+        while time.perf_counter() < until:
+            pass
+        started = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - started)
+    return Timing.of(np.array(times))
+
+
 def fresh_directory(kind: str) -> Path:
     """A new directory under runs/bench/ for this benchmark run (runs never overwrite each other)."""
     stamp = time.strftime("%Y%m%d-%H%M%S")

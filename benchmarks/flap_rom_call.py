@@ -32,7 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.common import Timing, cold_call, fresh_directory, machine, per_call, rewrite_readme  # noqa: E402
+from benchmarks.common import Timing, cold_call, fresh_directory, idle_call, machine, per_call, rewrite_readme  # noqa: E402
 from cosim.component import MESH_PREFIX  # noqa: E402
 from rom_component import persistence  # noqa: E402
 from rom_component.compiled import CompiledRom  # noqa: E402
@@ -165,7 +165,11 @@ def main(argv: list[str] | None = None) -> dict:
          per_call(lambda: compiled_component.step(0.0, 0.008, {"force": force}), repeat)),
         ("  the same with cold caches (64 MB of other data touched before each call)",
          cold_call(lambda: compiled_component.step(0.0, 0.008, {"force": force}), repeat)),
+        ("  the same after 10 ms of the caller spinning (no other data touched)",
+         idle_call(lambda: compiled_component.step(0.0, 0.008, {"force": force}), repeat)),
         ("FMU ROM: fmi2DoStep alone (the ROM inside the FMU)", per_call(lambda: fmu.do_step(0.0, 0.008), repeat)),
+        ("  the same after 10 ms of the caller spinning (the C code's own cold cost)",
+         idle_call(lambda: fmu.do_step(0.0, 0.008), repeat)),
         ("FMU ROM through the fmu component (raw fmi2 set, doStep, get)",
          per_call(lambda: fmu.step(0.0, 0.008, {"force": force}), repeat)),
         ("FMU ROM through fmpy setReal/doStep/getReal (baseline)", per_call(fmpy_convenience, repeat)),
