@@ -58,32 +58,38 @@ def per_call(function: Callable[[], object], repeat: int = 15, number: int | Non
     return Timing.of(np.array(timer.repeat(repeat=repeat, number=number)) / number)
 
 
-def cold_call(function: Callable[[], object], repeat: int = 15, flush_mb: int = 64) -> Timing:
-    """Time of one call of ``function`` after ``flush_mb`` MB of other data went through the caches (as a
-    component's call does after the other solver's turn): ``repeat`` single-call timings."""
-    other = np.ones(flush_mb * 2**20 // 8)
+def single_calls(function: Callable[[], object], before: Callable[[], object], repeat: int = 15) -> Timing:
+    """``repeat`` timings of one call of ``function``, each after ``before`` (untimed)."""
     times = []
     for _ in range(repeat):
-        other += 1.0                       # evict the caller's data from every cache level
+        before()
         started = time.perf_counter()
         function()
         times.append(time.perf_counter() - started)
     return Timing.of(np.array(times))
+
+
+def cold_call(function: Callable[[], object], repeat: int = 15, flush_mb: int = 64) -> Timing:
+    """Time of one call of ``function`` after ``flush_mb`` MB of other data went through the caches (as a
+    component's call does after the other solver's turn): ``repeat`` single-call timings."""
+    other = np.ones(flush_mb * 2**20 // 8)
+
+    def flush() -> None:
+        other[...] += 1.0                  # evict the caller's data from every cache level
+
+    return single_calls(function, flush, repeat)
 
 
 def idle_call(function: Callable[[], object], repeat: int = 15, idle_seconds: float = 0.01) -> Timing:
     """Time of one call of ``function`` after ``idle_seconds`` of the caller spinning on the clock (busy, no
     data touched): what the machine itself does to the caches between two calls, without another process's
     data (in a coupled run the ROM waits 0.2-0.3 s for the fluid between calls)."""
-    times = []
-    for _ in range(repeat):
+    def spin() -> None:
         until = time.perf_counter() + idle_seconds
         while time.perf_counter() < until:
             pass
-        started = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - started)
-    return Timing.of(np.array(times))
+
+    return single_calls(function, spin, repeat)
 
 
 def fresh_directory(kind: str) -> Path:

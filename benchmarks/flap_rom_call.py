@@ -144,6 +144,9 @@ def main(argv: list[str] | None = None) -> dict:
     f = np.ascontiguousarray(F[len(F) // 2])
     force = f.reshape(265, 2)
 
+    def compiled_step() -> dict:
+        return compiled_component.step(0.0, 0.008, {"force": force})
+
     def fmpy_convenience() -> list:
         slave.setReal(refs_in, list(f))
         slave.doStep(0.0, 0.008)
@@ -162,11 +165,11 @@ def main(argv: list[str] | None = None) -> dict:
         ("ROM component step (reproducible, input checks, trust)",
          per_call(lambda: component.step(0.0, 0.008, {"force": force}), repeat)),
         ("ROM component step (compiled, input checks, trust)",
-         per_call(lambda: compiled_component.step(0.0, 0.008, {"force": force}), repeat)),
+         per_call(compiled_step, repeat)),
         ("  the same with cold caches (64 MB of other data touched before each call)",
-         cold_call(lambda: compiled_component.step(0.0, 0.008, {"force": force}), repeat)),
+         cold_call(compiled_step, repeat)),
         ("  the same after 10 ms of the caller spinning (no other data touched)",
-         idle_call(lambda: compiled_component.step(0.0, 0.008, {"force": force}), repeat)),
+         idle_call(compiled_step, repeat)),
         ("FMU ROM: fmi2DoStep alone (the ROM inside the FMU)", per_call(lambda: fmu.do_step(0.0, 0.008), repeat)),
         ("  the same after 10 ms of the caller spinning (the C code's own cold cost)",
          idle_call(lambda: fmu.do_step(0.0, 0.008), repeat)),
