@@ -1,8 +1,12 @@
-"""Benchmark of the double flap's total speed-up: FOM-FOM and ROM-FOM one after the other, each alone.
+"""Benchmark of the double flap's total speed-up: FOM-FOM and ROM-FOM, each alone or side by side.
 
 The campaign's walls come from runs that shared the cores with other runs, so their ratio says little. This
-runs ``scenes/double_flap.toml`` at one Reynolds number over [0, END] s twice in a row on this machine: the
-FOM-FOM reference (the baseline) and the same scene with the trained ROM in the solid's place from SWITCH s.
+runs ``scenes/double_flap.toml`` at one Reynolds number over [0, END] s twice on this machine: the FOM-FOM
+reference (the baseline) and the same scene with the trained ROM in the solid's place from SWITCH s. By
+default one after the other, each alone; the machine's speed drifts by a few per cent between two runs half
+an hour apart, and that moves the ratio. With ``--side-by-side`` both run at the same time, each on a core
+of its own (all its processes pinned there; a run's solvers take turns, so one core serves it), and see the
+same machine; ``--swap-cores`` puts the reference on the second core instead.
 It prints the load average before each run, walls, coupling iterations, the solid's sigma, and the report's
 total speed-up against its bound (T_f + T_s) / (T_f + T_s,FOM part + T_s,ROM part / sigma), over the whole
 run and over the served windows. The bound assumes the reference's coupling iterations; the last column
@@ -11,7 +15,7 @@ the cost of extra iterations from the coupler's and the machine's.
 
 Usage:
   python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
-      --switch-time 0.8 [--end 6.0] [--rom-first] [--readme]
+      --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--readme]
   python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
   python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-...  the table of an earlier run again
 """
@@ -21,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -54,6 +59,39 @@ def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | No
     return {"load_average_before": load, "seconds": time.perf_counter() - started}
 
 
+def side_by_side(out: Path, reynolds: float, end: float, rom: tuple[str, float], swap: bool) -> dict:
+    """The reference and the ROM-FOM run at the same time, each in a process of this script pinned to a core of
+    its own (0 and 1, or swapped); the first to fail stops the other."""
+    if len(os.sched_getaffinity(0)) < 2:
+        raise SystemExit("--side-by-side needs two cores")
+    cores = {"reference": 1, "rom": 0} if swap else {"reference": 0, "rom": 1}
+    common = [sys.executable, __file__, "--reynolds", repr(reynolds), "--end", repr(end), "--model", rom[0],
+              "--switch-time", repr(rom[1]), "--out", str(out)]
+    children = {kind: subprocess.Popen([*common, "--one", kind, "--core", str(core)]) for kind, core in cores.items()}
+    try:
+        while True:
+            codes = {kind: child.poll() for kind, child in children.items()}
+            failed = [kind for kind, code in codes.items() if code not in (None, 0)]
+            if failed:
+                raise SystemExit(f"the {failed[0]} run failed (exit code {codes[failed[0]]}); see {out / failed[0]}")
+            if all(code == 0 for code in codes.values()):
+                break
+            time.sleep(1.0)
+    finally:
+        for child in children.values():
+            if child.poll() is None:
+                child.terminate()
+                child.wait()
+    return {kind: json.loads((out / f"{kind}.timing.json").read_text()) for kind in cores}
+
+
+def run_one(out: Path, kind: str, core: int, reynolds: float, end: float, rom: tuple[str, float]) -> None:
+    """One run of a side-by-side pair, pinned to ``core`` (with every process it starts); its timing to a file."""
+    os.sched_setaffinity(0, {core})
+    timing = {**run_once(out / kind, reynolds, end, rom if kind == "rom" else None), "core": core}
+    (out / f"{kind}.timing.json").write_text(json.dumps(timing))
+
+
 def small_model(reference: Path, out: Path) -> tuple[Path, float]:
     """A ROM trained on the reference's first windows (the short protocol in miniature)."""
     switch = SMALL["train_windows"] * DT
@@ -69,6 +107,12 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--switch-time", type=float, help="the ROM takes the solid's place from this time (s)")
     parser.add_argument("--end", type=float, default=6.0, help="end time of both runs (s)")
     parser.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
+    parser.add_argument("--side-by-side", action="store_true",
+                        help="run both at the same time, each pinned to a core of its own")
+    parser.add_argument("--swap-cores", action="store_true", help="side by side: the reference on core 1, the ROM on 0")
+    parser.add_argument("--one", choices=("reference", "rom"), help=argparse.SUPPRESS)   # a side-by-side child
+    parser.add_argument("--core", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--small", action="store_true", help="8 windows and a ROM trained on the first 4 (tests)")
     parser.add_argument("--readme", action="store_true", help="rewrite the README's flap-speedup block")
     parser.add_argument("--report", help="print (and with --readme write) the table of this earlier run's directory")
@@ -79,19 +123,29 @@ def main(argv: list[str] | None = None) -> dict:
         out = Path(args.report)
         timings = json.loads((out / "speedup.json").read_text())["timings"]
         return tabulate(out, machine().split(", load average")[0], timings, args.readme)
+    if args.one:
+        run_one(Path(args.out), args.one, args.core, args.reynolds, args.end, (args.model, args.switch_time))
+        return {}
     machine_line = machine()
     out = fresh_directory("flap_speedup")
     if args.small:
         reynolds, end = SMALL["reynolds"], SMALL["windows"] * DT
-        timings = {"reference": run_once(out / "reference", reynolds, end)}
-        model, switch = small_model(out / "reference", out / "model.npz")
-        timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch))
+        trained_on = out / ("training" if args.side_by_side else "reference")
+        timings = {"reference": run_once(trained_on, reynolds, end)}
+        model, switch = small_model(trained_on, out / "model.npz")
+        if args.side_by_side:
+            timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores)
+        else:
+            timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch))
     else:
         reynolds, end, model, switch = args.reynolds, args.end, Path(args.model).resolve(), args.switch_time
-        order = ["rom", "reference"] if args.rom_first else ["reference", "rom"]
-        timings = {}
-        for kind in order:
-            timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
+        if args.side_by_side:
+            timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores)
+        else:
+            order = ["rom", "reference"] if args.rom_first else ["reference", "rom"]
+            timings = {}
+            for kind in order:
+                timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
     return tabulate(out, machine_line, timings, args.readme)
 
 
@@ -113,8 +167,11 @@ def tabulate(out: Path, machine_line: str, timings: dict, readme: bool) -> dict:
     served_ratio = row["predicted_iterations_ratio"]
     served_bound_iterations = (served["fluid_compute_s"] + served["solid_compute_s"]) / (
         served["fluid_compute_s"] * served_ratio + served_solid / sigma)
+    cores = {kind: t["core"] for kind, t in timings.items() if "core" in t}
+    order = (f"side by side, reference on core {cores['reference']}, ROM-FOM on core {cores['rom']}" if cores
+             else f"order: {' then '.join(timings)}")
     lines += [f"double flap, Re = {reynolds:g}, [0, {end:g}] s, ROM from {switch:g} s ({row['predicted_windows']} of "
-              f"{len(runs['rom'].time)} windows); model {model}; order: {' then '.join(timings)}",
+              f"{len(runs['rom'].time)} windows); model {model}; {order}",
               f"{'run':<12}{'load before':>12}{'wall s':>9}{'iterations':>11}{'fluid compute s':>16}"
               f"{'solid compute s':>16}   fluid ms per call: before the switch (the same work in both runs), after"]
     served_windows = runs["rom"].predicted()

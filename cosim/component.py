@@ -82,6 +82,9 @@ class Component:
     #: a ``step`` with the same ``t`` solves that window again from the last iterate
     repeats_steps: bool = False
 
+    #: seconds without a request after which the server calls ``idle`` (None: never)
+    idle_interval: float | None = None
+
     @property
     def can_get_and_set_state(self) -> bool:
         return type(self).save_state is not Component.save_state
@@ -118,6 +121,9 @@ class Component:
     def terminate(self) -> dict[str, np.ndarray]:
         """End of the run; may return arrays for the results file."""
         return {}
+
+    def idle(self) -> None:
+        """Work between requests, every ``idle_interval`` seconds without one; must change no result."""
 
     # --- data -----------------------------------------------------------
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:

@@ -41,6 +41,8 @@ COMPONENT = {
         "range_margin": Value(0.05, low=0.0),   # (the full-order solid, kept running, takes such calls)
         # a window's first transient_calls calls are out of range only beyond transient_margin
         "transient_calls": Value(0, low=0), "transient_margin": Value(0.0, low=0.0),
+        # between calls, repeat the last one every keep_warm seconds (0: never) to keep the ROM's data in the caches
+        "keep_warm": Value(0.0, low=0.0),
     },
     "fmu": {                # any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)
         "entry": "solid_component.fmu:FmuSolid",

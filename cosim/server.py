@@ -156,12 +156,23 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # later prints go to the log, not the handshake pipe
     poller = zmq.Poller()
     poller.register(socket, zmq.POLLIN)
+    parent_checked = time.monotonic()
     try:
         while True:
-            if not poller.poll(PARENT_CHECK_SECONDS * 1000):
-                if parent_pid is not None and os.getppid() != parent_pid:
-                    print(f"{component.name}: parent process {parent_pid} is gone; exiting", file=sys.stderr)
-                    return 3
+            interval = component.idle_interval
+            wait = PARENT_CHECK_SECONDS if interval is None else min(interval, PARENT_CHECK_SECONDS)
+            if not poller.poll(max(1, round(wait * 1000))):    # ZeroMQ polls in whole milliseconds
+                if interval is not None:
+                    try:
+                        component.idle()
+                    except Exception as exc:   # idle work is optional: stop it, keep serving
+                        print(f"{component.name}: idle work failed, stopped: {exc}", file=sys.stderr)
+                        component.idle_interval = None
+                if time.monotonic() - parent_checked >= PARENT_CHECK_SECONDS:
+                    parent_checked = time.monotonic()
+                    if parent_pid is not None and os.getppid() != parent_pid:
+                        print(f"{component.name}: parent process {parent_pid} is gone; exiting", file=sys.stderr)
+                        return 3
                 continue
             identity, *frames = socket.recv_multipart(copy=False)
             reply, stop = server.handle(frames)
