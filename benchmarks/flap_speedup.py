@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -115,14 +116,20 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--small", action="store_true", help="8 windows and a ROM trained on the first 4 (tests)")
     parser.add_argument("--readme", action="store_true", help="rewrite the README's flap-speedup block")
-    parser.add_argument("--report", help="print (and with --readme write) the table of this earlier run's directory")
+    parser.add_argument("--report", nargs="+", metavar="DIR",
+                        help="print (and with --readme write) the tables of earlier runs' directories; of several pairs "
+                             "also their geometric means")
     args = parser.parse_args(argv)
     if not (args.small or args.report) and (args.model is None or args.reynolds is None or args.switch_time is None):
         parser.error("give --model, --reynolds and --switch-time, or --small, or --report")
     if args.report:      # the machine's load then: the table's column "load before" (the machine line's is of now)
-        out = Path(args.report)
-        timings = json.loads((out / "speedup.json").read_text())["timings"]
-        return tabulate(out, machine().split(", load average")[0], timings, args.readme)
+        results = [tabulate(Path(directory), machine().split(", load average")[0],
+                            json.loads((Path(directory) / "speedup.json").read_text())["timings"])
+                   for directory in args.report]
+        lines = results[0]["lines"] + [line for result in results[1:] for line in ["", *result["lines"][1:]]]  # one machine line
+        if len(results) > 1:
+            lines += pairs_summary(results)
+        return publish(lines, args.readme, results[0] if len(results) == 1 else {"pairs": results})
     if args.one:
         run_one(Path(args.out), args.one, args.core, args.reynolds, args.end, (args.model, args.switch_time))
         return {}
@@ -146,11 +153,35 @@ def main(argv: list[str] | None = None) -> dict:
             timings = {}
             for kind in order:
                 timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
-    return tabulate(out, machine_line, timings, args.readme)
+    result = tabulate(out, machine_line, timings)
+    return publish(result["lines"], args.readme, result)
 
 
-def tabulate(out: Path, machine_line: str, timings: dict, readme: bool) -> dict:
-    """Print the table of the two runs in ``out``, write speedup.json; with ``readme`` the README block too."""
+def publish(lines: list[str], readme: bool, result: dict) -> dict:
+    """Print ``lines``; with ``readme`` put them in the README's flap-speedup block too."""
+    print("\n".join(lines))
+    if readme:
+        rewrite_readme("flap-speedup", lines, "python benchmarks/flap_speedup.py --model ... --readme, or --report DIR... --readme")
+    return result
+
+
+def pairs_summary(results: list[dict]) -> list[str]:
+    """Geometric means over several pairs of runs (side by side with the cores swapped, a core's own speed
+    cancels out of the mean: it divides one pair's speed-up and multiplies the other's)."""
+    def mean(values: list[float]) -> float:
+        return math.exp(sum(math.log(v) for v in values) / len(values))
+
+    speedup = [r["row"]["total_speedup"] for r in results]
+    bound = [r["row"]["total_speedup_bound"] for r in results]
+    ratio = [s / b for s, b in zip(speedup, bound)]
+    own = [s / r["bound_at_run_iterations"] for s, r in zip(speedup, results)]
+    return ["", f"over these {len(results)} pairs (geometric means): speed-up {mean(speedup):.3f}, bound {mean(bound):.3f}, "
+                f"ratio {mean(ratio):.1%} (pairs: {', '.join(f'{x:.1%}' for x in ratio)}); against the bound at the runs' "
+                f"own iterations {mean(own):.1%}"]
+
+
+def tabulate(out: Path, machine_line: str, timings: dict) -> dict:
+    """The table of the two runs in ``out`` (``lines`` of the result); writes speedup.json."""
     lines = [f"machine: {machine_line}"]
     runs = {"reference": Run.read(out / "reference"), "rom": Run.read(out / "rom")}
     rom_table = runs["rom"].scene["components"][runs["rom"].participant]["rom"]
@@ -195,15 +226,12 @@ def tabulate(out: Path, machine_line: str, timings: dict, readme: bool) -> dict:
               f"{served['speedup'] / served_bound_iterations:>8.1%}",
               f"e(t) on the full field over the served windows: mean {row['displacement_error']['mean']:.2%}, "
               f"max {row['displacement_error']['max']:.2%}; {row['rom_fallback_windows']} windows fell back to the solid FOM"]
-    print("\n".join(lines))
     result = {"machine": machine_line, "timings": timings, "reynolds": reynolds, "end": end, "switch_time": switch,
               "model": model, "row": {k: v for k, v in row.items() if not k.startswith("_")},
               "bound_at_run_iterations": bound_iterations, "served_bound_at_run_iterations": served_bound_iterations,
               "out": str(out)}
     (out / "speedup.json").write_text(json.dumps(result, indent=1, default=float))
-    if readme:
-        rewrite_readme("flap-speedup", lines, "python benchmarks/flap_speedup.py --model ... --readme, or --report DIR --readme")
-    return result
+    return {**result, "lines": lines}
 
 
 if __name__ == "__main__":

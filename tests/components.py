@@ -7,6 +7,8 @@ import threading
 
 import numpy as np
 
+from cosim.component import Variable
+from rom_component.component import RomSolid
 from solid_component.tube import TubeSolid
 
 
@@ -63,3 +65,15 @@ class WarningSolid(TubeSolid):
         super().do_step(t, dt)
         if abs(t - 0.1) < 1e-12:
             self.warn("Newton hit its iteration cap (25)")
+
+
+class CountingRom(RomSolid):
+    """The ROM component with one more local, ``keep_warm_calls``: its idle calls so far."""
+
+    def variables(self):
+        return [*super().variables(), Variable("keep_warm_calls", "local", 1)]
+
+    def get_values(self, names):
+        counted = {"keep_warm_calls": np.array([float(self.keep_warm_calls)])}
+        return {**super().get_values([n for n in names if n not in counted]),
+                **{n: counted[n] for n in names if n in counted}}

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from benchmarks import rom_call, tube_run
@@ -87,3 +89,25 @@ def test_flap_speedup_benchmark_small(capsys):
     assert 1.0 < row["total_speedup_bound"] < (fluid + solid) / fluid    # the ROM cannot remove the fluid's cost
     again = flap_speedup.main(["--report", str(out)])          # the table of the recorded runs, again
     assert again["row"]["total_speedup"] == row["total_speedup"] and again["switch_time"] == pytest.approx(4 * 0.008)
+
+
+@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="side by side needs two cores")
+def test_flap_speedup_side_by_side_small(capsys):
+    from benchmarks import flap_speedup
+    from cosim.results import RunResults
+    result = flap_speedup.main(["--small", "--side-by-side", "--swap-cores"])
+    assert "side by side, reference on core 1, ROM-FOM on core 0" in capsys.readouterr().out
+    out = Path(result["out"])
+    assert {k: t["core"] for k, t in result["timings"].items()} == {"reference": 1, "rom": 0}
+    # the pinned reference, run beside the ROM-FOM run, repeats the run the ROM was trained on bit for bit
+    with RunResults(out / "training") as a, RunResults(out / "reference") as b:
+        np.testing.assert_array_equal(a.windows.iterations, b.windows.iterations)
+        for name, field in a.fields().items():
+            np.testing.assert_array_equal(field, b.fields()[name])
+    assert result["row"]["predicted_windows"] == 4
+    # several pairs: their geometric means (one pair twice: its own numbers)
+    capsys.readouterr()
+    both = flap_speedup.main(["--report", str(out), str(out)])
+    ratio = result["row"]["total_speedup"] / result["row"]["total_speedup_bound"]
+    assert len(both["pairs"]) == 2
+    assert f"ratio {ratio:.1%} (pairs: {ratio:.1%}, {ratio:.1%})" in capsys.readouterr().out

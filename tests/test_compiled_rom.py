@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 import pytest
 
 from cosim.errors import ComponentError, CosimError
+from cosim.launcher import Launcher
+from cosim.proxy import ComponentProxy
 from cosim.results import RunResults
 from rom_component import compiled, persistence
 from rom_component.component import RomSolid
@@ -117,3 +120,49 @@ def test_a_window_s_first_calls_answer_to_the_transient_margin(models):  # noqa:
     assert strict.step(0.0, 0.01, {"force": far})["rom_out_of_range"][0] == 1.0
     with pytest.raises(ComponentError, match="'transient_margin' is 0.01, below 'range_margin' 0.05"):
         RomSolid().instantiate({**settings, "transient_margin": 0.01})
+
+
+def test_keep_warm_repeats_the_last_call_between_requests_and_changes_no_result(models, tmp_path):  # noqa: F811
+    path, _, F = models["qm_poly"]
+    settings = {"model": str(path), "arithmetic": "compiled"}
+    plain, warm = RomSolid(), RomSolid()
+    plain.instantiate(settings)
+    warm.instantiate({**settings, "keep_warm": 0.001})
+    assert plain.idle_interval is None and warm.idle_interval == 0.001
+    warm.idle()                                     # before any call: nothing to repeat
+    for k, f in enumerate(F[:6]):
+        a = plain.step(0.01 * k, 0.01, {"force": f})
+        warm.set_values({"force": F[-1 - k]})       # inputs set, not stepped: the repeat is of the last step (none at k = 0)
+        warm.idle()
+        b = warm.step(0.01 * k, 0.01, {"force": f})
+        warm.idle()
+        assert all(a[name].tobytes() == b[name].tobytes() for name in a)
+        assert warm.get_values(["displacement"])["displacement"].tobytes() == a["displacement"].tobytes()
+    np.testing.assert_array_equal(plain.terminate()["full_field"], (final := warm.terminate())["full_field"])
+    assert final["keep_warm_calls"][0] == 11 and final["keep_warm_seconds"][0] > 0
+
+    # served: the server calls idle() while no request comes, and the results stay the same
+    launcher = Launcher(tmp_path / "logs")
+    with launcher:
+        process = launcher.spawn("rom", "tests.components:CountingRom")
+        proxy = ComponentProxy("rom", launcher.handshake(process), process=process)
+        proxy.instantiate({**settings, "keep_warm": 0.002})
+        proxy.enter_initialization_mode(0.0, 1.0)
+        proxy.exit_initialization_mode()
+        first = proxy.step(0.0, 0.01, {"force": F[0]})
+        deadline = time.monotonic() + 20.0
+        while proxy.get_values(["keep_warm_calls"])["keep_warm_calls"][0] < 3:
+            assert time.monotonic() < deadline, "no idle call within 20 s"
+            time.sleep(0.01)
+        again = proxy.step(0.01, 0.01, {"force": F[0]})
+        assert first["displacement"].tobytes() == again["displacement"].tobytes() == \
+            plain_step(settings, F[0])["displacement"].tobytes()
+        proxy.shutdown()
+        proxy.close()
+    assert children_of(os.getpid()) == []
+
+
+def plain_step(settings: dict, f: np.ndarray) -> dict:
+    component = RomSolid()
+    component.instantiate(settings)
+    return component.step(0.0, 0.01, {"force": f})
