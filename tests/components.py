@@ -77,3 +77,12 @@ class CountingRom(RomSolid):
         counted = {"keep_warm_calls": np.array([float(self.keep_warm_calls)])}
         return {**super().get_values([n for n in names if n not in counted]),
                 **{n: counted[n] for n in names if n in counted}}
+
+
+class FailingIdleSolid(TubeSolid):
+    """Asks for idle calls every millisecond and fails in each."""
+
+    idle_interval = 0.001
+
+    def idle(self):
+        raise RuntimeError("idle work broke")

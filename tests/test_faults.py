@@ -143,3 +143,23 @@ def test_a_limit_below_the_datas_precision_is_flagged_at_start(tmp_path, capsys)
             "to 1e-10 only") in err
     code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "fine"), "--quiet", "--set", "time.end=0.2"])
     assert code == 0 and "asks for a relative change" not in capsys.readouterr().err
+
+
+def test_failing_idle_work_is_stopped_and_the_component_still_serves(tmp_path):
+    from cosim.launcher import Launcher
+    from cosim.proxy import ComponentProxy
+    with Launcher(tmp_path) as launcher:
+        process = launcher.spawn("solid", "tests.components:FailingIdleSolid")
+        proxy = ComponentProxy("solid", launcher.handshake(process), process=process)
+        proxy.instantiate({})
+        wait_for(lambda: "idle work failed, stopped: idle work broke" in (tmp_path / "solid.log").read_text(),
+                 "the server's message about the failed idle work")
+        proxy.enter_initialization_mode(0.0, 1.0)
+        proxy.exit_initialization_mode()
+        out = proxy.step(0.0, 0.1, {"pressure": np.zeros(101)})
+        assert out["section"].shape == (101,) and np.all(np.isfinite(out["section"]))
+        log = (tmp_path / "solid.log").read_text()
+        assert log.count("idle work failed") == 1       # stopped after the first failure
+        proxy.shutdown()
+        proxy.close()
+    assert children_of(os.getpid()) == []
