@@ -17,7 +17,8 @@ Usage:
   python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
       --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--readme]
   python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
-  python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-...  the table of an earlier run again
+  python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-... [...]  the tables of earlier runs again
+      (of several pairs also their geometric means, per model)
 """
 
 from __future__ import annotations
@@ -107,9 +108,10 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--reynolds", type=float, help="Reynolds number of both runs")
     parser.add_argument("--switch-time", type=float, help="the ROM takes the solid's place from this time (s)")
     parser.add_argument("--end", type=float, default=6.0, help="end time of both runs (s)")
-    parser.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
-    parser.add_argument("--side-by-side", action="store_true",
-                        help="run both at the same time, each pinned to a core of its own")
+    order = parser.add_mutually_exclusive_group()
+    order.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
+    order.add_argument("--side-by-side", action="store_true",
+                       help="run both at the same time, each pinned to a core of its own")
     parser.add_argument("--swap-cores", action="store_true", help="side by side: the reference on core 1, the ROM on 0")
     parser.add_argument("--one", choices=("reference", "rom"), help=argparse.SUPPRESS)   # a side-by-side child
     parser.add_argument("--core", type=int, default=0, help=argparse.SUPPRESS)
