@@ -168,20 +168,20 @@ def publish(lines: list[str], readme: bool, result: dict) -> dict:
 
 
 def pairs_summary(results: list[dict]) -> list[str]:
-    """Geometric means over the pairs of each model (side by side with the cores swapped, a core's own speed
+    """Geometric means over the pairs of each model and Reynolds number (side by side with the cores swapped, a core's own speed
     cancels out of the mean: it divides one pair's speed-up and multiplies the other's)."""
     def mean(values: list[float]) -> float:
         return math.exp(sum(math.log(v) for v in values) / len(values))
 
     lines = [""]
-    for model in dict.fromkeys(r["model"] for r in results):
-        pairs = [r for r in results if r["model"] == model]
+    for model, reynolds in dict.fromkeys((r["model"], r["reynolds"]) for r in results):
+        pairs = [r for r in results if (r["model"], r["reynolds"]) == (model, reynolds)]
         speedup = [r["row"]["total_speedup"] for r in pairs]
         bound = [r["row"]["total_speedup_bound"] for r in pairs]
         ratio = [s / b for s, b in zip(speedup, bound)]
         own = [s / r["bound_at_run_iterations"] for s, r in zip(speedup, pairs)]
         shown = os.path.relpath(model, ROOT) if Path(model).is_relative_to(ROOT) else model
-        lines.append(f"{shown}, {len(pairs)} pair{'s' if len(pairs) > 1 else ''} (geometric means): speed-up {mean(speedup):.3f}, bound {mean(bound):.3f}, "
+        lines.append(f"{shown} at Re = {reynolds:g}, {len(pairs)} pair{'s' if len(pairs) > 1 else ''} (geometric means): speed-up {mean(speedup):.3f}, bound {mean(bound):.3f}, "
                      f"ratio {mean(ratio):.1%} (pairs: {', '.join(f'{x:.1%}' for x in ratio)}); against the bound at the "
                      f"runs' own iterations {mean(own):.1%}")
     return lines
