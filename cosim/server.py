@@ -142,6 +142,15 @@ class ComponentServer:
         return protocol.encode(reply, out_arrays), op == "shutdown"
 
 
+def run_idle(component: Component) -> None:
+    """The component's idle work; if it fails, one line on stderr and no more idle calls (it is optional)."""
+    try:
+        component.idle()
+    except Exception as exc:
+        print(f"{component.name}: idle work failed, stopped: {exc}", file=sys.stderr)
+        component.idle_interval = None
+
+
 def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None = None) -> int:
     """Serve ``entry`` on ``bind`` until shutdown; returns the exit code."""
     check_bind_address(bind)
@@ -163,11 +172,7 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
             wait = PARENT_CHECK_SECONDS if interval is None else min(interval, PARENT_CHECK_SECONDS)
             if not poller.poll(max(1, round(wait * 1000))):    # ZeroMQ polls in whole milliseconds
                 if interval is not None:
-                    try:
-                        component.idle()
-                    except Exception as exc:   # idle work is optional: stop it, keep serving
-                        print(f"{component.name}: idle work failed, stopped: {exc}", file=sys.stderr)
-                        component.idle_interval = None
+                    run_idle(component)
                 if time.monotonic() - parent_checked >= PARENT_CHECK_SECONDS:
                     parent_checked = time.monotonic()
                     if parent_pid is not None and os.getppid() != parent_pid:
