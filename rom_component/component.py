@@ -98,15 +98,22 @@ class RomSolid(Component):
         return {name: np.array(known[name]) for name in names}
 
     def do_step(self, t: float, dt: float) -> None:
-        if self._window_time is not None and t != self._window_time:
-            self._keep_converged()
-        self._calls_in_window = self._calls_in_window + 1 if t == self._window_time else 1
-        self._window_time = t
-        self.displacement = self.rom(self.force)
-        self._last_reduced = self.rom.reduced
-        self._check_range(t)
-        self._dt = dt
-        self._warm_input = self.force
+        if t != self._window_time:
+            if self._window_time is not None:
+                self._keep_converged()
+            self._calls_in_window, self._window_time = 1, t
+        else:
+            self._calls_in_window += 1
+        rom = self.rom
+        self.displacement = rom(self.force)
+        self._last_reduced = rom.reduced
+        excess, distance = rom.trust()
+        margin = self.transient_margin if self._calls_in_window <= self.transient_calls else self.range_margin
+        out = excess > margin
+        self.trust_values = np.array((excess, distance, 1.0 if out else 0.0))
+        if out:
+            self._out_of_range(margin)
+        self._dt, self._warm_input = dt, self.force
 
     def idle(self) -> None:
         """The last call again, its results dropped: the ROM's own state after it is the same as before."""
@@ -118,21 +125,21 @@ class RomSolid(Component):
         self.keep_warm_seconds += time.perf_counter() - started
         self.keep_warm_calls += 1
 
+    # step and do_step are kept short on purpose: in a coupled run the ROM wakes once per call with cold
+    # caches, where each Python function call and temporary costs microseconds (benchmarks/flap_rom_call.py)
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        self.set_values(inputs)
+        force = inputs.get(self.input_name)
+        if len(inputs) == 1 and type(force) is np.ndarray and force.shape == self.input_shape:
+            self.force = force.reshape(-1)      # the served case: the one input, of its shape
+        else:
+            self.set_values(inputs)             # anything else is checked name by name
         self.do_step(t, dt)
         trust = self.trust_values    # a fresh array each call: its slices are the outputs
         return {self.output_name: self.displacement.reshape(self.output_shape),
                 TRUST_LOCALS[0]: trust[0:1], TRUST_LOCALS[1]: trust[1:2], TRUST_LOCALS[2]: trust[2:3]}
 
-    def _check_range(self, t: float) -> None:
-        """Trust of this call; out of range: a warning, an error, or (fallback) a flag the coupler acts on."""
-        excess, distance = self.rom.trust()
-        margin = self.transient_margin if self._calls_in_window <= self.transient_calls else self.range_margin
-        out = excess > margin
-        self.trust_values = np.array((excess, distance, 1.0 if out else 0.0))
-        if not out:
-            return
+    def _out_of_range(self, margin: float) -> None:
+        """A call out of range: a warning, an error, or (fallback) nothing here: the coupler acts on the flag."""
         message = (f"input outside the training range (a reduced force mode beyond the training data by more than "
                    f"{margin:g} of its range)")
         if self.on_out_of_range == "fail":

@@ -92,6 +92,24 @@ def test_the_component_takes_compiled_arithmetic_and_names_a_wrong_one(models): 
         RomSolid().instantiate({"model": str(path), "arithmetic": "quick"})
 
 
+def test_the_step_s_short_path_gives_the_checked_path_s_results_and_errors(models):  # noqa: F811
+    path, _, F = models["qm_poly"]
+    short, checked = RomSolid(), RomSolid()
+    for component in (short, checked):
+        component.instantiate({"model": str(path), "arithmetic": "compiled"})
+    n = len(F[0])
+    for k, f in enumerate(F[:5]):
+        a = short.step(0.01 * k, 0.01, {"force": f})            # one float array of the input's shape
+        checked.set_values({"force": list(f)})                    # a list: the checked path
+        b = checked.step(0.01 * k, 0.01, {"force": list(f)})
+        assert all(a[name].tobytes() == b[name].tobytes() for name in a)
+    with pytest.raises(ComponentError, match=rf"input 'force' has shape \({n + 1},\), expected \({n},\)"):
+        short.step(0.05, 0.01, {"force": np.zeros(n + 1)})
+    with pytest.raises(ComponentError, match="'pressure' is not an input"):
+        short.step(0.05, 0.01, {"force": F[0], "pressure": F[0]})
+    np.testing.assert_array_equal(short.terminate()["full_field"], checked.terminate()["full_field"])
+
+
 def test_a_tube_rom_fom_run_is_the_same_with_the_compiled_path(fom, model, tmp_path):  # noqa: F811
     rom_run(tmp_path / "reproducible", model, TRAIN_END)
     rom_run(tmp_path / "compiled", model, TRAIN_END, "components.solid.rom.arithmetic=compiled")
