@@ -253,3 +253,42 @@ def test_secant_weight_trades_level_error_for_the_response_along_sub_iteration_s
         SolidRom(regressor="poly", secant_weight=1.0).fit(F, U)
     with pytest.raises(ValueError, match="secant_weight applies to the poly regressor"):
         SolidRom(regressor="rbf", secant_weight=1.0).fit(F, U, windows=windows)
+
+
+def test_probes_along_the_force_modes_fix_the_response_to_a_mode_that_moves_with_another():
+    # one call a window: along the trajectory the third direction moves as the square of the first, and the
+    # solid answers the first with a square too, so the recorded calls cannot tell the two apart and the fit
+    # splits the response between them its own way. The solid's answers to steps along each force mode at a
+    # few converged forces (probes) fix the response along the third direction, at new points of the trajectory
+    from rom_component.probes import probe_forces
+
+    rng = np.random.default_rng(3)
+    basis = np.linalg.qr(rng.standard_normal((6, 6)))[0]
+    G, C = rng.standard_normal((6, 6)), rng.standard_normal(6)
+
+    def solid(F):
+        return F @ G.T + np.outer((F @ basis[:, 0]) ** 2, C)
+
+    def trajectory(phase):
+        a, b = np.sin(np.linspace(0, 6 * np.pi, 240) + phase), np.cos(np.linspace(0, 6 * np.pi, 240) + phase)
+        return np.outer(a, basis[:, 0]) + np.outer(b, basis[:, 1]) + np.outer(0.3 * (a ** 2 - 0.5), basis[:, 2])
+
+    F = trajectory(0.0)
+    windows = np.arange(len(F))
+    forces, base = probe_forces(F, windows, n_bases=20, n_modes=3, amplitude=0.25)
+    assert forces.shape == (60, 6) and np.array_equal(np.unique(base), base[::3])
+    steps = forces - F[base]                                  # each along one mode, a quarter of its range
+    _, modes, _ = centred_pod(F, 3)
+    along = np.abs(steps @ modes)
+    assert np.allclose(along.max(axis=1), np.linalg.norm(steps, axis=1))
+    assert np.allclose(along.max(axis=0), 0.25 * np.ptp((F - F.mean(axis=0)) @ modes, axis=0))
+
+    def response_error(F_train):
+        model = SolidRom(n_force_modes=3, n_disp_modes=6, regressor="poly", decoder="linear",
+                         feature_scaling="global").fit(F_train, solid(F_train))
+        points, d, h = trajectory(0.1)[::10], basis[:, 2], 1e-4
+        J = (model.predict(points + h * d) - model.predict(points - h * d)) / (2 * h)
+        return np.median(np.linalg.norm(J - G @ d, axis=1)) / np.linalg.norm(G @ d)
+
+    without, with_probes = response_error(F), response_error(np.vstack([F, forces]))
+    assert without > 0.5 and with_probes < 1e-3              # measured: 1.00 against 3e-7

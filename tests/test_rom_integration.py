@@ -15,6 +15,7 @@ from coupler.run import run_scene
 from cosim.errors import ComponentError, SceneError
 from cosim.results import RunResults
 from cosim.scene import load_scene
+from rom_component import persistence
 from rom_component.estimator import SolidRom
 from rom_component.selection import holdout_table
 from rom_component.train import load_config, read_snapshots
@@ -171,6 +172,30 @@ def test_global_input_scaling_beats_per_mode_scaling_on_tube_snapshots(fom):
         table = holdout_table(SolidRom(input_scaling=scaling), F, U, [5], [9], 0.2, 0)
         errors[scaling] = table.error_at(5, 9)
     assert errors["global"] < 0.5 * min(errors["standard"], errors["minmax"]), errors
+
+
+def test_train_takes_probes_next_to_the_recorded_calls_and_names_a_file_that_does_not_fit(fom, tmp_path):
+    from rom_component.probes import save_probes
+    config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={TRAIN_END}"])
+    F, U, times, windows = read_snapshots(fom / "results.h5", config["snapshots"])
+    # the tube's solid answers each section's pressure alone: a recorded call shifted along the sections is
+    # another of its calls, and a probe here
+    good = save_probes(tmp_path / "good.npz", np.roll(F[:12], 1, axis=1), {"section": np.roll(U[:12], 1, axis=1)},
+                       times[:12], windows[:12])
+    bad = save_probes(tmp_path / "bad.npz", F[:3, :-1], {"section": U[:3]}, times[:3], windows[:3])
+    base = ["train", str(fom / "results.h5"), "--config", "scenes/tube_rom.toml", "--set",
+            f"snapshots.t_max={TRAIN_END}", "--set", "selection.table=false", "--set", "output.plots=false"]
+    done = cosim(*base, "--set", f"snapshots.probes=['{good}']", "--out", str(tmp_path / "m.npz"))
+    assert done.returncode == 0, done.stderr
+    assert f"and 12 probes from 1 file(s): F ({len(F) + 12}, {F.shape[1]})" in done.stdout
+    meta = persistence.load_arrays(tmp_path / "m.npz")[1]
+    assert meta["n_probes"] == 12 and meta["n_snapshots"] == len(F) + 12 and meta["probes"] == [str(good)]
+    failed = cosim(*base, "--set", f"snapshots.probes=['{bad}']", "--out", str(tmp_path / "n.npz"))
+    assert failed.returncode == 2 and "Traceback" not in failed.stderr
+    assert failed.stderr.strip().splitlines() == [
+        f"cosim train: error: snapshots.probes: '{bad}' has force (3, {F.shape[1] - 1}) and section (3, {U.shape[1]}); "
+        f"the recorded calls have ({F.shape[1]},) and ({U.shape[1]},) a row"]
+    assert not (tmp_path / "n.npz").exists()
 
 
 def test_missing_or_broken_model_is_named(tmp_path):

@@ -1,0 +1,78 @@
+"""Probe the double flap's Kratos solid along the force modes of its training data, for a ROM's training set.
+
+The coupling's sub-iterations step the force in every direction, and a ROM fitted to the recorded calls alone
+answers the weak force modes with gains of its own (README, "Where the extra coupling iterations come from"):
+along the run those modes move with the strong ones, so the data do not fix the response to each. The solid
+is static (each call a nonlinear solve for the given force; nothing carried from call to call), so it can be
+asked directly: at BASES converged forces of the training data, one call per POD force mode k, at the force
+plus AMPLITUDE times mode k's training range (a random sign). The calls are a solid's like any other; with
+``snapshots.probes`` a ROM trains on them next to the recorded ones (``cosim train``).
+
+Writes an .npz (no pickle): ``force`` (p, 530), ``<field>`` (p, 3610) and ``displacement`` (p, 530), and per
+probe the ``time`` and ``window`` of its base call. First it re-solves the base forces and checks that the
+solid gives back the recorded fields (the calls do not depend on the calls before them).
+
+Usage: python scripts/flap_probes.py RESULTS [RESULTS ...] --out PROBES.npz [--t-max 3.0] [--bases 30]
+                                     [--modes 60] [--amplitude 0.25] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from rom_component.probes import ask, probe_forces, save_probes  # noqa: E402
+from rom_component.train import CONFIG, read_training_set  # noqa: E402
+
+SPEC = {**CONFIG["snapshots"], "input": "force", "output": "displacement", "field": "displacement_field"}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("results", nargs="+", help="double-flap runs whose recorded solid calls are the training set")
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--t-max", type=float, default=3.0, help="training calls: windows ending at or before (s)")
+    parser.add_argument("--bases", type=int, default=30, help="converged forces to probe around, evenly spread")
+    parser.add_argument("--modes", type=int, default=60, help="POD force modes to probe along (the leading ones)")
+    parser.add_argument("--amplitude", type=float, default=0.25, help="step along mode k: this times its range")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    from solid_component.kratos import KratosSolid
+
+    F, U, times, windows = read_training_set(args.results, {**SPEC, "t_max": args.t_max})
+    forces, base = probe_forces(F, windows, args.bases, args.modes, args.amplitude, args.seed)
+    solid = KratosSolid()
+    solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008},
+                       "mesh": str(ROOT / "scenes" / "double_flap" / "solid.mdpa"), "linear_solver": "sparse_lu"})
+    try:
+        def solve(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            out = solid.step(0.0, 0.008, {"force": f.reshape(-1, 2)})
+            field = solid.get_values(["displacement_field"])["displacement_field"]
+            return np.ravel(out["displacement"]).copy(), np.ravel(field).copy()
+
+        again = np.unique(base)[:5]
+        drift = float(np.abs(ask(solve, F[again])[1] - U[again]).max() / np.abs(U[again]).max())
+        print(f"re-solved {len(again)} recorded calls: largest difference {drift:.2e} of the largest displacement")
+        if drift > 1e-6:
+            raise SystemExit("the solid does not give back its recorded calls: probes would not be its calls")
+        started = time.perf_counter()
+        displacement, field = ask(solve, forces)
+        seconds = time.perf_counter() - started
+    finally:
+        solid.close()
+    save_probes(args.out, forces, {"displacement": displacement, "displacement_field": field}, times[base],
+                windows[base])
+    n_bases = len(np.unique(base))
+    print(f"{len(forces)} probes ({n_bases} bases x {len(forces) // n_bases} modes, amplitude {args.amplitude} of "
+          f"each mode's range) in {seconds:.0f} s ({1e3 * seconds / len(forces):.1f} ms a call): {args.out}")
+
+
+if __name__ == "__main__":
+    main()
