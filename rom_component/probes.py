@@ -10,23 +10,23 @@ training data, one call per POD force mode, at the force plus a fraction of that
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
 from rom_component.pod import centred_pod
 
 
-def probe_forces(F: np.ndarray, windows: np.ndarray, n_bases: int, n_modes: int, amplitude: float,
+def probe_forces(F: np.ndarray, windows: np.ndarray, n_bases: int, modes: Sequence[int], amplitude: float,
                  seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Forces to ask the solid for (n_bases * n_modes, N), and the row of ``F`` each one starts from.
+    """Forces to ask the solid for (n_bases * len(modes), N), and the row of ``F`` each one starts from.
 
     Bases: the last call of ``n_bases`` windows spread evenly over the data (the converged forces). Probe
     (b, k): base b plus ``amplitude`` times the range of mode k's coefficient in ``F``, along POD mode k of
-    ``F``, with a random sign.
+    ``F`` (``modes``: their indices, 0 the leading one), with a random sign.
     """
-    _, modes, _ = centred_pod(F)
-    modes = modes[:, :n_modes]
+    _, all_modes, _ = centred_pod(F)
+    modes = all_modes[:, list(modes)]
     ranges = np.ptp((F - F.mean(axis=0)) @ modes, axis=0)
     last = np.flatnonzero(np.r_[windows[1:] != windows[:-1], True])
     bases = last[np.linspace(0, len(last) - 1, min(n_bases, len(last))).round().astype(int)]

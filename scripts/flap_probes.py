@@ -5,7 +5,8 @@ answers the weak force modes with gains of its own (README, "Where the extra cou
 along the run those modes move with the strong ones, so the data do not fix the response to each. The solid
 is static (each call a nonlinear solve for the given force; nothing carried from call to call), so it can be
 asked directly: at BASES converged forces of the training data, one call per POD force mode k, at the force
-plus AMPLITUDE times mode k's training range (a random sign). The calls are a solid's like any other; with
+plus AMPLITUDE times mode k's training range (a random sign), for the modes MODES (by default 16-60:
+the 15 leading ones move enough along the run for the recorded calls to fix the response to them). The calls are a solid's like any other; with
 ``snapshots.probes`` a ROM trains on them next to the recorded ones (``cosim train``).
 
 Writes an .npz (no pickle): ``force`` (p, 530), ``<field>`` (p, 3610) and ``displacement`` (p, 530), and per
@@ -13,7 +14,7 @@ probe the ``time`` and ``window`` of its base call. First it re-solves the base 
 solid gives back the recorded fields (the calls do not depend on the calls before them).
 
 Usage: python scripts/flap_probes.py RESULTS [RESULTS ...] --out PROBES.npz [--t-max 3.0] [--bases 30]
-                                     [--modes 60] [--amplitude 0.25] [--seed 0]
+                                     [--modes 16-60] [--amplitude 0.25] [--seed 0]
 """
 
 from __future__ import annotations
@@ -40,14 +41,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--t-max", type=float, default=3.0, help="training calls: windows ending at or before (s)")
     parser.add_argument("--bases", type=int, default=30, help="converged forces to probe around, evenly spread")
-    parser.add_argument("--modes", type=int, default=60, help="POD force modes to probe along (the leading ones)")
+    parser.add_argument("--modes", default="16-60", help="POD force modes to probe along, FIRST-LAST (1: the leading "
+                        "one; the default leaves out the 15 leading, whose response the recorded calls fix)")
     parser.add_argument("--amplitude", type=float, default=0.25, help="step along mode k: this times its range")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     from solid_component.kratos import KratosSolid
 
     F, U, times, windows = read_training_set(args.results, {**SPEC, "t_max": args.t_max})
-    forces, base = probe_forces(F, windows, args.bases, args.modes, args.amplitude, args.seed)
+    try:
+        first, last = (int(k) for k in args.modes.split("-"))
+    except ValueError:
+        parser.error(f"--modes is {args.modes!r}; give FIRST-LAST, e.g. 16-60")
+    forces, base = probe_forces(F, windows, args.bases, range(first - 1, last), args.amplitude, args.seed)
     solid = KratosSolid()
     solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008},
                        "mesh": str(ROOT / "scenes" / "double_flap" / "solid.mdpa"), "linear_solver": "sparse_lu"})

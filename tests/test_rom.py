@@ -275,7 +275,7 @@ def test_probes_along_the_force_modes_fix_the_response_to_a_mode_that_moves_with
 
     F = trajectory(0.0)
     windows = np.arange(len(F))
-    forces, base = probe_forces(F, windows, n_bases=20, n_modes=3, amplitude=0.25)
+    forces, base = probe_forces(F, windows, n_bases=20, modes=range(3), amplitude=0.25)
     assert forces.shape == (60, 6) and np.array_equal(np.unique(base), base[::3])
     steps = forces - F[base]                                  # each along one mode, a quarter of its range
     _, modes, _ = centred_pod(F, 3)
