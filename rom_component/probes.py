@@ -1,10 +1,11 @@
 """Probes: a solid's answers to chosen forces, trained on next to its recorded calls.
 
 Along a coupled run the weak force modes move with the strong ones, so the recorded calls do not fix the
-solid's response to each of them, and a ROM fitted to those calls alone answers them with gains of its own,
-which the coupling's sub-iterations then have to learn. A static solid (each call a solve for the given
-force, nothing carried over from earlier calls) can be asked directly: at a few converged forces of the
-training data, one call per POD force mode, at the force plus a fraction of that mode's range in the data.
+solid's response to each of them, and a ROM fitted to those calls alone answers them with gains of its own.
+A static solid (each call a solve for the given force, nothing carried over from earlier calls) can be asked
+directly: at a few converged forces of the training data, one call per POD force mode, at the force plus a
+multiple of that mode's range in the data. On the double flap this fixes the ROM's response to the weak
+modes and raises the coupling iterations (README, "Probes of the solid along the weak force modes").
 """
 
 from __future__ import annotations
@@ -35,10 +36,25 @@ def probe_forces(F: np.ndarray, windows: np.ndarray, n_bases: int, modes: Sequen
     return (F[bases][:, None, :] + steps).reshape(-1, F.shape[1]), np.repeat(bases, modes.shape[1])
 
 
+class ProbeFailed(RuntimeError):
+    """The solid failed on one probe: ``row`` of the forces, ``reason`` the first line of its error."""
+
+    def __init__(self, row: int, reason: str):
+        super().__init__(f"row {row}: {reason}")
+        self.row, self.reason = row, reason
+
+
 def ask(solve: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], forces: np.ndarray) -> tuple[np.ndarray,
                                                                                                    np.ndarray]:
-    """The solid's (output, field) rows for each force row (``solve`` takes one force row)."""
-    answers = [solve(f) for f in forces]
+    """The solid's (output, field) rows for each force row (``solve`` takes one force row); a failed solve
+    raises ProbeFailed."""
+    answers = []
+    for row, f in enumerate(forces):
+        try:
+            answers.append(solve(f))
+        except Exception as exc:
+            first_line = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            raise ProbeFailed(row, first_line) from None
     return np.array([a[0] for a in answers]), np.array([a[1] for a in answers])
 
 

@@ -1,13 +1,13 @@
 """Probe the double flap's Kratos solid along the force modes of its training data, for a ROM's training set.
 
-The coupling's sub-iterations step the force in every direction, and a ROM fitted to the recorded calls alone
-answers the weak force modes with gains of its own (README, "Where the extra coupling iterations come from"):
-along the run those modes move with the strong ones, so the data do not fix the response to each. The solid
-is static (each call a nonlinear solve for the given force; nothing carried from call to call), so it can be
-asked directly: at BASES converged forces of the training data, one call per POD force mode k, at the force
-plus AMPLITUDE times mode k's training range (a random sign), for the modes MODES (by default 16-60:
-the 15 leading ones move enough along the run for the recorded calls to fix the response to them). The calls are a solid's like any other; with
-``snapshots.probes`` a ROM trains on them next to the recorded ones (``cosim train``).
+A ROM fitted to the recorded calls alone answers the weak force modes with gains of its own: along the run
+those modes move with the strong ones, so the data do not fix the response to each. The solid is static (each
+call a nonlinear solve for the given force; nothing carried from call to call), so it can be asked directly:
+at BASES converged forces of the training data, one call per POD force mode k, at the force plus AMPLITUDE
+times mode k's training range (a random sign), for the modes MODES (by default 16-60: the response to the 15
+leading ones the recorded calls fix). With ``snapshots.probes`` a ROM trains on these calls next to the
+recorded ones (``cosim train``). Measured: the ROM then answers the weak modes as the solid does, and the
+coupling needs more iterations (README, "Probes of the solid along the weak force modes").
 
 Writes an .npz (no pickle): ``force`` (p, 530), ``<field>`` (p, 3610) and ``displacement`` (p, 530), and per
 probe the ``time`` and ``window`` of its base call. First it re-solves the base forces and checks that the
@@ -29,7 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from rom_component.probes import ask, probe_forces, save_probes  # noqa: E402
+from rom_component.probes import ProbeFailed, ask, probe_forces, save_probes  # noqa: E402
 from rom_component.train import CONFIG, read_training_set  # noqa: E402
 
 SPEC = {**CONFIG["snapshots"], "input": "force", "output": "displacement", "field": "displacement_field"}
@@ -64,12 +64,20 @@ def main(argv: list[str] | None = None) -> None:
             return np.ravel(out["displacement"]).copy(), np.ravel(field).copy()
 
         again = np.unique(base)[:5]
-        drift = float(np.abs(ask(solve, F[again])[1] - U[again]).max() / np.abs(U[again]).max())
+        try:
+            drift = float(np.abs(ask(solve, F[again])[1] - U[again]).max() / np.abs(U[again]).max())
+        except ProbeFailed as exc:
+            raise SystemExit(f"flap_probes: the solid failed to re-solve the recorded call of window "
+                             f"{windows[again[exc.row]]}: {exc.reason}") from None
         print(f"re-solved {len(again)} recorded calls: largest difference {drift:.2e} of the largest displacement")
         if drift > 1e-6:
             raise SystemExit("the solid does not give back its recorded calls: probes would not be its calls")
         started = time.perf_counter()
-        displacement, field = ask(solve, forces)
+        try:
+            displacement, field = ask(solve, forces)
+        except ProbeFailed as exc:
+            raise SystemExit(f"flap_probes: the solid failed on the probe at window {windows[base[exc.row]]}, mode "
+                             f"{first + exc.row % (last - first + 1)}: {exc.reason}") from None
         seconds = time.perf_counter() - started
     finally:
         solid.close()

@@ -260,7 +260,7 @@ def test_probes_along_the_force_modes_fix_the_response_to_a_mode_that_moves_with
     # solid answers the first with a square too, so the recorded calls cannot tell the two apart and the fit
     # splits the response between them its own way. The solid's answers to steps along each force mode at a
     # few converged forces (probes) fix the response along the third direction, at new points of the trajectory
-    from rom_component.probes import probe_forces
+    from rom_component.probes import ProbeFailed, ask, probe_forces
 
     rng = np.random.default_rng(3)
     basis = np.linalg.qr(rng.standard_normal((6, 6)))[0]
@@ -292,3 +292,11 @@ def test_probes_along_the_force_modes_fix_the_response_to_a_mode_that_moves_with
 
     without, with_probes = response_error(F), response_error(np.vstack([F, forces]))
     assert without > 0.5 and with_probes < 1e-3              # measured: 1.00 against 3e-7
+
+    def fails_on_the_fifth(f):
+        if np.array_equal(f, forces[4]):
+            raise ValueError("no convergence\nin 30 Newton iterations")
+        return solid(f[None])[0], f
+    with pytest.raises(ProbeFailed, match=r"^row 4: no convergence$") as failed:
+        ask(fails_on_the_fifth, forces)
+    assert failed.value.row == 4
