@@ -15,7 +15,7 @@ the cost of extra iterations from the coupler's and the machine's.
 
 Usage:
   python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
-      --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--readme]
+      --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--readme [--block NAME]]
   python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
   python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-... [...]  the tables of earlier runs again
       (of several pairs also their geometric means, per model)
@@ -118,6 +118,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--small", action="store_true", help="8 windows and a ROM trained on the first 4 (tests)")
     parser.add_argument("--readme", action="store_true", help="rewrite the README's flap-speedup block")
+    parser.add_argument("--block", default="flap-speedup", help="with --readme: the README block to rewrite")
     parser.add_argument("--report", nargs="+", metavar="DIR",
                         help="print (and with --readme write) the tables of earlier runs' directories; of several pairs "
                              "also their geometric means")
@@ -125,13 +126,17 @@ def main(argv: list[str] | None = None) -> dict:
     if not (args.small or args.report) and (args.model is None or args.reynolds is None or args.switch_time is None):
         parser.error("give --model, --reynolds and --switch-time, or --small, or --report")
     if args.report:      # the machine's load then: the table's column "load before" (the machine line's is of now)
+        missing = [d for d in args.report if not (Path(d) / "speedup.json").is_file()]
+        if missing:
+            parser.error(f"--report: {', '.join(missing)} holds no speedup.json (not a finished flap_speedup run)")
         results = [tabulate(Path(directory), machine().split(", load average")[0],
                             json.loads((Path(directory) / "speedup.json").read_text())["timings"])
                    for directory in args.report]
         lines = results[0]["lines"] + [line for result in results[1:] for line in ["", *result["lines"][1:]]]  # one machine line
         if len(results) > 1:
             lines += pairs_summary(results)
-        return publish(lines, args.readme, results[0] if len(results) == 1 else {"pairs": results})
+        return publish(lines, args.block if args.readme else None,
+                       results[0] if len(results) == 1 else {"pairs": results})
     if args.one:
         run_one(Path(args.out), args.one, args.core, args.reynolds, args.end, (args.model, args.switch_time))
         return {}
@@ -156,14 +161,16 @@ def main(argv: list[str] | None = None) -> dict:
             for kind in order:
                 timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
     result = tabulate(out, machine_line, timings)
-    return publish(result["lines"], args.readme, result)
+    return publish(result["lines"], args.block if args.readme else None, result)
 
 
-def publish(lines: list[str], readme: bool, result: dict) -> dict:
-    """Print ``lines``; with ``readme`` put them in the README's flap-speedup block too."""
+def publish(lines: list[str], block: str | None, result: dict) -> dict:
+    """Print ``lines``; with ``block`` (a README block's name) put them there too."""
     print("\n".join(lines))
-    if readme:
-        rewrite_readme("flap-speedup", lines, "python benchmarks/flap_speedup.py --model ... --readme, or --report DIR... --readme")
+    if block:
+        named = "" if block == "flap-speedup" else f" --block {block}"
+        command = f"python benchmarks/flap_speedup.py --model ... --readme{named}, or --report DIR... --readme{named}"
+        rewrite_readme(block, lines, command)
     return result
 
 
