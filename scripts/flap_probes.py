@@ -30,9 +30,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from rom_component.probes import ProbeFailed, ask, probe_forces, save_probes  # noqa: E402
-from rom_component.train import CONFIG, read_training_set  # noqa: E402
-
-SPEC = {**CONFIG["snapshots"], "input": "force", "output": "displacement", "field": "displacement_field"}
+from rom_component.train import load_config, read_training_set  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -48,7 +46,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     from solid_component.kratos import KratosSolid
 
-    F, U, times, windows = read_training_set(args.results, {**SPEC, "t_max": args.t_max})
+    spec = load_config(ROOT / "scenes" / "double_flap_rom.toml", [f"snapshots.t_max={args.t_max}"])["snapshots"]
+    F, U, times, windows = read_training_set(args.results, spec)
     try:
         first, last = (int(k) for k in args.modes.split("-"))
     except ValueError:

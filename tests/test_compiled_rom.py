@@ -100,8 +100,7 @@ def test_the_step_s_short_path_gives_the_checked_path_s_results_and_errors(model
     n = len(F[0])
     for k, f in enumerate(F[:5]):
         a = short.step(0.01 * k, 0.01, {"force": f})            # one float array of the input's shape
-        checked.set_values({"force": list(f)})                    # a list: the checked path
-        b = checked.step(0.01 * k, 0.01, {"force": list(f)})
+        b = checked.step(0.01 * k, 0.01, {"force": list(f)})     # a list: the checked path
         assert all(a[name].tobytes() == b[name].tobytes() for name in a)
     with pytest.raises(ComponentError, match=rf"input 'force' has shape \({n + 1},\), expected \({n},\)"):
         short.step(0.05, 0.01, {"force": np.zeros(n + 1)})

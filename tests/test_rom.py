@@ -9,6 +9,7 @@ from rom_component import persistence
 from rom_component.estimator import SolidRom
 from rom_component.manifold import quadratic_terms
 from rom_component.pod import centred_pod, energy_rank
+from rom_component.probes import ProbeFailed, ask, probe_forces
 from rom_component.regression import RbfRegression, SparseQuadraticRegression
 
 
@@ -260,8 +261,6 @@ def test_probes_along_the_force_modes_fix_the_response_to_a_mode_that_moves_with
     # solid answers the first with a square too, so the recorded calls cannot tell the two apart and the fit
     # splits the response between them its own way. The solid's answers to steps along each force mode at a
     # few converged forces (probes) fix the response along the third direction, at new points of the trajectory
-    from rom_component.probes import ProbeFailed, ask, probe_forces
-
     rng = np.random.default_rng(3)
     basis = np.linalg.qr(rng.standard_normal((6, 6)))[0]
     G, C = rng.standard_normal((6, 6)), rng.standard_normal(6)
