@@ -4,7 +4,10 @@ Snapshots are rows (scikit-learn convention): F (m, N) interface forces, U (m, N
 displacements. Encoder: centred POD of F with ``n_force_modes`` modes. Decoder:
 centred POD of U with ``n_disp_modes`` modes, linear or with a quadratic manifold.
 Regression from scaled reduced forces to reduced displacements: thin-plate-spline
-RBF or a BIC-sparse quadratic polynomial. With ``secant_weight`` > 0 and the window of each
+RBF or a BIC-sparse quadratic polynomial. With ``force_basis = "work"`` the encoder is not the forces'
+POD but an orthonormal basis of the decoder's displacement modes on the interface: the reduced forces are then
+the work of the force on each displacement mode (generalised forces), the only part of a force a static
+elastic solid whose response lies in those modes answers (Maxwell-Betti). With ``secant_weight`` > 0 and the window of each
 snapshot (``fit(F, U, windows=...)``, rows of a window in call order), the polynomial also fits the
 differences between consecutive sub-iterations of a window: the solid's response along the
 directions the coupling explores, which fitting the levels alone leaves free.
@@ -36,7 +39,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
     def __init__(self, n_force_modes: int = 3, n_disp_modes: int = 9, decoder: str = "linear",
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
                  rbf_smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard",
-                 secant_weight: float = 0.0):
+                 secant_weight: float = 0.0, force_basis: str = "pod", interface_index: np.ndarray | None = None):
         self.n_force_modes = n_force_modes
         self.n_disp_modes = n_disp_modes
         self.decoder = decoder
@@ -47,6 +50,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.quadratic_modes = quadratic_modes
         self.feature_scaling = feature_scaling
         self.secant_weight = secant_weight
+        self.force_basis = force_basis
+        self.interface_index = interface_index
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -72,6 +77,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
             value = getattr(self, name)
             if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        if self.force_basis not in ("pod", "work"):
+            raise ValueError(f"force_basis {self.force_basis!r} not in ('pod', 'work')")
         if self.secant_weight > 0 and self.regressor != "poly":
             raise ValueError(f"secant_weight applies to the poly regressor, not {self.regressor!r}")
 
@@ -96,6 +103,9 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.Phi_f_ = modes[:, :self.n_force_modes_]
         self.u_mean_, modes, self.disp_singular_values_ = centred_pod(U)
         self.Phi_u_ = modes[:, :self.n_disp_modes_]
+        if self.force_basis == "work":
+            self.Phi_f_ = self._work_basis(F.shape[1], U.shape[1])
+            self.n_force_modes_ = self.Phi_f_.shape[1]
         Zu = (U - self.u_mean_) @ self.Phi_u_
         self.Phi_bar_ = None
         if self.decoder == "quadratic":
@@ -110,6 +120,18 @@ class SolidRom(RegressorMixin, BaseEstimator):
                             regression.fit(X, Zu, pairs=pairs, pair_weight=self.secant_weight))
         self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
+
+    def _work_basis(self, n_force: int, n_disp: int) -> np.ndarray:
+        """Orthonormal basis (n_force, min(r_f, r_u)) of the displacement modes' interface rows, ordered by their
+        singular values: a force's coordinates in it carry its work on every displacement mode."""
+        index = np.arange(n_disp) if self.interface_index is None else np.asarray(self.interface_index)
+        if index.shape != (n_force,) or index.min() < 0 or index.max() >= n_disp:
+            raise ValueError(f"force_basis 'work' needs the interface's {n_force} columns of the {n_disp} "
+                             f"displacement values (interface_index), got shape {index.shape}")
+        basis, _, _ = np.linalg.svd(self.Phi_u_[index], full_matrices=False)
+        basis = basis[:, :min(self.n_force_modes_, basis.shape[1])]
+        signs = np.sign(basis[np.argmax(np.abs(basis), axis=0), np.arange(basis.shape[1])])
+        return basis * np.where(signs == 0, 1.0, signs)
 
     def encode(self, F: np.ndarray) -> np.ndarray:
         return self.scaling_((np.atleast_2d(F) - self.f_mean_) @ self.Phi_f_)

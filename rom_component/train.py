@@ -39,7 +39,10 @@ CONFIG = {
               "feature_scaling": "standard",   # poly: each term to unit variance, or "global": one scale for all
               # poly: also fit the steps between a window's sub-iterations, their squared sum weighted to this
               # fraction of the levels' (0: levels only)
-              "secant_weight": Value(0.0, low=0.0)},
+              "secant_weight": Value(0.0, low=0.0),
+              # the encoder: the forces' POD ("pod", r_f = n_force_modes), or "work": the decoder's displacement
+              # modes on the interface, orthonormalised (r_f = r_u): the work of the force on each mode
+              "force_basis": "pod"},
     "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
     "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],
@@ -170,6 +173,11 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     echo(f"{len(F)} snapshots of '{config['snapshots']['component']}' from {len(sources)} run(s), "
          f"t in [{times.min():g}, {times.max():g}]: F {F.shape}, U {U.shape}")
     params = dict(config["model"])
+    try:
+        SolidRom(**params)._check_params()
+    except ValueError as exc:
+        raise SceneError(f"model: {exc}") from None
+    K = interface_index(results, config["snapshots"]) if config["snapshots"]["field"] else None
     probes = read_probes(config["snapshots"]["probes"], config["snapshots"], F.shape[1], U.shape[1])
     if len(probes[0]):
         if params["secant_weight"] > 0:
@@ -179,6 +187,8 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
         F, U, times, windows = (np.concatenate(pair) for pair in zip((F, U, times, windows), probes))
         echo(f"and {len(probes[0])} probes from {len(config['snapshots']['probes'])} file(s): F {F.shape}")
     selection = config["selection"]
+    if params["force_basis"] == "work":
+        params["interface_index"] = K     # the force's columns among the displacement field's (None: the same)
     table = None
     started = time.perf_counter()
     tables = {}
@@ -202,9 +212,9 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     model = SolidRom(**params).fit(F, U, windows=windows if params["secant_weight"] > 0 else None)
     fit_seconds = time.perf_counter() - fit_started
     params["n_force_modes"], params["n_disp_modes"] = model.modes   # as used (capped by the data)
+    params.pop("interface_index", None)
     U_fit = model.predict(F)
     training_error = float(np.linalg.norm(U_fit - U, axis=1).mean())
-    K = interface_index(results, config["snapshots"]) if config["snapshots"]["field"] else None
     metadata = {
         "regressor": params["regressor"], "params": params,
         "input_variable": config["snapshots"]["input"], "output_variable": config["snapshots"]["output"],

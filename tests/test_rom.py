@@ -299,3 +299,51 @@ def test_probes_along_the_force_modes_fix_the_response_to_a_mode_that_moves_with
     with pytest.raises(ProbeFailed, match=r"^row 4: no convergence$") as failed:
         ask(fails_on_the_fifth, forces)
     assert failed.value.row == 4
+
+
+def reciprocal_solid(m=400, seed=7):
+    """A static solid with Maxwell-Betti reciprocity: 40 interface dofs among 60, response in 3 modes, driven by
+    the force's work on them (g = V_G^T f) through a gradient map; the forces also vary, ten times more, along
+    work-free directions (orthogonal to V_G) that move nothing."""
+    rng = np.random.default_rng(seed)
+    V = np.linalg.qr(rng.standard_normal((60, 3)))[0]
+    index = rng.permutation(60)[:40]                       # the force's dofs among the field's, in force order
+    V_G = V[index]
+    free = np.linalg.svd(np.eye(40) - V_G @ np.linalg.pinv(V_G))[0][:, :3]   # orthogonal to V_G
+    M = np.array([[2.0, 0.3, 0.0], [0.3, 1.0, 0.1], [0.0, 0.1, 0.5]])
+
+    def solve(F):
+        g = F @ V_G
+        q = g @ M + np.column_stack([0.2 * g[:, 0] ** 2 + 0.1 * g[:, 1] ** 2, 0.2 * g[:, 0] * g[:, 1], 0 * g[:, 2]])
+        return q @ V.T
+
+    F = (rng.uniform(-1, 1, (m, 3)) @ np.linalg.pinv(V_G) + 10 * rng.uniform(-1, 1, (m, 3)) @ free.T + 0.5)
+    return F, solve(F), solve, index, free
+
+
+def test_the_work_basis_keeps_the_part_of_the_force_a_reciprocal_solid_answers():
+    F, U, solve, index, free = reciprocal_solid()
+    params = dict(n_force_modes=3, n_disp_modes=3, regressor="poly", feature_scaling="global", interface_index=index)
+    work = SolidRom(force_basis="work", **params).fit(F[:300], U[:300])
+    pod = SolidRom(**params).fit(F[:300], U[:300])
+    assert work.modes == (3, 3)
+
+    def error(model):
+        return np.linalg.norm(model.predict(F[300:]) - U[300:]) / np.linalg.norm(U[300:])
+
+    assert error(work) < 1e-3 and error(pod) > 0.3     # POD's 3 modes are the work-free directions of most variance
+    # work-free changes of the force move nothing, as in the solid
+    np.testing.assert_allclose(work.predict(F[300:310] + 5 * free[:, 0]), work.predict(F[300:310]), atol=1e-12)
+    # the interface's response is reciprocal: d u_i / d f_j = d u_j / d f_i
+    f0, h = F[300], 1e-4
+    J = np.array([(work.predict((f0 + h * e)[None])[0, index] - work.predict((f0 - h * e)[None])[0, index]) / (2 * h)
+                  for e in np.eye(40)]).T
+    assert np.linalg.norm(J - J.T) < 1e-2 * np.linalg.norm(J)
+    np.testing.assert_allclose(J @ free, 0, atol=1e-9)
+    online = work.to_online(index)                     # the interface path serves the same
+    np.testing.assert_allclose(online.predict(F[300:310]), work.predict(F[300:310])[:, index], atol=1e-12)
+    with pytest.raises(ValueError, match=r"force_basis 'work' needs the interface's 40 columns of the 60 "
+                                         r"displacement values \(interface_index\), got shape \(39,\)"):
+        SolidRom(force_basis="work", **{**params, "interface_index": index[:39]}).fit(F, U)
+    with pytest.raises(ValueError, match="force_basis 'bogus' not in"):
+        SolidRom(force_basis="bogus").fit(F, U)
