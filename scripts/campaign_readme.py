@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import re
 import sys
 from pathlib import Path
@@ -154,6 +155,11 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
             p = row["predicted_range"]
             lines.append(f"  {row['label']}: over the served windows alone, speed-up {p['speedup']:.3f} "
                          f"against the bound {p['bound']:.3f} ({p['speedup'] / p['bound']:.1%})")
+        low, high = row.get("predicted_iterations_interval", [float("nan")] * 2)
+        if math.isfinite(low):
+            lines.append(f"  {row['label']}: iterations over the served windows {row['predicted_iterations_ratio'] - 1:+.2%}, "
+                         f"90 % interval {low - 1:+.2%} .. {high - 1:+.2%} (moving-block bootstrap of the "
+                         f"per-window difference, blocks of 10 windows)")
         if row.get("rom_fallback_windows"):
             lines.append(f"  {row['label']}: {row['rom_fallback_windows']} windows fell back to the solid FOM "
                          f"(a call beyond one range width of the training data)")

@@ -118,6 +118,22 @@ def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
         assert (tmp_path / "report" / png).stat().st_size > 10_000, png
 
 
+def test_the_iterations_interval_has_the_spread_of_the_windows_and_widens_with_their_correlation():
+    from rom_component.report import iterations_interval
+    rng = np.random.default_rng(3)
+    reference = np.full(250, 6)
+    run = reference + rng.integers(-1, 2, 250)                  # +-1 iteration a window, independent
+    low, high = iterations_interval(run, reference)
+    ratio = run.sum() / reference.sum()
+    half = 1.645 * np.std(run - reference) * np.sqrt(250) / reference.sum()   # the normal 90 % half-width
+    assert low < ratio < high and (high - low) / 2 == pytest.approx(half, rel=0.15)
+    correlated = reference + np.repeat(rng.integers(-1, 2, 25), 10)   # the same 250 values in runs of 10
+    low_c, high_c = iterations_interval(correlated, reference)
+    assert (high_c - low_c) > 2 * (high - low)
+    assert iterations_interval(reference, reference) == [1.0, 1.0]
+    assert all(np.isnan(iterations_interval(run[:19], reference[:19])))
+
+
 def test_scene_plot_hooks_are_registered_and_keep_to_their_scene(tmp_path):
     from importlib.metadata import entry_points
 
