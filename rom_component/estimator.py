@@ -79,6 +79,11 @@ class SolidRom(RegressorMixin, BaseEstimator):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if self.force_basis not in ("pod", "work"):
             raise ValueError(f"force_basis {self.force_basis!r} not in ('pod', 'work')")
+        if self.regressor == "potential" and (self.force_basis, self.decoder, self.input_scaling) != \
+                ("work", "linear", "global"):
+            raise ValueError("regressor 'potential' needs force_basis 'work', decoder 'linear' and input_scaling "
+                             f"'global' (its outputs are the inputs' work conjugates), got {self.force_basis!r}, "
+                             f"{self.decoder!r} and {self.input_scaling!r}")
         if self.secant_weight > 0 and self.regressor != "poly":
             raise ValueError(f"secant_weight applies to the poly regressor, not {self.regressor!r}")
 
@@ -104,9 +109,13 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.u_mean_, modes, self.disp_singular_values_ = centred_pod(U)
         self.Phi_u_ = modes[:, :self.n_disp_modes_]
         if self.force_basis == "work":
-            self.Phi_f_ = self._work_basis(F.shape[1], U.shape[1])
+            self.Phi_f_, conjugate = self._work_basis(F.shape[1], U.shape[1])
             self.n_force_modes_ = self.Phi_f_.shape[1]
-        Zu = (U - self.u_mean_) @ self.Phi_u_
+            if self.regressor == "potential":     # displacement modes whose interface rows are the work basis
+                self.Phi_u_ = self.Phi_u_ @ conjugate
+                self.n_disp_modes_ = self.Phi_u_.shape[1]
+        # coordinates in the displacement modes (orthonormal from the POD; the work conjugates' are not)
+        Zu = (U - self.u_mean_) @ (self.Phi_u_ if self.regressor != "potential" else np.linalg.pinv(self.Phi_u_).T)
         self.Phi_bar_ = None
         if self.decoder == "quadratic":
             residual = (U - self.u_mean_) - Zu @ self.Phi_u_.T
@@ -121,17 +130,19 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
 
-    def _work_basis(self, n_force: int, n_disp: int) -> np.ndarray:
-        """Orthonormal basis (n_force, min(r_f, r_u)) of the displacement modes' interface rows, ordered by their
-        singular values: a force's coordinates in it carry its work on every displacement mode."""
+    def _work_basis(self, n_force: int, n_disp: int) -> tuple[np.ndarray, np.ndarray]:
+        """Orthonormal basis Q (n_force, r = min(r_f, r_u)) of the displacement modes' interface rows, ordered by
+        their singular values: a force's coordinates in it carry its work on every displacement mode; and the
+        (r_u, r) change of displacement modes Phi_u -> Phi_u C whose interface rows are Q."""
         index = np.arange(n_disp) if self.interface_index is None else np.asarray(self.interface_index)
         if index.shape != (n_force,) or index.min() < 0 or index.max() >= n_disp:
             raise ValueError(f"force_basis 'work' needs the interface's {n_force} columns of the {n_disp} "
                              f"displacement values (interface_index), got shape {index.shape}")
-        basis, _, _ = np.linalg.svd(self.Phi_u_[index], full_matrices=False)
-        basis = basis[:, :min(self.n_force_modes_, basis.shape[1])]
-        signs = np.sign(basis[np.argmax(np.abs(basis), axis=0), np.arange(basis.shape[1])])
-        return basis * np.where(signs == 0, 1.0, signs)
+        basis, singular, vt = np.linalg.svd(self.Phi_u_[index], full_matrices=False)
+        r = min(self.n_force_modes_, basis.shape[1])
+        signs = np.sign(basis[np.argmax(np.abs(basis[:, :r]), axis=0), np.arange(r)])
+        signs = np.where(signs == 0, 1.0, signs)
+        return basis[:, :r] * signs, vt[:r].T / singular[:r] * signs
 
     def encode(self, F: np.ndarray) -> np.ndarray:
         return self.scaling_((np.atleast_2d(F) - self.f_mean_) @ self.Phi_f_)

@@ -19,14 +19,15 @@ from rom_component.pod import centred_pod
 
 
 def probe_forces(F: np.ndarray, windows: np.ndarray, n_bases: int, modes: Sequence[int], amplitude: float,
-                 seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                 seed: int = 0, basis: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Forces to ask the solid for (n_bases * len(modes), N), and the row of ``F`` each one starts from.
 
     Bases: the last call of ``n_bases`` windows spread evenly over the data (the converged forces). Probe
     (b, k): base b plus ``amplitude`` times the range of mode k's coefficient in ``F``, along POD mode k of
-    ``F`` (``modes``: their indices, 0 the leading one), with a random sign.
+    ``F`` (``modes``: their indices, 0 the leading one; or column k of ``basis``, orthonormal columns, such as
+    a model's work basis), with a random sign.
     """
-    _, all_modes, _ = centred_pod(F)
+    all_modes = centred_pod(F)[1] if basis is None else np.asarray(basis)
     modes = all_modes[:, list(modes)]
     ranges = np.ptp((F - F.mean(axis=0)) @ modes, axis=0)
     last = np.flatnonzero(np.r_[windows[1:] != windows[:-1], True])

@@ -4,6 +4,8 @@
   ``scipy.interpolate.RBFInterpolator``, solved here so that its weights are ours to export).
 - ``SparseQuadraticRegression``: degree-2 polynomial whose terms are chosen per output by
   a Lasso-LARS path with the BIC (``sklearn.linear_model.LassoLarsIC``).
+- ``PotentialRegression``: the gradient of a cubic potential, u~ = grad psi(x), fitted by least squares
+  over all outputs at once: a degree-2 polynomial whose Jacobian is symmetric by construction.
 
 Both expose ``online_arrays()``: the arrays of the evaluation
 u~ = H z with z = [kernel values or quadratic terms, x, 1], in the scaled input space.
@@ -185,9 +187,74 @@ class SparseQuadraticRegression:
         return {"H": np.ascontiguousarray(H), "quad_i": self.quad_i, "quad_j": self.quad_j}
 
 
+class PotentialRegression:
+    """u~ = grad psi(x) for a cubic polynomial psi (degree 1 to 3 monomials of the n inputs), one least-squares fit
+    of its coefficients over every output. The outputs must be the inputs' work conjugates (as many, paired by
+    index): for a hyperelastic static solid, the generalised displacements are the gradient of the complementary
+    energy in the generalised forces, so their Jacobian, the compliance, is symmetric (Maxwell-Betti), which a
+    fit per output does not keep. Online it is a degree-2 polynomial of the ``poly`` form."""
+
+    kind = "poly"
+
+    def fit(self, X: np.ndarray, Y: np.ndarray) -> "PotentialRegression":
+        n = X.shape[1]
+        if Y.shape[1] != n:
+            raise ValueError(f"the potential regressor needs as many outputs as inputs (work conjugates), "
+                             f"got {n} inputs and {Y.shape[1]} outputs")
+        self.n_inputs = n
+        self.quad_i, self.quad_j = quadratic_index(n)
+        # monomials of psi as exponent rows, degree 1 to 3; the derivative of x^a along x_l is a_l x^(a - e_l)
+        exponents = _exponents_up_to_3(n)
+        terms = {tuple(row): k for k, row in enumerate(self._term_exponents(n))}   # columns of z = [q(x), x, 1]
+        T = np.zeros((n, len(terms), len(exponents)))      # u~_l = sum_z sum_t T[l, z, t] theta_t z
+        for t, a in enumerate(exponents):
+            for l in np.flatnonzero(a):
+                b = a.copy()
+                b[l] -= 1
+                T[l, terms[tuple(b)], t] = a[l]
+        Z = self.features(X)
+        design = np.einsum("sz,lzt->slt", Z, T).reshape(-1, len(exponents))
+        theta, *_ = np.linalg.lstsq(design, Y.reshape(-1), rcond=None)
+        self.H = np.einsum("lzt,t->lz", T, theta)
+        self.n_parameters = len(exponents)
+        return self
+
+    @staticmethod
+    def _term_exponents(n: int) -> np.ndarray:
+        """Exponent rows of z = [x_i x_j (i <= j), x_i, 1], the online path's order."""
+        i, j = quadratic_index(n)
+        quadratic = np.zeros((len(i), n), dtype=int)
+        np.add.at(quadratic, (np.arange(len(i)), i), 1)
+        np.add.at(quadratic, (np.arange(len(i)), j), 1)
+        return np.vstack([quadratic, np.eye(n, dtype=int), np.zeros((1, n), dtype=int)])
+
+    def features(self, X: np.ndarray) -> np.ndarray:
+        return np.hstack([X[:, self.quad_i] * X[:, self.quad_j], X, np.ones((len(X), 1))])
+
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        return self.features(X) @ self.H.T
+
+    def online_arrays(self) -> dict[str, np.ndarray]:
+        return {"H": np.ascontiguousarray(self.H), "quad_i": self.quad_i, "quad_j": self.quad_j}
+
+
+def _exponents_up_to_3(n: int) -> np.ndarray:
+    """Exponent rows of the monomials of degree 1 to 3 in n variables."""
+    from itertools import combinations_with_replacement
+    rows = []
+    for degree in (1, 2, 3):
+        for combo in combinations_with_replacement(range(n), degree):
+            row = np.zeros(n, dtype=int)
+            np.add.at(row, list(combo), 1)
+            rows.append(row)
+    return np.array(rows)
+
+
 def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard"):
     if kind == "rbf":
         return RbfRegression(smoothing)
     if kind == "poly":
         return SparseQuadraticRegression(quadratic_modes, feature_scaling)
-    raise ValueError(f"regressor {kind!r} not in ('rbf', 'poly')")
+    if kind == "potential":
+        return PotentialRegression()
+    raise ValueError(f"regressor {kind!r} not in ('rbf', 'poly', 'potential')")

@@ -347,3 +347,45 @@ def test_the_work_basis_keeps_the_part_of_the_force_a_reciprocal_solid_answers()
         SolidRom(force_basis="work", **{**params, "interface_index": index[:39]}).fit(F, U)
     with pytest.raises(ValueError, match="force_basis 'bogus' not in"):
         SolidRom(force_basis="bogus").fit(F, U)
+
+
+def test_the_potential_regressor_recovers_a_gradient_map_and_keeps_any_fit_reciprocal():
+    from rom_component.regression import PotentialRegression
+    rng = np.random.default_rng(11)
+    X = rng.uniform(-1, 1, (300, 4))
+    A = rng.standard_normal((4, 4))
+    S = A @ A.T                                              # psi = 0.5 x'Sx + x0^3 + x0 x1 x2 - 0.3 x3 + const
+
+    def gradient(X):
+        g = X @ S
+        g[:, 0] += 3 * X[:, 0] ** 2 + X[:, 1] * X[:, 2]
+        g[:, 1] += X[:, 0] * X[:, 2]
+        g[:, 2] += X[:, 0] * X[:, 1]
+        g[:, 3] -= 0.3
+        return g
+
+    model = PotentialRegression().fit(X, gradient(X))
+    test = rng.uniform(-1, 1, (50, 4))
+    np.testing.assert_allclose(model.predict(test), gradient(test), atol=1e-10)
+    assert model.n_parameters == 4 + 10 + 20 and model.H.shape == (4, 10 + 4 + 1)
+    # data that are no gradient (a rotation in the x0-x1 plane): the fit's Jacobian stays symmetric
+    Y = gradient(X) + np.column_stack([X[:, 1], -X[:, 0], 0 * X[:, :2]])
+    fitted = PotentialRegression().fit(X, Y)
+    x0, h = test[0], 1e-6
+    J = np.array([(fitted.predict((x0 + h * e)[None]) - fitted.predict((x0 - h * e)[None]))[0] / (2 * h)
+                  for e in np.eye(4)])
+    assert np.abs(J - J.T).max() < 1e-8 * np.abs(J).max()
+    assert np.abs(fitted.predict(X) - Y).max() > 0.5            # the rotation cannot be fitted
+    with pytest.raises(ValueError, match="as many outputs as inputs"):
+        PotentialRegression().fit(X, Y[:, :3])
+
+
+def test_the_potential_rom_serves_a_reciprocal_solid_through_the_online_path():
+    F, U, solve, index, free = reciprocal_solid()
+    model = SolidRom(3, 3, regressor="potential", force_basis="work", interface_index=index).fit(F[:300], U[:300])
+    assert np.linalg.norm(model.predict(F[300:]) - U[300:]) < 1e-10 * np.linalg.norm(U[300:])
+    online = model.to_online(index)
+    np.testing.assert_allclose(online.predict(F[300:310]), U[300:310][:, index], atol=1e-10)
+    np.testing.assert_allclose(model.Phi_u_[index].T @ model.Phi_u_[index], np.eye(3), atol=1e-12)  # = work basis
+    with pytest.raises(ValueError, match="regressor 'potential' needs force_basis 'work', decoder 'linear'"):
+        SolidRom(3, 3, regressor="potential", interface_index=index).fit(F, U)
