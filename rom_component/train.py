@@ -41,7 +41,9 @@ CONFIG = {
               # fraction of the levels' (0: levels only)
               "secant_weight": Value(0.0, low=0.0),
               # the encoder: the forces' POD ("pod", r_f = n_force_modes), or "work": the decoder's displacement
-              # modes on the interface, orthonormalised (r_f = r_u): the work of the force on each mode
+              # modes on the interface, orthonormalised (r_f = r_u): the work of the force on each mode (with
+              # regressor = "potential" and decoder = "linear": a symmetric compliance). On the double flap its
+              # coupled runs failed within 30 windows of the switch (README, "The solid's compliance")
               "force_basis": "pod"},
     "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
