@@ -3,8 +3,9 @@
 Per run: the relative L2 error of a monitored value (the tube's inlet pressure) over
 the predicted range, per-window errors of every exchanged field and of the full
 displacement field (the paper's e(t) = ||U - U_rom|| / mean_t ||U||), accumulated
-coupling iterations against the reference (with a bootstrap interval over the predicted windows), the solid speed-up sigma (compute and
-round trip per call), the total speed-up and its bound (T_f + T_s) / (T_f + T_s / sigma).
+coupling iterations against the reference (with a bootstrap interval over the predicted windows),
+the solid speed-up sigma (compute and round trip per call), the total speed-up and its bound
+(T_f + T_s) / (T_f + T_s / sigma).
 Writes ``report.json``, ``report.txt`` and the PNGs of ``rom_component.report_plots``, which
 adds a scene's own plots from its component package. A reference must have run the same scene.
 """

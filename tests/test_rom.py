@@ -281,6 +281,11 @@ def test_probes_along_the_force_modes_fix_the_response_to_a_mode_that_moves_with
     along = np.abs(steps @ modes)
     assert np.allclose(along.max(axis=1), np.linalg.norm(steps, axis=1))
     assert np.allclose(along.max(axis=0), 0.25 * np.ptp((F - F.mean(axis=0)) @ modes, axis=0))
+    axes = np.eye(6)[:, [4, 1]]                               # along a basis of one's own: steps on its columns
+    forces_b, _ = probe_forces(F, windows, n_bases=20, modes=[0, 1], amplitude=0.5, basis=axes)
+    steps_b = (forces_b - F[base[::3].repeat(2)]).reshape(20, 2, 6)
+    assert np.allclose(np.abs(steps_b[:, 0, 4]), 0.5 * np.ptp(F[:, 4])) and np.allclose(steps_b[:, 0, [0, 1, 2, 3, 5]], 0)
+    assert np.allclose(np.abs(steps_b[:, 1, 1]), 0.5 * np.ptp(F[:, 1])) and np.allclose(steps_b[:, 1, [0, 2, 3, 4, 5]], 0)
 
     def response_error(F_train):
         model = SolidRom(n_force_modes=3, n_disp_modes=6, regressor="poly", decoder="linear",
