@@ -67,7 +67,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
         tags.regressor_tags.poor_score = self.regressor == "poly"
         return tags
 
-    def _check_params(self) -> None:
+    def check_params(self) -> None:
+        """Raise ValueError naming the first setting out of its range (fit calls it; cosim train before reading)."""
         for name in ("n_force_modes", "n_disp_modes"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
@@ -94,7 +95,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
     def fit(self, X: np.ndarray, y: np.ndarray, windows: np.ndarray | None = None) -> "SolidRom":
         """Fit on force rows ``X`` and displacement rows ``y``; ``windows``: the window of each row (rows of
         one window in call order), needed with ``secant_weight`` > 0."""
-        self._check_params()
+        self.check_params()
         F, U = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=np.float64,
                              ensure_min_samples=2)
         pairs = None

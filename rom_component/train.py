@@ -176,7 +176,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
          f"t in [{times.min():g}, {times.max():g}]: F {F.shape}, U {U.shape}")
     params = dict(config["model"])
     try:
-        SolidRom(**params)._check_params()
+        SolidRom(**params).check_params()
     except ValueError as exc:
         raise SceneError(f"model: {exc}") from None
     K = interface_index(results, config["snapshots"]) if config["snapshots"]["field"] else None

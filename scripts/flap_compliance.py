@@ -58,7 +58,7 @@ def main() -> None:
     parser.add_argument("--windows", default="", help="windows to compare the compliance at, comma-separated")
     parser.add_argument("--drift", default="", help="FIRST-LAST: windows over which to compare the response's change")
     args = parser.parse_args()
-    from solid_component.kratos import KratosSolid
+    from solid_component.kratos import standalone_solid
 
     with RunResults(args.results) as run:
         calls = run.calls("solid", converged_only=True)
@@ -66,9 +66,7 @@ def main() -> None:
         window_of = {int(w): k for k, w in enumerate(calls.window)}
     Q = work_basis(args.models[0])
     roms = {m.stem: persistence.load(m, "reproducible") for m in args.models}
-    solid = KratosSolid()
-    solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008},
-                       "mesh": str(ROOT / "scenes" / "double_flap" / "solid.mdpa"), "linear_solver": "sparse_lu"})
+    solid = standalone_solid(ROOT / "scenes" / "double_flap" / "solid.mdpa")
 
     def fom(f: np.ndarray) -> np.ndarray:
         return np.ravel(solid.step(0.0, 0.008, {"force": f.reshape(-1, 2)})["displacement"]).copy()

@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--along", type=Path, help="a trained model (.npz): probe along its force basis (Phi_f, "
                         "such as the work basis of model.force_basis = 'work') instead of the forces' POD modes")
     args = parser.parse_args(argv)
-    from solid_component.kratos import KratosSolid
+    from solid_component.kratos import standalone_solid
 
     spec = load_config(ROOT / "scenes" / "double_flap_rom.toml", [f"snapshots.t_max={args.t_max}"])["snapshots"]
     F, U, times, windows = read_training_set(args.results, spec)
@@ -61,9 +61,7 @@ def main(argv: list[str] | None = None) -> None:
         if not last <= basis.shape[1]:
             parser.error(f"--modes {args.modes} goes beyond the {basis.shape[1]} directions of {args.along}")
     forces, base = probe_forces(F, windows, args.bases, range(first - 1, last), args.amplitude, args.seed, basis)
-    solid = KratosSolid()
-    solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008},
-                       "mesh": str(ROOT / "scenes" / "double_flap" / "solid.mdpa"), "linear_solver": "sparse_lu"})
+    solid = standalone_solid(ROOT / "scenes" / "double_flap" / "solid.mdpa")
     try:
         def solve(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             out = solid.step(0.0, 0.008, {"force": f.reshape(-1, 2)})

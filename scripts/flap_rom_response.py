@@ -33,7 +33,7 @@ def responses(model: Path, results: Path, window: int | None,
               steps: bool = False) -> list[tuple[int, float, float]] | list[float]:
     """Per force mode: (mode index, size ratio ROM / solid, cosine); with ``steps``: per sub-iteration step of
     the window, the relative error of the ROM's response along it."""
-    from solid_component.kratos import KratosSolid
+    from solid_component.kratos import standalone_solid
     rom = persistence.load(model, "reproducible")
     arrays, _ = persistence.load_arrays(model)
     with RunResults(results) as run:
@@ -46,9 +46,7 @@ def responses(model: Path, results: Path, window: int | None,
         directions = moves / np.linalg.norm(moves, axis=1, keepdims=True)
     else:
         directions = arrays["Phi_f"].T
-    solid = KratosSolid()
-    solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008},
-                       "mesh": str(ROOT / "scenes" / "double_flap" / "solid.mdpa"), "linear_solver": "sparse_lu"})
+    solid = standalone_solid(ROOT / "scenes" / "double_flap" / "solid.mdpa")
     try:
         def fom(f: np.ndarray) -> np.ndarray:
             return np.ravel(solid.step(0.0, 0.008, {"force": f.reshape(-1, 2)})["displacement"]).copy()

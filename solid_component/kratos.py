@@ -137,3 +137,12 @@ class KratosSolid(KratosComponent):
                  "newton_unconverged": np.array(self.stepped.unconverged)}
         self.close()
         return final
+
+
+def standalone_solid(mesh: str | Path, linear_solver: str = "sparse_lu") -> KratosSolid:
+    """A Kratos solid instantiated outside a coupled run, for re-solving single calls (the static solid keeps
+    nothing from one call to the next but its Newton start); ``close()`` it when done."""
+    solid = KratosSolid()
+    solid.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": 0.008}, "mesh": str(mesh),
+                       "linear_solver": linear_solver})
+    return solid
