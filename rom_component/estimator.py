@@ -4,7 +4,7 @@ Snapshots are rows (scikit-learn convention): F (m, N) interface forces, U (m, N
 displacements. Encoder: centred POD of F with ``n_force_modes`` modes. Decoder:
 centred POD of U with ``n_disp_modes`` modes, linear or with a quadratic manifold.
 Regression from scaled reduced forces to reduced displacements: thin-plate-spline
-RBF, a BIC-sparse quadratic polynomial, or (``regressor = "potential"``) the gradient of a cubic potential.
+RBF, a BIC-sparse quadratic polynomial (or one fitted on all its terms by cross-validated ridge), or (``regressor = "potential"``) the gradient of a cubic potential.
 With ``force_basis = "work"`` the encoder is not the forces' POD but an orthonormal basis of the decoder's
 displacement modes on the interface (r_f = r_u): the reduced forces are then the work of the force on each
 displacement mode, the only part of a force a static elastic solid whose response lies in those modes answers
@@ -29,7 +29,7 @@ from rom_component.envelope import fit_envelope
 from rom_component.manifold import fit_quadratic_manifold, quadratic_terms
 from rom_component.online import OnlineRom
 from rom_component.pod import centred_pod
-from rom_component.regression import Scaling, make_regression
+from rom_component.regression import POLY_FITS, Scaling, make_regression
 
 
 class SolidRom(RegressorMixin, BaseEstimator):
@@ -43,7 +43,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
     def __init__(self, n_force_modes: int = 3, n_disp_modes: int = 9, decoder: str = "linear",
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
                  rbf_smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard",
-                 secant_weight: float = 0.0, force_basis: str = "pod", interface_index: np.ndarray | None = None):
+                 secant_weight: float = 0.0, force_basis: str = "pod", interface_index: np.ndarray | None = None,
+                 cross_modes: int = 0, poly_fit: str = "lasso-bic"):
         self.n_force_modes = n_force_modes
         self.n_disp_modes = n_disp_modes
         self.decoder = decoder
@@ -56,6 +57,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.secant_weight = secant_weight
         self.force_basis = force_basis
         self.interface_index = interface_index
+        self.cross_modes = cross_modes
+        self.poly_fit = poly_fit
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -75,9 +78,15 @@ class SolidRom(RegressorMixin, BaseEstimator):
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         if self.decoder not in ("linear", "quadratic"):
             raise ValueError(f"decoder {self.decoder!r} not in ('linear', 'quadratic')")
-        if isinstance(self.quadratic_modes, bool) or not isinstance(self.quadratic_modes, numbers.Integral) \
-                or self.quadratic_modes < 0:
-            raise ValueError(f"quadratic_modes must be an integer >= 0 (0: all), got {self.quadratic_modes!r}")
+        for name in ("quadratic_modes", "cross_modes"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+                raise ValueError(f"{name} must be an integer >= 0{' (0: all)' * (name == 'quadratic_modes')}, "
+                                 f"got {value!r}")
+        if self.poly_fit not in POLY_FITS:
+            raise ValueError(f"poly_fit {self.poly_fit!r} not in {POLY_FITS}")
+        if self.poly_fit == "ridge" and self.secant_weight > 0:
+            raise ValueError("poly_fit 'ridge' fits levels only: secant_weight must be 0")
         for name in ("manifold_regularization", "rbf_smoothing", "secant_weight"):
             value = getattr(self, name)
             if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
@@ -94,7 +103,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
 
     def fit(self, X: np.ndarray, y: np.ndarray, windows: np.ndarray | None = None) -> "SolidRom":
         """Fit on force rows ``X`` and displacement rows ``y``; ``windows``: the window of each row (rows of
-        one window in call order), needed with ``secant_weight`` > 0."""
+        one window in call order), needed with ``secant_weight`` > 0, and the ridge fit's cross-validation
+        groups (without them it cross-validates over snapshots)."""
         self.check_params()
         F, U = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=np.float64,
                              ensure_min_samples=2)
@@ -129,9 +139,14 @@ class SolidRom(RegressorMixin, BaseEstimator):
         Zf = (F - self.f_mean_) @ self.Phi_f_
         self.scaling_ = Scaling(self.input_scaling).fit(Zf)
         X = self.scaling_(Zf)
-        regression = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes, self.feature_scaling)
-        self.regression_ = (regression.fit(X, Zu) if pairs is None else
-                            regression.fit(X, Zu, pairs=pairs, pair_weight=self.secant_weight))
+        regression = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes, self.feature_scaling,
+                                     self.cross_modes, self.poly_fit)
+        if pairs is not None:
+            self.regression_ = regression.fit(X, Zu, pairs=pairs, pair_weight=self.secant_weight)
+        elif self.regressor == "poly" and self.poly_fit == "ridge":
+            self.regression_ = regression.fit(X, Zu, groups=None if windows is None else np.asarray(windows))
+        else:
+            self.regression_ = regression.fit(X, Zu)
         self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
 

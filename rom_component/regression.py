@@ -3,7 +3,8 @@
 - ``RbfRegression``: thin-plate-spline RBF with a linear tail (the system of
   ``scipy.interpolate.RBFInterpolator``, solved here so that its weights are ours to export).
 - ``SparseQuadraticRegression``: degree-2 polynomial whose terms are chosen per output by
-  a Lasso-LARS path with the BIC (``sklearn.linear_model.LassoLarsIC``).
+  a Lasso-LARS path with the BIC (``sklearn.linear_model.LassoLarsIC``), or fitted on all its terms by
+  ridge regression with the penalty cross-validated over whole windows (``fit = "ridge"``).
 - ``PotentialRegression``: the gradient of a cubic potential, u~ = grad psi(x), fitted by least squares
   over all outputs at once: a degree-2 polynomial whose Jacobian is symmetric by construction.
 
@@ -20,6 +21,9 @@ from scipy.special import xlogy
 from rom_component.manifold import quadratic_index
 
 SCALINGS = ("global", "standard", "minmax", "none")
+POLY_FITS = ("lasso-bic", "ridge")
+RIDGE_PENALTIES = np.logspace(-12, -6, 13)   # per snapshot, in the globally scaled terms: from a mere
+                                             # conditioning to a tenth of a weak mode's term
 
 
 class Scaling:
@@ -113,30 +117,40 @@ class RbfRegression:
 
 
 class SparseQuadraticRegression:
-    """u~_k = c_k + sum over a BIC-selected subset of {x_i, x_i x_j} of the terms.
+    """u~_k = c_k + sum over a subset of {x_i, x_i x_j} of the terms.
 
     ``quadratic_modes`` = q limits the products to the leading q reduced forces (i, j < q; default: all):
     the response stays linear in the weaker modes, which matters once the coupling drives the inputs
     beyond the training data (a product of two weak modes grows fast outside their small range).
+    ``cross_modes`` = c adds the products of the leading c reduced forces with every reduced force: the
+    response to a weak mode then depends on the state of the leading ones (a geometrically nonlinear
+    solid's compliance depends on its deformation), still linear in the weak modes for a given state.
+    ``fit``: "lasso-bic" chooses the terms per output (the paper's sparse polynomial); "ridge" keeps every
+    term, one least-squares fit of all outputs with a ridge penalty chosen by 5-fold cross-validation
+    (over whole windows when the windows are given).
     """
 
     kind = "poly"
 
-    def __init__(self, quadratic_modes: int = 0, feature_scaling: str = "standard"):
+    def __init__(self, quadratic_modes: int = 0, feature_scaling: str = "standard", cross_modes: int = 0,
+                 fit: str = "lasso-bic"):
         if feature_scaling not in ("standard", "global"):
             raise ValueError(f"feature scaling {feature_scaling!r} not in ('standard', 'global')")
+        if fit not in POLY_FITS:
+            raise ValueError(f"poly fit {fit!r} not in {POLY_FITS}")
         self.quadratic_modes = quadratic_modes
         self.feature_scaling = feature_scaling
+        self.cross_modes = cross_modes
+        self.fit_method = fit
 
     def fit(self, X: np.ndarray, Y: np.ndarray, pairs: tuple[np.ndarray, np.ndarray] | None = None,
-            pair_weight: float = 0.0) -> "SparseQuadraticRegression":
+            pair_weight: float = 0.0, groups: np.ndarray | None = None) -> "SparseQuadraticRegression":
         """Least squares on the rows (X, Y); with ``pairs`` (a, b) of row indices, also on the differences
         Y[b] - Y[a] against X[b] - X[a], weighted so that their squared sum is ``pair_weight`` times that
-        of the centred rows, per output."""
+        of the centred rows, per output; ``groups``: the window of each row (ridge's cross-validation)."""
         from sklearn.linear_model import LassoLarsIC
         self.n_inputs = X.shape[1]
-        q = self.n_inputs if self.quadratic_modes <= 0 else min(self.quadratic_modes, self.n_inputs)
-        self.quad_i, self.quad_j = quadratic_index(q)
+        self.quad_i, self.quad_j = product_index(self.n_inputs, self.quadratic_modes, self.cross_modes)
         features = self.features(X)
         self.feature_mean = features.mean(axis=0)
         self.feature_scale = features.std(axis=0)
@@ -154,7 +168,12 @@ class SparseQuadraticRegression:
         if len(X) <= n_terms + 1:  # the BIC needs a noise estimate the data cannot give
             noise = max(float(np.var(Ys)) * 1e-6, 1e-12)
         coefficients = np.zeros((n_terms, Y.shape[1]))
-        if pairs is not None and len(pairs[0]) and pair_weight > 0:
+        self.ridge_penalty = None
+        if self.fit_method == "ridge":
+            if pairs is not None and pair_weight > 0:
+                raise ValueError("the ridge fit takes no sub-iteration steps (secant_weight)")
+            coefficients = self._ridge(Phi, Ys, groups)
+        elif pairs is not None and len(pairs[0]) and pair_weight > 0:
             a, b = pairs
             dPhi, dY = Phi[b] - Phi[a], Ys[b] - Ys[a]      # the intercept cancels in a difference
             steps = np.sum(dY ** 2, axis=0)
@@ -171,6 +190,22 @@ class SparseQuadraticRegression:
         self.coefficients = coefficients
         self.n_selected = (coefficients != 0).sum(axis=0)
         return self
+
+    def _ridge(self, Phi: np.ndarray, Ys: np.ndarray, groups: np.ndarray | None) -> np.ndarray:
+        """Coefficients (terms, outputs) of the ridge fit whose penalty has the least cross-validated error."""
+        from sklearn.linear_model import Ridge
+        from sklearn.model_selection import GridSearchCV, GroupKFold, KFold
+        m = len(Phi)
+        folds = min(5, m if groups is None else len(np.unique(groups)))
+        if folds < 2:
+            raise ValueError(f"the ridge fit cross-validates over at least 2 {'windows' if groups is not None else 'snapshots'}, "
+                             f"got {folds}")
+        cv = GroupKFold(folds) if groups is not None else KFold(folds, shuffle=True, random_state=0)
+        search = GridSearchCV(Ridge(fit_intercept=False, solver="cholesky"), {"alpha": m * RIDGE_PENALTIES},
+                              cv=cv, scoring="neg_mean_squared_error")
+        search.fit(Phi, Ys, groups=groups)     # Phi and Ys are centred: no intercept to fit
+        self.ridge_penalty = float(search.best_params_["alpha"] / m)
+        return np.array(search.best_estimator_.coef_, dtype=np.float64).reshape(Ys.shape[1], -1).T
 
     def features(self, X: np.ndarray) -> np.ndarray:
         return np.hstack([X[:, self.quad_i] * X[:, self.quad_j], X])
@@ -250,11 +285,21 @@ def _exponents_up_to_3(n: int) -> np.ndarray:
     return np.array(rows)
 
 
-def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard"):
+def product_index(n: int, quadratic_modes: int = 0, cross_modes: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i <= j) of the products x_i x_j of n inputs: both among the leading ``quadratic_modes``
+    (0: all n), or one among the leading ``cross_modes``; in the order of ``np.triu_indices``."""
+    q = n if quadratic_modes <= 0 else min(quadratic_modes, n)
+    i, j = quadratic_index(n)
+    keep = (j < q) | (i < cross_modes)
+    return i[keep], j[keep]
+
+
+def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard",
+                    cross_modes: int = 0, poly_fit: str = "lasso-bic"):
     if kind == "rbf":
         return RbfRegression(smoothing)
     if kind == "poly":
-        return SparseQuadraticRegression(quadratic_modes, feature_scaling)
+        return SparseQuadraticRegression(quadratic_modes, feature_scaling, cross_modes, poly_fit)
     if kind == "potential":
         return PotentialRegression()
     raise ValueError(f"regressor {kind!r} not in ('rbf', 'poly', 'potential')")

@@ -44,7 +44,12 @@ CONFIG = {
               # modes on the interface, orthonormalised (r_f = r_u): the work of the force on each mode (with
               # regressor = "potential" and decoder = "linear": a symmetric compliance). On the double flap its
               # coupled runs failed within 30 windows of the switch (README, "The solid's compliance")
-              "force_basis": "pod"},
+              "force_basis": "pod",
+              # poly: the products of the leading cross_modes reduced forces with every reduced force, too
+              "cross_modes": 0,
+              # poly: "lasso-bic" (terms chosen per output, the paper's) or "ridge" (all terms, the penalty
+              # cross-validated over whole windows)
+              "poly_fit": "lasso-bic"},
     "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
     "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],
@@ -192,6 +197,8 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     if params["force_basis"] == "work":
         params["interface_index"] = K     # the force's columns among the displacement field's (None: the same)
     table = None
+    # the steps between sub-iterations, and the ridge fit's cross-validation, go by window
+    fit_by_window = params["secant_weight"] > 0 or (params["regressor"] == "poly" and params["poly_fit"] == "ridge")
     started = time.perf_counter()
     tables = {}
     if selection["table"] or selection["choose"] == "holdout":
@@ -201,7 +208,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
             tables[split] = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
                                           selection["test_fraction"], selection["seed"], selection["energy"],
                                           windows if split == "windows" else None, selection["tolerance"],
-                                          windows if params["secant_weight"] > 0 else None)
+                                          windows if fit_by_window else None)
             echo(tables[split].format())
             echo(f"cross-validation time (split by {split}): {time.perf_counter() - split_started:.2f} s")
         table = tables[selection["split"]]
@@ -211,7 +218,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     elif selection["choose"] == "energy":
         params["n_force_modes"], params["n_disp_modes"] = energy_choice(F, U, selection["energy"])
     fit_started = time.perf_counter()
-    model = SolidRom(**params).fit(F, U, windows=windows if params["secant_weight"] > 0 else None)
+    model = SolidRom(**params).fit(F, U, windows=windows if fit_by_window else None)
     fit_seconds = time.perf_counter() - fit_started
     params["n_force_modes"], params["n_disp_modes"] = model.modes   # as used (capped by the data)
     params.pop("interface_index", None)
@@ -241,8 +248,14 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     if coefficients is not None:
         kept = (coefficients != 0).sum(axis=0)
         metadata["terms_kept"] = {"per_output": kept.tolist(), "of": int(coefficients.shape[0])}
-        echo(f"sparse polynomial: {int(kept.sum())} of {coefficients.size} terms kept "
-             f"({kept.min()}-{kept.max()} of {coefficients.shape[0]} per reduced displacement)")
+        penalty = getattr(model.regression_, "ridge_penalty", None)
+        if penalty is None:
+            echo(f"sparse polynomial: {int(kept.sum())} of {coefficients.size} terms kept "
+                 f"({kept.min()}-{kept.max()} of {coefficients.shape[0]} per reduced displacement)")
+        else:
+            metadata["ridge_penalty"] = penalty
+            echo(f"polynomial of {coefficients.shape[0]} terms per reduced displacement, ridge penalty {penalty:.1e} "
+                 f"per snapshot (cross-validated over whole windows)")
     persistence.save(out, {**model.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
     if config["output"]["plots"]:
         from rom_component.training_plots import write_training_plots

@@ -78,6 +78,7 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
         snapshots = re.search(r"^(\d+) snapshots", text, re.M)
         fitted = re.search(r"fitted r_f = (\d+), r_u = (\d+), (\w+) regression, (\w+) decoder in ([\d.]+) s", text)
         terms = re.search(r"sparse polynomial: (\d+) of (\d+) terms kept \((\d+)-(\d+) of (\d+)", text)
+        ridge = re.search(r"polynomial of (\d+) terms per reduced displacement, ridge penalty ([\d.e+-]+)", text)
         cv = re.findall(r"cross-validation time \(split by (\w+)\): ([\d.]+) s", text)
         total = re.search(r"training with cross-validation: ([\d.]+) s", text)
         holdout = re.findall(r"best: r_f = (\d+), r_u = (\d+), eps = ([\d.e+-]+) \(([\d.]+%)\)", text)
@@ -87,6 +88,8 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
                  f", r_u = {fitted.group(2)}, {fitted.group(3)}, {fitted.group(4)} decoder"]
         if terms:
             parts.append(f"terms kept per output {terms.group(3)}-{terms.group(4)} of {terms.group(5)}")
+        if ridge:
+            parts.append(f"all {ridge.group(1)} terms per output, ridge penalty {ridge.group(2)}")
         parts.append(f"fit {float(fitted.group(5)):.1f} s" + "".join(
             f", hold-out by {split} {float(s):.0f} s (best r_f {best[0]}, error {best[3]})"
             for (split, s), best in zip(cv, holdout)))

@@ -235,3 +235,43 @@ def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
     np.testing.assert_array_equal(served[:3], field[:3])                # the same FOM solves before the switch
     row = compare(run, reference)
     assert row["predicted_windows"] == 3 and 0.0 < row["displacement_error"]["mean"] < 0.5
+
+
+def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_path):
+    """The diagnostic solid (solid_component.projected) returns, from its from_time on, the ROM decoder's image of
+    its own displacement field's projection; with rom_modes, those reduced displacements come from the ROM."""
+    from rom_component import persistence
+    from rom_component.train import load_config, train
+    fom = tmp_path / "fom"
+    run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}"]), fom, progress=False)
+    config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
+                                "snapshots.field=displacement_field", "model.n_force_modes=3", "model.n_disp_modes=3",
+                                "model.decoder=quadratic", "model.regressor='poly'", "selection.table=false"])
+    train(fom / "results.h5", tmp_path / "model.npz", config, echo=lambda *a: None)
+    rom = persistence.load(tmp_path / "model.npz")
+    a = rom.arrays
+    for rom_modes in ([], [1]):
+        out = tmp_path / f"projected{len(rom_modes)}"
+        parameters = (f"{{mesh='{MESHES / 'solid.mdpa'}', model='{tmp_path / 'model.npz'}', project='both', "
+                      f"from_time={2 * DT!r}, rom_modes={rom_modes}}}")
+        run_scene(load_scene(SCENE, [f"time.end={4 * DT!r}", "components.solid.entry='solid_component.projected:ProjectedSolid'",
+                                     f"components.solid.parameters={parameters}"]), out, progress=False)
+        with RunResults(out) as run:
+            calls = run.calls("solid")
+            fields = calls.outputs["displacement_field"].reshape(len(calls.window), -1)
+            served = calls.outputs["displacement"].reshape(len(calls.window), -1)
+            forces = calls.inputs["force"].reshape(len(calls.window), -1)
+        late = calls.window >= 3
+        reduced = (fields - a["u_mean"]) @ a["Phi_u"]
+        for k in np.flatnonzero(late):
+            if rom_modes:
+                rom(forces[k])
+                reduced[k, 0] = rom.reduced[0]
+        i, j = np.triu_indices(3)
+        decoded = a["base"] + reduced @ a["A"].T + (reduced[:, i] * reduced[:, j]) @ a["B"].T
+        np.testing.assert_allclose(served[late], decoded[late], rtol=0, atol=1e-12 * np.abs(served).max())
+        assert np.abs(served[~late] - decoded[~late]).max() > 1e-6 * np.abs(served).max()   # the solid's own before
+    with pytest.raises(Exception, match="'project' is 'all'"):
+        from solid_component.projected import ProjectedSolid
+        ProjectedSolid().instantiate({"mesh": str(MESHES / "solid.mdpa"), "model": str(tmp_path / "model.npz"),
+                                      "project": "all", "time": {"end": 1.0, "dt": DT}})

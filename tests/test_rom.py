@@ -10,7 +10,7 @@ from rom_component.estimator import SolidRom
 from rom_component.manifold import quadratic_terms
 from rom_component.pod import centred_pod, energy_rank
 from rom_component.probes import ProbeFailed, ask, probe_forces
-from rom_component.regression import RbfRegression, SparseQuadraticRegression
+from rom_component.regression import RbfRegression, SparseQuadraticRegression, product_index
 
 
 def smooth_data(m=300, n_in=40, n_out=30, seed=0):
@@ -89,6 +89,39 @@ def test_products_of_the_leading_modes_only_keep_the_response_linear_in_the_othe
     rom = SolidRom(4, 4, decoder="quadratic", regressor="poly", quadratic_modes=2).fit(F, U)
     assert len(rom.online_arrays()["quad_i"]) == 3
     np.testing.assert_allclose(rom.to_online().predict(F[:20] + 0.01), rom.predict(F[:20] + 0.01), atol=1e-9)
+
+
+def test_cross_products_let_the_response_to_a_weak_mode_follow_the_leading_state():
+    """A compliance that depends on the deformation: the gain of weak mode 4 grows with leading mode 0. Products
+    among the 2 leading modes cannot hold it; with those of mode 0 and every mode, a ridge fit recovers it."""
+    rng = np.random.default_rng(8)
+    X = rng.standard_normal((600, 6)) * np.array([1.0, 0.7, 0.3, 0.1, 0.1, 0.05])
+    windows = np.repeat(np.arange(100), 6)
+    y = X[:, 0] + 0.5 * X[:, 1] ** 2 + 2.0 * X[:, 0] * X[:, 4] + 0.3 * X[:, 4] + 1e-5 * rng.standard_normal(600)
+    np.testing.assert_array_equal(np.column_stack(product_index(6, 2)), np.column_stack(np.triu_indices(2)))
+    i, j = product_index(6, 2, cross_modes=1)
+    assert list(zip(i.tolist(), j.tolist())) == [(0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (0, 5), (1, 1)]
+    leading = SparseQuadraticRegression(quadratic_modes=2, feature_scaling="global").fit(X, y[:, None])
+    cross = SparseQuadraticRegression(2, "global", cross_modes=1, fit="ridge").fit(X, y[:, None], groups=windows)
+    test = rng.standard_normal((200, 6)) * np.array([1.0, 0.7, 0.3, 0.1, 0.1, 0.05])
+    truth = test[:, 0] + 0.5 * test[:, 1] ** 2 + 2.0 * test[:, 0] * test[:, 4] + 0.3 * test[:, 4]
+    gain = lambda model: (model.predict(test + np.eye(6)[4] * 1e-3) - model.predict(test))[:, 0] / 1e-3
+    true_gain = 2.0 * test[:, 0] + 0.3
+    assert np.abs(gain(leading) - true_gain).max() > 1.0               # a constant gain, off by 2 |x0|
+    np.testing.assert_allclose(gain(cross), true_gain, atol=2e-3)
+    np.testing.assert_allclose(cross.predict(test)[:, 0], truth, atol=1e-4)
+    assert cross.ridge_penalty <= 1e-9                                  # noise 1e-5: hardly any penalty
+    noisy = y + 0.5 * rng.standard_normal(600)
+    assert SparseQuadraticRegression(2, "global", 1, "ridge").fit(X, noisy[:, None], groups=windows).ridge_penalty \
+        > 100 * cross.ridge_penalty                                     # noise 0.5: the cross-validation damps it
+    rom = SolidRom(4, 4, decoder="quadratic", regressor="poly", quadratic_modes=2, cross_modes=1, poly_fit="ridge")
+    F, U = smooth_data()
+    rom.fit(F, U, windows=np.arange(len(F)) // 3)
+    np.testing.assert_allclose(rom.to_online().predict(F[:20] + 0.01), rom.predict(F[:20] + 0.01), atol=1e-9)
+    for bad, message in (({"poly_fit": "ols"}, "poly_fit 'ols' not in"), ({"cross_modes": -1}, "cross_modes must be"),
+                         ({"poly_fit": "ridge", "secant_weight": 1.0}, "secant_weight must be 0")):
+        with pytest.raises(ValueError, match=message):
+            SolidRom(regressor="poly", **bad).fit(F, U)
 
 
 def test_rbf_regressor_interpolates_its_centres():
@@ -170,7 +203,8 @@ def test_mode_numbers_are_capped_by_the_data_and_bad_ones_reported():
             SolidRom(3, bad).fit(F, U)
 
 
-@pytest.mark.parametrize("params", [{}, {"regressor": "poly"}, {"decoder": "quadratic"}])
+@pytest.mark.parametrize("params", [{}, {"regressor": "poly"}, {"decoder": "quadratic"},
+                                    {"regressor": "poly", "poly_fit": "ridge", "cross_modes": 1}])
 def test_the_estimator_passes_scikit_learns_checks(params):
     from sklearn.utils.estimator_checks import check_estimator
     results = check_estimator(SolidRom(**params), on_fail=None)
