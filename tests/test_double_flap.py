@@ -238,7 +238,7 @@ def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
 
 
 def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_path):
-    """The diagnostic solid (solid_component.projected) returns, from its from_time on, the ROM decoder's image of
+    """The diagnostic solid (rom_component.projected) returns, from its from_time on, the ROM decoder's image of
     its own displacement field's projection; with rom_modes, those reduced displacements come from the ROM."""
     from rom_component import persistence
     from rom_component.train import load_config, train
@@ -254,7 +254,7 @@ def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_p
         out = tmp_path / f"projected{len(rom_modes)}"
         parameters = (f"{{mesh='{MESHES / 'solid.mdpa'}', model='{tmp_path / 'model.npz'}', project='both', "
                       f"from_time={2 * DT!r}, rom_modes={rom_modes}}}")
-        run_scene(load_scene(SCENE, [f"time.end={4 * DT!r}", "components.solid.entry='solid_component.projected:ProjectedSolid'",
+        run_scene(load_scene(SCENE, [f"time.end={4 * DT!r}", "components.solid.entry='rom_component.projected:ProjectedSolid'",
                                      f"components.solid.parameters={parameters}"]), out, progress=False)
         with RunResults(out) as run:
             calls = run.calls("solid")
@@ -272,6 +272,6 @@ def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_p
         np.testing.assert_allclose(served[late], decoded[late], rtol=0, atol=1e-12 * np.abs(served).max())
         assert np.abs(served[~late] - decoded[~late]).max() > 1e-6 * np.abs(served).max()   # the solid's own before
     with pytest.raises(Exception, match="'project' is 'all'"):
-        from solid_component.projected import ProjectedSolid
+        from rom_component.projected import ProjectedSolid
         ProjectedSolid().instantiate({"mesh": str(MESHES / "solid.mdpa"), "model": str(tmp_path / "model.npz"),
                                       "project": "all", "time": {"end": 1.0, "dt": DT}})
