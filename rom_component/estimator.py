@@ -4,7 +4,8 @@ Snapshots are rows (scikit-learn convention): F (m, N) interface forces, U (m, N
 displacements. Encoder: centred POD of F with ``n_force_modes`` modes. Decoder:
 centred POD of U with ``n_disp_modes`` modes, linear or with a quadratic manifold.
 Regression from scaled reduced forces to reduced displacements: thin-plate-spline
-RBF, a BIC-sparse quadratic polynomial (or one fitted on all its terms by cross-validated ridge), or (``regressor = "potential"``) the gradient of a cubic potential.
+RBF, a BIC-sparse quadratic polynomial (or one fitted on all its terms by cross-validated ridge,
+``poly_fit = "ridge"``), or (``regressor = "potential"``) the gradient of a cubic potential.
 With ``force_basis = "work"`` the encoder is not the forces' POD but an orthonormal basis of the decoder's
 displacement modes on the interface (r_f = r_u): the reduced forces are then the work of the force on each
 displacement mode, the only part of a force a static elastic solid whose response lies in those modes answers

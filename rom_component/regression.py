@@ -22,8 +22,9 @@ from rom_component.manifold import quadratic_index
 
 SCALINGS = ("global", "standard", "minmax", "none")
 POLY_FITS = ("lasso-bic", "ridge")
-RIDGE_PENALTIES = np.logspace(-12, -6, 13)   # per snapshot, in the globally scaled terms: from a mere
-                                             # conditioning to a tenth of a weak mode's term
+# ridge penalties tried, per snapshot, with the terms scaled as for the Lasso: from a mere conditioning of the
+# normal equations to a damping of every term weaker than a thousandth of the strongest
+RIDGE_PENALTIES = np.logspace(-12, -6, 13)
 
 
 class Scaling:
@@ -198,8 +199,8 @@ class SparseQuadraticRegression:
         m = len(Phi)
         folds = min(5, m if groups is None else len(np.unique(groups)))
         if folds < 2:
-            raise ValueError(f"the ridge fit cross-validates over at least 2 {'windows' if groups is not None else 'snapshots'}, "
-                             f"got {folds}")
+            unit = "snapshots" if groups is None else "windows"
+            raise ValueError(f"the ridge fit cross-validates over at least 2 {unit}, got {folds}")
         cv = GroupKFold(folds) if groups is not None else KFold(folds, shuffle=True, random_state=0)
         search = GridSearchCV(Ridge(fit_intercept=False, solver="cholesky"), {"alpha": m * RIDGE_PENALTIES},
                               cv=cv, scoring="neg_mean_squared_error")

@@ -254,8 +254,9 @@ def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_p
         out = tmp_path / f"projected{len(rom_modes)}"
         parameters = (f"{{mesh='{MESHES / 'solid.mdpa'}', model='{tmp_path / 'model.npz'}', project='both', "
                       f"from_time={2 * DT!r}, rom_modes={rom_modes}}}")
-        run_scene(load_scene(SCENE, [f"time.end={4 * DT!r}", "components.solid.entry='rom_component.projected:ProjectedSolid'",
-                                     f"components.solid.parameters={parameters}"]), out, progress=False)
+        overrides = [f"time.end={4 * DT!r}", "components.solid.entry='rom_component.projected:ProjectedSolid'",
+                     f"components.solid.parameters={parameters}"]
+        run_scene(load_scene(SCENE, overrides), out, progress=False)
         with RunResults(out) as run:
             calls = run.calls("solid")
             fields = calls.outputs["displacement_field"].reshape(len(calls.window), -1)
