@@ -144,7 +144,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
                                      self.cross_modes, self.poly_fit)
         if pairs is not None:
             self.regression_ = regression.fit(X, Zu, pairs=pairs, pair_weight=self.secant_weight)
-        elif self.regressor == "poly" and self.poly_fit == "ridge":
+        elif self.regressor == "poly":     # the windows group the ridge fit's cross-validation
             self.regression_ = regression.fit(X, Zu, groups=None if windows is None else np.asarray(windows))
         else:
             self.regression_ = regression.fit(X, Zu)

@@ -164,9 +164,27 @@ def test_fluid_and_solid_coupled_in_process_for_two_windows():
         solid.close()
 
 
-def test_three_windows_through_real_processes(tmp_path):
-    out = tmp_path / "flap"
-    summary = run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}"]), out, progress=False)
+@pytest.fixture(scope="module")
+def three_windows(tmp_path_factory):
+    """A FOM-FOM run of three windows through real processes: its directory and run summary."""
+    out = tmp_path_factory.mktemp("flap") / "flap"
+    return out, run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}"]), out, progress=False)
+
+
+@pytest.fixture(scope="module")
+def three_window_rom(three_windows, tmp_path_factory):
+    """A ROM (r_f = r_u = 3, quadratic decoder) trained on the three windows' calls: its path and training config."""
+    from rom_component.train import load_config, train
+    config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
+                                "snapshots.field=displacement_field", "model.n_force_modes=3", "model.n_disp_modes=3",
+                                "model.decoder=quadratic", "selection.table=false"])
+    model = tmp_path_factory.mktemp("rom") / "model.npz"
+    train(three_windows[0] / "results.h5", model, config, echo=lambda *a: None)
+    return model, config
+
+
+def test_three_windows_through_real_processes(three_windows):
+    out, summary = three_windows
     assert summary.windows == 3
     with RunResults(out) as run:
         assert run.windows.converged.all()
@@ -185,18 +203,13 @@ def test_three_windows_through_real_processes(tmp_path):
         assert (out / png).stat().st_size > 10_000
 
 
-def test_a_rom_learns_the_full_field_and_serves_its_interface_part(tmp_path):
+def test_a_rom_learns_the_full_field_and_serves_its_interface_part(three_windows, three_window_rom):
     """Trained on the recorded displacement field (1805 x 2), the ROM's interface path u_G = K u_mean + A u~ (+ B q(u~))
     equals the full reconstruction restricted to the 265 interface nodes."""
     from rom_component import persistence
-    from rom_component.train import interface_index, load_config, train
-    out = tmp_path / "flap"
-    run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}"]), out, progress=False)
-    config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
-                                "snapshots.field=displacement_field", "model.n_force_modes=3", "model.n_disp_modes=3",
-                                "model.decoder=quadratic", "selection.table=false"])
-    train(out / "results.h5", tmp_path / "model.npz", config, echo=lambda *a: None)
-    rom = persistence.load(tmp_path / "model.npz")
+    from rom_component.train import interface_index
+    out, (model, config) = three_windows[0], three_window_rom
+    rom = persistence.load(model)
     K = interface_index(out / "results.h5", config["snapshots"])
     assert K.shape == (530,) and rom.n_inputs == 530 and rom.n_outputs == 530
     with RunResults(out) as run:
@@ -207,7 +220,7 @@ def test_a_rom_learns_the_full_field_and_serves_its_interface_part(tmp_path):
     for f in forces:
         u_G = rom(f)
         np.testing.assert_allclose(u_G, rom.full_field(rom.reduced[None])[0][K], rtol=0, atol=1e-13)
-    metadata = persistence.load_arrays(tmp_path / "model.npz")[1]
+    metadata = persistence.load_arrays(model)[1]
     assert metadata["field_variable"] == "displacement_field"
     assert [(v["name"], v["mesh"], v["components"]) for v in metadata["variables"]] == \
         [("force", "interface", 2), ("displacement", "interface", 2)]
@@ -237,22 +250,16 @@ def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
     assert row["predicted_windows"] == 3 and 0.0 < row["displacement_error"]["mean"] < 0.5
 
 
-def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_path):
+def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_path, three_window_rom):
     """The diagnostic solid (rom_component.projected) returns, from its from_time on, the ROM decoder's image of
     its own displacement field's projection; with rom_modes, those reduced displacements come from the ROM."""
     from rom_component import persistence
-    from rom_component.train import load_config, train
-    fom = tmp_path / "fom"
-    run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}"]), fom, progress=False)
-    config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
-                                "snapshots.field=displacement_field", "model.n_force_modes=3", "model.n_disp_modes=3",
-                                "model.decoder=quadratic", "model.regressor='poly'", "selection.table=false"])
-    train(fom / "results.h5", tmp_path / "model.npz", config, echo=lambda *a: None)
-    rom = persistence.load(tmp_path / "model.npz")
+    model = three_window_rom[0]
+    rom = persistence.load(model)
     a = rom.arrays
     for rom_modes in ([], [1]):
         out = tmp_path / f"projected{len(rom_modes)}"
-        parameters = (f"{{mesh='{MESHES / 'solid.mdpa'}', model='{tmp_path / 'model.npz'}', project='both', "
+        parameters = (f"{{mesh='{MESHES / 'solid.mdpa'}', model='{model}', project='both', "
                       f"from_time={2 * DT!r}, rom_modes={rom_modes}}}")
         overrides = [f"time.end={4 * DT!r}", "components.solid.entry='rom_component.projected:ProjectedSolid'",
                      f"components.solid.parameters={parameters}"]
@@ -274,5 +281,5 @@ def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_p
         assert np.abs(served[~late] - decoded[~late]).max() > 1e-6 * np.abs(served).max()   # the solid's own before
     with pytest.raises(Exception, match="'project' is 'all'"):
         from rom_component.projected import ProjectedSolid
-        ProjectedSolid().instantiate({"mesh": str(MESHES / "solid.mdpa"), "model": str(tmp_path / "model.npz"),
+        ProjectedSolid().instantiate({"mesh": str(MESHES / "solid.mdpa"), "model": str(model),
                                       "project": "all", "time": {"end": 1.0, "dt": DT}})
