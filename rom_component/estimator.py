@@ -45,7 +45,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
                  rbf_smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard",
                  secant_weight: float = 0.0, force_basis: str = "pod", interface_index: np.ndarray | None = None,
-                 cross_modes: int = 0, poly_fit: str = "lasso-bic"):
+                 cross_modes: int = 0, poly_fit: str = "lasso-bic", cubic_modes: int = 0):
         self.n_force_modes = n_force_modes
         self.n_disp_modes = n_disp_modes
         self.decoder = decoder
@@ -60,6 +60,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.interface_index = interface_index
         self.cross_modes = cross_modes
         self.poly_fit = poly_fit
+        self.cubic_modes = cubic_modes
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -79,7 +80,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         if self.decoder not in ("linear", "quadratic"):
             raise ValueError(f"decoder {self.decoder!r} not in ('linear', 'quadratic')")
-        for name in ("quadratic_modes", "cross_modes"):
+        for name in ("quadratic_modes", "cross_modes", "cubic_modes"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
                 raise ValueError(f"{name} must be an integer >= 0{' (0: all)' * (name == 'quadratic_modes')}, "
@@ -141,7 +142,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.scaling_ = Scaling(self.input_scaling).fit(Zf)
         X = self.scaling_(Zf)
         regression = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes, self.feature_scaling,
-                                     self.cross_modes, self.poly_fit)
+                                     self.cross_modes, self.poly_fit, self.cubic_modes)
         if pairs is not None:
             self.regression_ = regression.fit(X, Zu, pairs=pairs, pair_weight=self.secant_weight)
         elif self.regressor == "poly":     # the windows group the ridge fit's cross-validation

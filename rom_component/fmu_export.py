@@ -54,12 +54,12 @@ def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
     rbf = rom.regressor == "rbf"
     r_f, n_in = rom.E.shape
     n_out, r_u = rom.A.shape
-    m = len(a["centres"]) if rbf else len(a["quad_i"])
+    m = len(a["centres"]) if rbf else len(a["quad_i"]) + len(a.get("cube_i", ()))
     names = [rom.metadata.get("input_variable", "force"), rom.metadata.get("output_variable", "displacement")]
     for name in names:
         if len(name.encode()) > NAME_BYTES:
             raise CosimError(f"variable name '{name}' is longer than {NAME_BYTES} bytes")
-    header = b"CSROM03\0" + guid.encode().ljust(40, b"\0")[:40] + b"".join(n.encode().ljust(NAME_BYTES, b"\0")
+    header = b"CSROM04\0" + guid.encode().ljust(40, b"\0")[:40] + b"".join(n.encode().ljust(NAME_BYTES, b"\0")
                                                                         for n in names)
     header += struct.pack("<8i", n_in, n_out, r_f, r_u, m, 0 if rbf else 1, 1 if rom.quadratic_decoder else 0,
                           components)
@@ -67,8 +67,10 @@ def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
     parts += [a["centres"]] if rbf else []
     body = b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in parts)
     if not rbf:
-        body += np.ascontiguousarray(a["quad_i"], dtype="<i4").tobytes()
-        body += np.ascontiguousarray(a["quad_j"], dtype="<i4").tobytes()
+        cubic = [a.get(f"cube_{n}", np.zeros(0, dtype=np.int64)) for n in "ijk"]
+        body += np.concatenate([a["quad_i"], cubic[0]]).astype("<i4").tobytes()
+        body += np.concatenate([a["quad_j"], cubic[1]]).astype("<i4").tobytes()
+        body += np.concatenate([np.full(len(a["quad_i"]), -1), cubic[2]]).astype("<i4").tobytes()   # -1: no x_k
     tail = [rom.H, rom.A.T, rom.base] + ([rom.B.T] if rom.quadratic_decoder else [])   # decoders transposed
     body += b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in tail)
     return header + body

@@ -3,7 +3,8 @@
 Interface path of one call (f: interface forces):
     x   = E f - e                       encoder with input scaling folded in (r_f)
     z   = [phi(|x - c_i|^2), x, 1]      RBF kernel values   (regressor "rbf")
-        = [q(x), x, 1]                  unique quadratic terms (regressor "poly")
+        = [q(x), c(x), x, 1]            unique quadratic terms x_i x_j, and cubic terms (x_i x_j) x_k
+                                        if the model has them (regressor "poly")
     u~  = H z                           reduced displacements (r_u)
     u_G = base + A u~ [+ B q(u~)]       interface displacements: base = K u_mean,
                                         A = K Phi_u, B = K Phi_bar (quadratic manifold)
@@ -68,7 +69,10 @@ class OnlineRom:
             m = len(centres)
         else:
             self.qi, self.qj = a["quad_i"], a["quad_j"]
-            m = len(self.qi)
+            empty = np.zeros(0, dtype=self.qi.dtype)
+            self.ci, self.cj, self.ck = (a.get(f"cube_{n}", empty) for n in "ijk")
+            self._m2 = len(self.qi)
+            m = self._m2 + len(self.ci)
         if self.H.shape != (r_u, m + r_f + 1):
             raise ValueError(f"ROM array 'H' has shape {self.H.shape}, expected ({r_u}, {m + r_f + 1})")
         self._r_f = r_f
@@ -109,7 +113,7 @@ class OnlineRom:
             np.log(d2, out=self._log)
             np.multiply(d2, self._log, out=self._kernel)
         else:
-            np.multiply(x[self.qi], x[self.qj], out=self._kernel)
+            self._polynomial_terms(x)
         self._x_slot[:] = x
         reduced = self.H @ self._z
         self.reduced = reduced
@@ -132,7 +136,7 @@ class OnlineRom:
                 np.add(d2, d, out=d2)
             self._kernel[:] = thin_plate_terms(d2)                       # d2 log d2, the FMU's own log
         else:
-            np.multiply(x[self.qi], x[self.qj], out=self._kernel)
+            self._polynomial_terms(x)
         self._x_slot[:] = x
         reduced = np.multiply(self.H, self._z, out=self._H_products).sum(axis=1)
         self.reduced = reduced
@@ -142,6 +146,14 @@ class OnlineRom:
             q = reduced[self.ui] * reduced[self.uj]
             u += np.multiply(self._B_t, q[:, None], out=self._B_products).sum(axis=0)
         return u
+
+    def _polynomial_terms(self, x: np.ndarray) -> None:
+        """The products x_i x_j, then the cubic terms (x_i x_j) x_k, into the kernel slot of z."""
+        np.multiply(x[self.qi], x[self.qj], out=self._kernel[:self._m2])
+        if len(self.ci):
+            cubic = self._kernel[self._m2:]
+            np.multiply(x[self.ci], x[self.cj], out=cubic)
+            np.multiply(cubic, x[self.ck], out=cubic)
 
     def trust(self) -> tuple[float, float]:
         """(excess, distance) of the last call's reduced force against the training envelope (NaN if none)."""

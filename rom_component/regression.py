@@ -2,14 +2,15 @@
 
 - ``RbfRegression``: thin-plate-spline RBF with a linear tail (the system of
   ``scipy.interpolate.RBFInterpolator``, solved here so that its weights are ours to export).
-- ``SparseQuadraticRegression``: degree-2 polynomial whose terms are chosen per output by
-  a Lasso-LARS path with the BIC (``sklearn.linear_model.LassoLarsIC``), or fitted on all its terms by
-  ridge regression with the penalty cross-validated over whole windows (``fit = "ridge"``).
+- ``SparseQuadraticRegression``: degree-2 polynomial (optionally with the cubic terms of the leading
+  ``cubic_modes`` inputs) whose terms are chosen per output by a Lasso-LARS path with the BIC
+  (``sklearn.linear_model.LassoLarsIC``), or fitted on all its terms by ridge regression with the
+  penalty cross-validated over whole windows (``fit = "ridge"``).
 - ``PotentialRegression``: the gradient of a cubic potential, u~ = grad psi(x), fitted by least squares
   over all outputs at once: a degree-2 polynomial whose Jacobian is symmetric by construction.
 
 Both expose ``online_arrays()``: the arrays of the evaluation
-u~ = H z with z = [kernel values or quadratic terms, x, 1], in the scaled input space.
+u~ = H z with z = [kernel values or polynomial terms, x, 1], in the scaled input space.
 """
 
 from __future__ import annotations
@@ -134,7 +135,7 @@ class SparseQuadraticRegression:
     kind = "poly"
 
     def __init__(self, quadratic_modes: int = 0, feature_scaling: str = "standard", cross_modes: int = 0,
-                 fit: str = "lasso-bic"):
+                 fit: str = "lasso-bic", cubic_modes: int = 0):
         if feature_scaling not in ("standard", "global"):
             raise ValueError(f"feature scaling {feature_scaling!r} not in ('standard', 'global')")
         if fit not in POLY_FITS:
@@ -143,6 +144,7 @@ class SparseQuadraticRegression:
         self.feature_scaling = feature_scaling
         self.cross_modes = cross_modes
         self.fit_method = fit
+        self.cubic_modes = cubic_modes
 
     def fit(self, X: np.ndarray, Y: np.ndarray, pairs: tuple[np.ndarray, np.ndarray] | None = None,
             pair_weight: float = 0.0, groups: np.ndarray | None = None) -> "SparseQuadraticRegression":
@@ -152,6 +154,8 @@ class SparseQuadraticRegression:
         from sklearn.linear_model import LassoLarsIC
         self.n_inputs = X.shape[1]
         self.quad_i, self.quad_j = product_index(self.n_inputs, self.quadratic_modes, self.cross_modes)
+        self.cube_i, self.cube_j, self.cube_k = cubic_index(self.n_inputs, self.cubic_modes)
+        n_products = len(self.quad_i) + len(self.cube_i)
         features = self.features(X)
         self.feature_mean = features.mean(axis=0)
         self.feature_scale = features.std(axis=0)
@@ -159,7 +163,7 @@ class SparseQuadraticRegression:
         if self.feature_scaling == "global":
             # one scale for every term (that of the strongest linear term): the Lasso then weighs a weak
             # mode's term by its size, instead of inflating it to the strongest one's
-            self.feature_scale = np.full_like(self.feature_scale, self.feature_scale[len(self.quad_i)])
+            self.feature_scale = np.full_like(self.feature_scale, self.feature_scale[n_products])
         Phi = (features - self.feature_mean) / self.feature_scale
         self.y_mean, self.y_scale = Y.mean(axis=0), Y.std(axis=0)
         self.y_scale[self.y_scale == 0] = 1.0
@@ -209,7 +213,9 @@ class SparseQuadraticRegression:
         return np.array(search.best_estimator_.coef_, dtype=np.float64).reshape(Ys.shape[1], -1).T
 
     def features(self, X: np.ndarray) -> np.ndarray:
-        return np.hstack([X[:, self.quad_i] * X[:, self.quad_j], X])
+        """[x_i x_j, (x_i x_j) x_k, x]: the products, the cubic terms (none unless cubic_modes), the inputs."""
+        cubic = X[:, self.cube_i] * X[:, self.cube_j] * X[:, self.cube_k]
+        return np.hstack([X[:, self.quad_i] * X[:, self.quad_j], cubic, X])
 
     def predict(self, X: np.ndarray) -> np.ndarray:
         Phi = (self.features(X) - self.feature_mean) / self.feature_scale
@@ -220,7 +226,10 @@ class SparseQuadraticRegression:
         C = self.coefficients / self.feature_scale[:, None] * self.y_scale[None, :]
         constant = self.y_mean - self.feature_mean @ C
         H = np.vstack([C, constant[None]]).T
-        return {"H": np.ascontiguousarray(H), "quad_i": self.quad_i, "quad_j": self.quad_j}
+        arrays = {"H": np.ascontiguousarray(H), "quad_i": self.quad_i, "quad_j": self.quad_j}
+        if len(self.cube_i):        # a degree-2 model's arrays stay those of the format without cubic terms
+            arrays.update(cube_i=self.cube_i, cube_j=self.cube_j, cube_k=self.cube_k)
+        return arrays
 
 
 class PotentialRegression:
@@ -295,12 +304,23 @@ def product_index(n: int, quadratic_modes: int = 0, cross_modes: int = 0) -> tup
     return i[keep], j[keep]
 
 
+def cubic_index(n: int, cubic_modes: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Index triples (i <= j <= k) of the cubic terms x_i x_j x_k of n inputs whose two lower indices are among
+    the leading ``cubic_modes`` (0: none): the cubes and squares of the leading modes, and their pairwise products
+    times every input; in lexicographic order."""
+    c = min(max(cubic_modes, 0), n)
+    i, j = np.triu_indices(c)
+    counts = n - j
+    k = np.concatenate([np.arange(b, n) for b in j]) if c else np.zeros(0, dtype=np.intp)
+    return np.repeat(i, counts), np.repeat(j, counts), k
+
+
 def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard",
-                    cross_modes: int = 0, poly_fit: str = "lasso-bic"):
+                    cross_modes: int = 0, poly_fit: str = "lasso-bic", cubic_modes: int = 0):
     if kind == "rbf":
         return RbfRegression(smoothing)
     if kind == "poly":
-        return SparseQuadraticRegression(quadratic_modes, feature_scaling, cross_modes, poly_fit)
+        return SparseQuadraticRegression(quadratic_modes, feature_scaling, cross_modes, poly_fit, cubic_modes)
     if kind == "potential":
         return PotentialRegression()
     raise ValueError(f"regressor {kind!r} not in ('rbf', 'poly', 'potential')")

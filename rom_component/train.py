@@ -49,7 +49,11 @@ CONFIG = {
               "cross_modes": 0,
               # poly: "lasso-bic" (terms chosen per output, the paper's) or "ridge" (all terms, the penalty
               # cross-validated over whole windows)
-              "poly_fit": "lasso-bic"},
+              "poly_fit": "lasso-bic",
+              # poly: the cubic terms x_i x_j x_k with i <= j among the leading cubic_modes reduced forces and
+              # k >= j any (0: none): the solid's response along the coupling's sub-iteration steps in its weak
+              # displacement modes (README, "A cubic term")
+              "cubic_modes": 0},
     "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
     "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],

@@ -31,7 +31,7 @@ def assert_same_calls(path, F):
         assert e == e_ref and d == pytest.approx(d_ref, rel=1e-12)
 
 
-@pytest.mark.parametrize("name", ["rbf", "qm_poly"])
+@pytest.mark.parametrize("name", ["rbf", "qm_poly", "qm_cubic"])
 def test_compiled_calls_are_bit_identical_in_and_out_of_range(models, name):  # noqa: F811
     path, _, F = models[name]
     assert_same_calls(path, np.vstack([F[:40] * 1.003, F[:10] * 3.0 - 1.0]))   # the last ones far out of range

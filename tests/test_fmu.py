@@ -33,13 +33,16 @@ def train(tmp_path: Path, name: str, n_in: int, n_out: int, components: int, inp
 
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    """An RBF tube-sized model (101 nodes) and a quadratic-manifold + sparse-polynomial 2-D model."""
+    """An RBF tube-sized model (101 nodes), a quadratic-manifold + sparse-polynomial 2-D model, and the same with
+    cubic terms (ridge fit)."""
     tmp = tmp_path_factory.mktemp("fmu")
     rbf, F_rbf = train(tmp, "rbf", 101, 101, 1, "pressure", "section", n_force_modes=3, n_disp_modes=4)
     qm, F_qm = train(tmp, "qm_poly", 40, 30, 2, "force", "displacement", n_force_modes=3, n_disp_modes=4,
                      decoder="quadratic", regressor="poly")
+    cubic, F_cubic = train(tmp, "qm_cubic", 40, 30, 2, "force", "displacement", n_force_modes=4, n_disp_modes=4,
+                           decoder="quadratic", regressor="poly", cubic_modes=2, poly_fit="ridge")
     return {name: (model, export_fmu(model, tmp / f"{name}.fmu"), F)
-            for name, model, F in (("rbf", rbf, F_rbf), ("qm_poly", qm, F_qm))}
+            for name, model, F in (("rbf", rbf, F_rbf), ("qm_poly", qm, F_qm), ("qm_cubic", cubic, F_cubic))}
 
 
 @pytest.mark.parametrize("name", ["rbf", "qm_poly"])
@@ -62,7 +65,7 @@ def test_exported_fmu_validates(models, name):
     assert {"sources/solid_rom.c", "resources/rom.bin", "binaries/linux64/solid_rom.so"} <= files
 
 
-@pytest.mark.parametrize("name", ["rbf", "qm_poly"])
+@pytest.mark.parametrize("name", ["rbf", "qm_poly", "qm_cubic"])
 def test_simulate_fmu_reproduces_the_python_rom(models, name):
     model, fmu, F = models[name]
     rom = persistence.load(model)
@@ -82,7 +85,7 @@ def test_simulate_fmu_reproduces_the_python_rom(models, name):
     np.testing.assert_allclose(Y[1:], expected[:-1], rtol=1e-10, atol=1e-10 * np.abs(expected).max())
 
 
-@pytest.mark.parametrize("name", ["rbf", "qm_poly"])
+@pytest.mark.parametrize("name", ["rbf", "qm_poly", "qm_cubic"])
 def test_fmu_component_is_bit_identical_to_the_python_rom(models, name):
     model, fmu, F = models[name]
     rom = persistence.load(model)

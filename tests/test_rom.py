@@ -10,7 +10,7 @@ from rom_component.estimator import SolidRom
 from rom_component.manifold import quadratic_terms
 from rom_component.pod import centred_pod, energy_rank
 from rom_component.probes import ProbeFailed, ask, probe_forces
-from rom_component.regression import RbfRegression, SparseQuadraticRegression, product_index
+from rom_component.regression import RbfRegression, SparseQuadraticRegression, cubic_index, product_index
 
 
 def smooth_data(m=300, n_in=40, n_out=30, seed=0):
@@ -122,6 +122,38 @@ def test_cross_products_let_the_response_to_a_weak_mode_follow_the_leading_state
                          ({"poly_fit": "ridge", "secant_weight": 1.0}, "secant_weight must be 0")):
         with pytest.raises(ValueError, match=message):
             SolidRom(regressor="poly", **bad).fit(F, U)
+
+
+def test_cubic_terms_let_the_gain_of_a_weak_mode_follow_the_square_of_the_leading_state():
+    """A compliance along weak mode 4 that grows with the square of leading mode 0 (a softening either way):
+    no product of two inputs holds it; the cubic terms of the leading mode do, with ridge and with the Lasso."""
+    rng = np.random.default_rng(9)
+    scales = np.array([1.0, 0.7, 0.3, 0.1, 0.1, 0.05])
+    X, test = rng.standard_normal((600, 6)) * scales, rng.standard_normal((200, 6)) * scales
+    windows = np.repeat(np.arange(100), 6)
+    response = lambda X: X[:, 0] + 0.2 * X[:, 0] ** 3 + 0.3 * X[:, 4] + 1.5 * X[:, 0] ** 2 * X[:, 4]
+    y = response(X) + 1e-5 * rng.standard_normal(600)
+    i, j, k = cubic_index(3, 2)
+    assert list(zip(i.tolist(), j.tolist(), k.tolist())) == [(0, 0, 0), (0, 0, 1), (0, 0, 2), (0, 1, 1), (0, 1, 2),
+                                                             (1, 1, 1), (1, 1, 2)]
+    assert all(len(a) == 0 for a in cubic_index(6, 0))
+    gain = lambda model: (model.predict(test + np.eye(6)[4] * 1e-3) - model.predict(test))[:, 0] / 1e-3
+    true_gain = 0.3 + 1.5 * test[:, 0] ** 2
+    quadratic = SparseQuadraticRegression(0, "global", fit="ridge").fit(X, y[:, None], groups=windows)
+    assert np.abs(gain(quadratic) - true_gain).max() > 1.0                 # off by 1.5 x0^2 - its best constant
+    for fit in ("ridge", "lasso-bic"):
+        cubic = SparseQuadraticRegression(2, "global", fit=fit, cubic_modes=1).fit(X, y[:, None], groups=windows)
+        assert len(cubic.cube_i) == 6 and cubic.coefficients.shape == (3 + 6 + 6, 1)
+        np.testing.assert_allclose(gain(cubic), true_gain, atol=2e-3)
+        np.testing.assert_allclose(cubic.predict(test)[:, 0], response(test), atol=1e-4)
+    rom = SolidRom(4, 4, decoder="quadratic", regressor="poly", quadratic_modes=2, cubic_modes=2, poly_fit="ridge")
+    F, U = smooth_data()
+    rom.fit(F, U, windows=np.arange(len(F)) // 3)
+    assert len(rom.online_arrays()["cube_i"]) == 4 + 3 + 3                   # (0, 0, 0..3), (0, 1, 1..3), (1, 1, 1..3)
+    np.testing.assert_allclose(rom.to_online().predict(F[:20] + 0.01), rom.predict(F[:20] + 0.01), atol=1e-9)
+    assert "cube_i" not in SolidRom(4, 4, regressor="poly").fit(F, U).online_arrays()   # degree 2: as before
+    with pytest.raises(ValueError, match="cubic_modes must be"):
+        SolidRom(regressor="poly", cubic_modes=-1).fit(F, U)
 
 
 def test_rbf_regressor_interpolates_its_centres():

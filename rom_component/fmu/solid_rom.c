@@ -4,16 +4,16 @@
  *
  *   x   = E f - e                     encoder (r_f), input scaling folded in
  *   z   = [phi(|x - c_i|^2), x, 1]    thin-plate-spline kernel values (RBF), or
- *       = [x_qi * x_qj, x, 1]         unique quadratic terms (sparse polynomial)
+ *       = [x_qi * x_qj (* x_qk), x, 1]  unique quadratic and cubic terms (sparse polynomial)
  *   u~  = H z                         reduced displacements (r_u)
  *   u_G = base + A u~ [+ B q(u~)]     interface displacements (linear or quadratic manifold decoder)
  *
  * Every array and size is read at fmi2Instantiate from resources/rom.bin (little-endian):
- *   char magic[8] = "CSROM03"; char guid[40]; char input_name[32], output_name[32];
+ *   char magic[8] = "CSROM04"; char guid[40]; char input_name[32], output_name[32];
  *   int32 n_in, n_out, r_f, r_u, m, regressor (0 rbf, 1 poly), decoder (0 linear, 1 quadratic),
  *         components per node;
  *   float64 E[r_f][n_in], e[r_f];
- *   rbf: float64 centres[m][r_f]   |   poly: int32 qi[m], qj[m];
+ *   rbf: float64 centres[m][r_f]   |   poly: int32 qi[m], qj[m], qk[m] (qk -1: a quadratic term);
  *   float64 H[r_u][m + r_f + 1], At[r_u][n_out] (A transposed), base[n_out];
  *   quadratic decoder: float64 Bt[r_u (r_u + 1) / 2][n_out] (B transposed).
  * Value references: inputs 0 .. n_in-1, outputs n_in .. n_in+n_out-1.
@@ -46,7 +46,7 @@
 
 #include "fmi2Functions.h"
 
-#define MAGIC "CSROM03"
+#define MAGIC "CSROM04"
 #define GUID_LENGTH 40
 #define NAME_LENGTH 32
 #define MAX_PATH_LENGTH 4096
@@ -54,7 +54,7 @@
 typedef struct {
     int32_t n_in, n_out, r_f, r_u, m, regressor, decoder, components;
     double *E, *e, *centres, *H, *At, *base, *Bt, *c2;
-    int32_t *qi, *qj;
+    int32_t *qi, *qj, *qk;
     int32_t n_quad;           /* r_u (r_u + 1) / 2 */
     char guid[GUID_LENGTH + 1];
     char input_name[NAME_LENGTH + 1], output_name[NAME_LENGTH + 1];
@@ -226,7 +226,7 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
     m->n_quad = m->r_u * (m->r_u + 1) / 2;
     need = offset + sizeof(double) * ((size_t)m->r_f * m->n_in + m->r_f + (size_t)m->r_u * (m->m + m->r_f + 1) +
                                       (size_t)m->n_out * m->r_u + m->n_out)
-         + (m->regressor == 0 ? sizeof(double) * (size_t)m->m * m->r_f : 2 * sizeof(int32_t) * (size_t)m->m)
+         + (m->regressor == 0 ? sizeof(double) * (size_t)m->m * m->r_f : 3 * sizeof(int32_t) * (size_t)m->m)
          + (m->decoder == 1 ? sizeof(double) * (size_t)m->n_out * m->n_quad : 0);
     if ((size_t)length != need) {
         log_message(&inst->callbacks, inst->name, fmi2Error, "logStatusError",
@@ -241,6 +241,7 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
     } else {
         TAKE(m->qi, int32_t, m->m);
         TAKE(m->qj, int32_t, m->m);
+        TAKE(m->qk, int32_t, m->m);
     }
     TAKE(m->H, double, (size_t)m->r_u * (m->m + m->r_f + 1));
     TAKE(m->At, double, (size_t)m->r_u * m->n_out);
@@ -250,7 +251,8 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
     if (m->regressor == 1) {
         int32_t i;
         for (i = 0; i < m->m; i++)
-            if (m->qi[i] < 0 || m->qi[i] >= m->r_f || m->qj[i] < 0 || m->qj[i] >= m->r_f) {
+            if (m->qi[i] < 0 || m->qi[i] >= m->r_f || m->qj[i] < 0 || m->qj[i] >= m->r_f || m->qk[i] < -1 ||
+                m->qk[i] >= m->r_f) {
                 log_message(&inst->callbacks, inst->name, fmi2Error, "logStatusError", "resource '%s': bad term index", file);
                 return 0;
             }
@@ -461,7 +463,11 @@ HOT static void evaluate(Instance *inst) {
             inst->z[i] = d2 == 0.0 ? 0.0 : d2 * rom_log(d2);   /* 0.5 of the kernel is folded into H */
         }
     } else {
-        for (i = 0; i < m->m; i++) inst->z[i] = inst->x[m->qi[i]] * inst->x[m->qj[i]];
+        for (i = 0; i < m->m; i++) {
+            double t = inst->x[m->qi[i]] * inst->x[m->qj[i]];
+            if (m->qk[i] >= 0) t = t * inst->x[m->qk[i]];
+            inst->z[i] = t;
+        }
     }
     for (k = 0; k < m->r_f; k++) inst->z[m->m + k] = inst->x[k];
     inst->z[m->m + m->r_f] = 1.0;
