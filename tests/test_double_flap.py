@@ -226,6 +226,25 @@ def test_a_rom_learns_the_full_field_and_serves_its_interface_part(three_windows
         [("force", "interface", 2), ("displacement", "interface", 2)]
 
 
+def test_the_step_error_script_replays_every_late_step_through_the_rom(three_windows, three_window_rom):
+    """scripts/flap_step_error.py: one step per pair of consecutive calls of a window from the given iteration on;
+    the ROM's RBF interpolates the calls it was trained on, so the reduced displacements it answers are the solid's
+    fields projected as the script projects them, and only the decoder's truncation (r_u = 3) is left on the
+    interface."""
+    import sys
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from flap_step_error import step_errors
+    out, model = three_windows[0], three_window_rom[0]
+    with RunResults(out) as run:
+        iterations = run.windows.iterations
+    for first in (2, 3):
+        e = step_errors(out / "results.h5", model, (1, 3), first)
+        assert int(e["steps"]) == int(np.maximum(iterations - first + 1, 0).sum())
+        assert e["reduced_steps"].shape == e["reduced_levels"].shape == (3,)
+        assert e["reduced_steps"].max() < 1e-8 and e["reduced_levels"].max() < 1e-8
+    assert 0 < e["interface_levels"] < 0.01 and 0 < e["interface_steps"] < 0.05
+
+
 def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
     """FOM-FOM for six windows; a ROM trained on the first three serves the last three; e(t) on the 1805 x 2 field."""
     from rom_component.report import Run, compare
