@@ -54,7 +54,7 @@ def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
     rbf = rom.regressor == "rbf"
     r_f, n_in = rom.E.shape
     n_out, r_u = rom.A.shape
-    m = len(a["centres"]) if rbf else len(a["quad_i"]) + len(a.get("cube_i", ()))
+    m = len(a["centres"]) if rbf else len(rom.qi) + len(rom.ci)
     names = [rom.metadata.get("input_variable", "force"), rom.metadata.get("output_variable", "displacement")]
     for name in names:
         if len(name.encode()) > NAME_BYTES:
@@ -67,10 +67,9 @@ def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
     parts += [a["centres"]] if rbf else []
     body = b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in parts)
     if not rbf:
-        cubic = [a.get(f"cube_{n}", np.zeros(0, dtype=np.int64)) for n in "ijk"]
-        body += np.concatenate([a["quad_i"], cubic[0]]).astype("<i4").tobytes()
-        body += np.concatenate([a["quad_j"], cubic[1]]).astype("<i4").tobytes()
-        body += np.concatenate([np.full(len(a["quad_i"]), -1), cubic[2]]).astype("<i4").tobytes()   # -1: no x_k
+        body += np.concatenate([rom.qi, rom.ci]).astype("<i4").tobytes()
+        body += np.concatenate([rom.qj, rom.cj]).astype("<i4").tobytes()
+        body += np.concatenate([np.full(len(rom.qi), -1), rom.ck]).astype("<i4").tobytes()   # -1: no third factor
     tail = [rom.H, rom.A.T, rom.base] + ([rom.B.T] if rom.quadratic_decoder else [])   # decoders transposed
     body += b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in tail)
     return header + body

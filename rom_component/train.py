@@ -52,7 +52,7 @@ CONFIG = {
               "poly_fit": "lasso-bic",
               # poly: the cubic terms x_i x_j x_k with i <= j among the leading cubic_modes reduced forces and
               # k >= j any (0: none): the solid's response along the coupling's sub-iteration steps in its weak
-              # displacement modes (README, "A cubic term")
+              # displacement modes (README, "Cubic terms")
               "cubic_modes": 0},
     "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
     # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too

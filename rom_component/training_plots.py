@@ -63,19 +63,18 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
     coefficients = getattr(estimator.regression_, "coefficients", None)
     if coefficients is not None:
         n = estimator.regression_.n_inputs
-        products = len(estimator.regression_.quad_i) + len(getattr(estimator.regression_, "cube_i", ()))
+        cubic = len(estimator.regression_.cube_i)
+        products = len(estimator.regression_.quad_i) + cubic
         order = np.r_[products:products + n, 0:products]         # linear terms first, then the products
         kept = coefficients[order].T != 0                        # (r_u, terms)
         fig, ax = plt.subplots(figsize=(11, 3.2), constrained_layout=True)
         ax.imshow(kept, aspect="auto", interpolation="nearest", cmap="Greys")
         ax.axvline(n - 0.5, color="tab:red", lw=0.8)
-        cubic = len(getattr(estimator.regression_, "cube_i", ()))
         ax.set_xlabel(f"polynomial term [index]: {n} linear x_i, then {products - cubic} products x_i x_j"
                       + (f" and {cubic} cubic terms x_i x_j x_k" if cubic else ""))
         ax.set_ylabel("reduced displacement [index]")
         ax.set_yticks(range(kept.shape[0]))
-        fit = ("a ridge fit" if getattr(estimator.regression_, "fit_method", "") == "ridge"
-               else "Lasso-LARS with the BIC")
+        fit = "a ridge fit" if estimator.regression_.fit_method == "ridge" else "Lasso-LARS with the BIC"
         ax.set_title(f"Terms kept by {fit}: {int(kept.sum())} of {kept.size} "
                      f"({kept.sum(axis=1).min()}-{kept.sum(axis=1).max()} of {kept.shape[1]} per output)", fontsize=10)
         paths.append(Path(f"{stem}_terms.png"))
