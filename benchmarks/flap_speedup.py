@@ -15,7 +15,8 @@ the cost of extra iterations from the coupler's and the machine's.
 
 Usage:
   python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
-      --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--readme [--block NAME]]
+      --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--set KEY=VALUE ...]
+      [--readme [--block NAME]]          --set: scene overrides of the ROM-FOM run (e.g. the ROM's transient calls)
   python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
   python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-... [...]  the tables of earlier runs again
       (of several pairs also their geometric means, per model)
@@ -44,31 +45,35 @@ from rom_component.train import load_config, train  # noqa: E402
 SCENE = ROOT / "scenes" / "double_flap.toml"
 ROM_CONFIG = ROOT / "scenes" / "double_flap_rom.toml"
 DT = 0.008
+ROM_SETTINGS = ("arithmetic", "on_out_of_range", "transient_calls", "transient_margin", "keep_warm")   # shown in the table
 SMALL = {"windows": 8, "train_windows": 4, "reynolds": 250.0}
 SMALL_MODEL = ["selection.choose='fixed'", "selection.table=false", "model.n_force_modes=4", "model.n_disp_modes=3",
                "model.quadratic_modes=0"]
 
 
-def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | None = None) -> dict:
-    """One run of the scene into ``out``: the FOM-FOM reference, or with ``rom = (model, switch_time)``."""
+def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | None = None,
+             rom_settings: list[str] = ()) -> dict:
+    """One run of the scene into ``out``: the FOM-FOM reference, or with ``rom = (model, switch_time)`` and the
+    scene overrides ``rom_settings``."""
     overrides = [f"flow.reynolds={reynolds!r}", f"time.end={end!r}"]
     if rom:
         overrides += ["components.solid.backend=rom", f"components.solid.rom.model={rom[0]}",
-                      f"components.solid.rom.switch_time={rom[1]!r}"]
+                      f"components.solid.rom.switch_time={rom[1]!r}", *rom_settings]
     load = os.getloadavg()[0]
     started = time.perf_counter()
     run_scene(load_scene(SCENE, overrides), out, progress=False)
     return {"load_average_before": load, "seconds": time.perf_counter() - started}
 
 
-def side_by_side(out: Path, reynolds: float, end: float, rom: tuple[str, float], swap: bool) -> dict:
+def side_by_side(out: Path, reynolds: float, end: float, rom: tuple[str, float], swap: bool,
+                 rom_settings: list[str] = ()) -> dict:
     """The reference and the ROM-FOM run at the same time, each in a process of this script pinned to a core of
     its own (0 and 1, or swapped); the first to fail stops the other."""
     if len(os.sched_getaffinity(0)) < 2:
         raise SystemExit("--side-by-side needs two cores")
     cores = {"reference": 1, "rom": 0} if swap else {"reference": 0, "rom": 1}
     common = [sys.executable, __file__, "--reynolds", repr(reynolds), "--end", repr(end), "--model", rom[0],
-              "--switch-time", repr(rom[1]), "--out", str(out)]
+              "--switch-time", repr(rom[1]), "--out", str(out), *(f"--set={s}" for s in rom_settings)]
     children = {kind: subprocess.Popen([*common, "--one", kind, "--core", str(core)]) for kind, core in cores.items()}
     try:
         while True:
@@ -87,10 +92,11 @@ def side_by_side(out: Path, reynolds: float, end: float, rom: tuple[str, float],
     return {kind: json.loads((out / f"{kind}.timing.json").read_text()) for kind in cores}
 
 
-def run_one(out: Path, kind: str, core: int, reynolds: float, end: float, rom: tuple[str, float]) -> None:
+def run_one(out: Path, kind: str, core: int, reynolds: float, end: float, rom: tuple[str, float],
+            rom_settings: list[str] = ()) -> None:
     """One run of a side-by-side pair, pinned to ``core`` (with every process it starts); its timing to a file."""
     os.sched_setaffinity(0, {core})
-    timing = {**run_once(out / kind, reynolds, end, rom if kind == "rom" else None), "core": core}
+    timing = {**run_once(out / kind, reynolds, end, rom if kind == "rom" else None, rom_settings), "core": core}
     (out / f"{kind}.timing.json").write_text(json.dumps(timing))
 
 
@@ -113,6 +119,8 @@ def main(argv: list[str] | None = None) -> dict:
     order.add_argument("--side-by-side", action="store_true",
                        help="run both at the same time, each pinned to a core of its own")
     parser.add_argument("--swap-cores", action="store_true", help="side by side: the reference on core 1, the ROM on 0")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a scene override of the ROM-FOM run, e.g. components.solid.rom.transient_calls=2 (repeatable)")
     parser.add_argument("--one", choices=("reference", "rom"), help=argparse.SUPPRESS)   # a side-by-side child
     parser.add_argument("--core", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
@@ -138,7 +146,7 @@ def main(argv: list[str] | None = None) -> dict:
         return publish(lines, args.block if args.readme else None,
                        results[0] if len(results) == 1 else {"pairs": results})
     if args.one:
-        run_one(Path(args.out), args.one, args.core, args.reynolds, args.end, (args.model, args.switch_time))
+        run_one(Path(args.out), args.one, args.core, args.reynolds, args.end, (args.model, args.switch_time), args.set)
         return {}
     machine_line = machine()
     out = fresh_directory("flap_speedup")
@@ -148,18 +156,19 @@ def main(argv: list[str] | None = None) -> dict:
         timings = {"reference": run_once(trained_on, reynolds, end)}
         model, switch = small_model(trained_on, out / "model.npz")
         if args.side_by_side:
-            timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores)
+            timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores, args.set)
         else:
-            timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch))
+            timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch), args.set)
     else:
         reynolds, end, model, switch = args.reynolds, args.end, Path(args.model).resolve(), args.switch_time
         if args.side_by_side:
-            timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores)
+            timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores, args.set)
         else:
             order = ["rom", "reference"] if args.rom_first else ["reference", "rom"]
             timings = {}
             for kind in order:
-                timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None)
+                timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None,
+                                         args.set)
     result = tabulate(out, machine_line, timings)
     return publish(result["lines"], args.block if args.readme else None, result)
 
@@ -217,6 +226,7 @@ def tabulate(out: Path, machine_line: str, timings: dict) -> dict:
              else f"order: {' then '.join(timings)}")
     lines += [f"double flap, Re = {reynolds:g}, [0, {end:g}] s, ROM from {switch:g} s ({row['predicted_windows']} of "
               f"{len(runs['rom'].time)} windows); model {model}; {order}",
+              "ROM settings: " + ", ".join(f"{key} = {rom_table[key]}" for key in ROM_SETTINGS if key in rom_table),
               f"{'run':<12}{'load before':>12}{'wall s':>9}{'iterations':>11}{'fluid compute s':>16}"
               f"{'solid compute s':>16}   fluid ms per call: before the switch (the same work in both runs), after"]
     served_windows = runs["rom"].predicted()

@@ -95,8 +95,12 @@ def test_flap_speedup_benchmark_small(capsys):
 def test_flap_speedup_side_by_side_small(capsys):
     from benchmarks import flap_speedup
     from cosim.results import RunResults
-    result = flap_speedup.main(["--small", "--side-by-side", "--swap-cores"])
-    assert "side by side, reference on core 1, ROM-FOM on core 0" in capsys.readouterr().out
+    result = flap_speedup.main(["--small", "--side-by-side", "--swap-cores",
+                                "--set", "components.solid.rom.transient_calls=3", "--set=components.solid.rom.transient_margin=3.0",
+                                "--set=components.solid.rom.keep_warm=0.002"])
+    text = capsys.readouterr().out
+    assert "side by side, reference on core 1, ROM-FOM on core 0" in text
+    assert "transient_calls = 3, transient_margin = 3.0, keep_warm = 0.002" in text   # the ROM run's own overrides
     out = Path(result["out"])
     assert {k: t["core"] for k, t in result["timings"].items()} == {"reference": 1, "rom": 0}
     # the pinned reference, run beside the ROM-FOM run, repeats the run the ROM was trained on bit for bit
