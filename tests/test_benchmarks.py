@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -101,6 +102,7 @@ def test_flap_speedup_side_by_side_small(capsys):
     text = capsys.readouterr().out
     assert "side by side, reference on core 1, ROM-FOM on core 0" in text
     assert "transient_calls = 3, transient_margin = 3.0, keep_warm = 0.002" in text   # the ROM run's own overrides
+    assert re.search(r"keep_warm repeats: [1-9]\d* calls, \d+\.\d s of compute", text)
     out = Path(result["out"])
     assert {k: t["core"] for k, t in result["timings"].items()} == {"reference": 1, "rom": 0}
     # the pinned reference, run beside the ROM-FOM run, repeats the run the ROM was trained on bit for bit
