@@ -31,6 +31,7 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -52,7 +53,7 @@ SMALL_MODEL = ["selection.choose='fixed'", "selection.table=false", "model.n_for
 
 
 def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | None = None,
-             rom_settings: list[str] = ()) -> dict:
+             rom_settings: Sequence[str] = ()) -> dict:
     """One run of the scene into ``out``: the FOM-FOM reference, or with ``rom = (model, switch_time)`` and the
     scene overrides ``rom_settings``."""
     overrides = [f"flow.reynolds={reynolds!r}", f"time.end={end!r}"]
@@ -66,7 +67,7 @@ def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | No
 
 
 def side_by_side(out: Path, reynolds: float, end: float, rom: tuple[str, float], swap: bool,
-                 rom_settings: list[str] = ()) -> dict:
+                 rom_settings: Sequence[str] = ()) -> dict:
     """The reference and the ROM-FOM run at the same time, each in a process of this script pinned to a core of
     its own (0 and 1, or swapped); the first to fail stops the other."""
     if len(os.sched_getaffinity(0)) < 2:
@@ -93,7 +94,7 @@ def side_by_side(out: Path, reynolds: float, end: float, rom: tuple[str, float],
 
 
 def run_one(out: Path, kind: str, core: int, reynolds: float, end: float, rom: tuple[str, float],
-            rom_settings: list[str] = ()) -> None:
+            rom_settings: Sequence[str] = ()) -> None:
     """One run of a side-by-side pair, pinned to ``core`` (with every process it starts); its timing to a file."""
     os.sched_setaffinity(0, {core})
     timing = {**run_once(out / kind, reynolds, end, rom if kind == "rom" else None, rom_settings), "core": core}
