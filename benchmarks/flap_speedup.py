@@ -251,10 +251,11 @@ def tabulate(out: Path, machine_line: str, timings: dict) -> dict:
               f"{served['speedup'] / served_bound_iterations:>8.1%}",
               f"e(t) on the full field over the served windows: mean {row['displacement_error']['mean']:.2%}, "
               f"max {row['displacement_error']['max']:.2%}; {row['rom_fallback_windows']} windows fell back to the solid FOM"]
-    warm = runs["rom"].components[runs["rom"].rom_backend]["final"] if runs["rom"].rom_backend else {}
+    warm = runs["rom"].components[runs["rom"].rom_backend]["final"]
     if "keep_warm_seconds" in warm:      # the ROM's idle repeats share the ROM-FOM run's core: part of its wall
-        lines.append(f"keep_warm repeats: {int(warm['keep_warm_calls'][0])} calls, {float(warm['keep_warm_seconds'][0]):.1f} s "
-                     f"of compute ({float(warm['keep_warm_seconds'][0]) / runs['rom'].wall:.1%} of the ROM-FOM run's wall)")
+        seconds = float(warm["keep_warm_seconds"][0])
+        lines.append(f"keep_warm repeats: {int(warm['keep_warm_calls'][0])} calls, {seconds:.1f} s of compute "
+                     f"({seconds / runs['rom'].wall:.1%} of the ROM-FOM run's wall)")
     result = {"machine": machine_line, "timings": timings, "reynolds": reynolds, "end": end, "switch_time": switch,
               "model": model, "row": {k: v for k, v in row.items() if not k.startswith("_")},
               "bound_at_run_iterations": bound_iterations, "served_bound_at_run_iterations": served_bound_iterations,
