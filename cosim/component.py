@@ -142,6 +142,11 @@ class Component:
         self.do_step(t, dt)
         return self.get_values(self.output_names() + self.local_names())
 
+    def served_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``step`` for the component server, which encodes the outputs before it takes another request: the
+        arrays returned may be the component's own buffers, rewritten by its next call (by default: ``step``)."""
+        return self.step(t, dt, inputs)
+
     def output_names(self) -> list[str]:
         return [v.name for v in self.variables() if v.causality == "output"]
 

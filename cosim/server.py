@@ -107,7 +107,7 @@ class ComponentServer:
         restore = args.get("restore")
         if restore is not None:
             self.component.set_state(restore)
-        return self.component.step(protocol.number(args, "t"), protocol.number(args, "dt"), arrays)
+        return self.component.served_step(protocol.number(args, "t"), protocol.number(args, "dt"), arrays)
 
     def handle(self, frames: list) -> tuple[list, bool]:
         """Reply frames for one request, and whether to stop serving."""

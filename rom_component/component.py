@@ -29,6 +29,7 @@ ROM_SCHEMA = {"model": Required(str), "arithmetic": "reproducible",
               "keep_warm": Value(0.0, low=0.0)}
 ARITHMETIC = ("reproducible", "compiled", "fast")   # compiled: the FMU's C code in-process, same results
 TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
+FLOAT64 = np.dtype(np.float64)
 
 
 class RomSolid(Component):
@@ -74,6 +75,11 @@ class RomSolid(Component):
         self._reduced: list[np.ndarray] = []
         self._last_reduced: np.ndarray | None = None
         self.idle_interval = prm["keep_warm"] or None
+        served = getattr(self.rom, "served", None)     # the compiled arithmetic: one C call per served step
+        self._served = served
+        if served is not None:
+            self._served_outputs = {self.output_name: served.displacement.reshape(self.output_shape),
+                                    **{name: served.trust[i:i + 1] for i, name in enumerate(TRUST_LOCALS)}}
         self._warm_input: np.ndarray | None = None
         self.keep_warm_calls, self.keep_warm_seconds = 0, 0.0
 
@@ -97,13 +103,16 @@ class RomSolid(Component):
                  **{name: self.trust_values[i:i + 1] for i, name in enumerate(TRUST_LOCALS)}}
         return {name: np.array(known[name]) for name in names}
 
-    def do_step(self, t: float, dt: float) -> None:
+    def _count_call(self, t: float) -> None:
         if t != self._window_time:
             if self._window_time is not None:
                 self._keep_converged()
             self._calls_in_window, self._window_time = 1, t
         else:
             self._calls_in_window += 1
+
+    def do_step(self, t: float, dt: float) -> None:
+        self._count_call(t)
         rom = self.rom
         self.displacement = rom(self.force)
         self._last_reduced = rom.reduced
@@ -138,6 +147,23 @@ class RomSolid(Component):
         return {self.output_name: self.displacement.reshape(self.output_shape),
                 TRUST_LOCALS[0]: trust[0:1], TRUST_LOCALS[1]: trust[1:2], TRUST_LOCALS[2]: trust[2:3]}
 
+    def served_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``step``; with the compiled arithmetic and the one input of its shape, a single C call on fixed buffers
+        whose views are returned (the server sends them before the next call rewrites them)."""
+        served, force = self._served, inputs.get(self.input_name)
+        if served is None or len(inputs) != 1 or type(force) is not np.ndarray or force.shape != self.input_shape \
+                or force.dtype is not FLOAT64:
+            return self.step(t, dt, inputs)
+        self._count_call(t)
+        margin = self.transient_margin if self._calls_in_window <= self.transient_calls else self.range_margin
+        out = served.call(margin, force.tobytes())    # bytes: the cheapest way to hand the input to C
+        self.force = self._warm_input = served.force
+        self.displacement, self._last_reduced, self.trust_values = served.displacement, served.reduced, served.trust
+        self._dt = dt
+        if out:
+            self._out_of_range(margin)
+        return dict(self._served_outputs)
+
     def _out_of_range(self, margin: float) -> None:
         """A call out of range: a warning, an error, or (fallback) nothing here: the coupler acts on the flag."""
         message = (f"input outside the training range (a reduced force mode beyond the training data by more than "
@@ -151,7 +177,7 @@ class RomSolid(Component):
         if self.on_out_of_range == "fallback" and self.trust_values[2] > 0:
             return   # the solid FOM took this window over: the ROM's state is not the window's
         self._times.append(self._window_time + self._dt)
-        self._reduced.append(self._last_reduced)
+        self._reduced.append(self._last_reduced.copy())    # the served call's buffer is rewritten by the next
 
     def terminate(self) -> dict[str, np.ndarray]:
         """Reduced displacements of every converged window and the full field rebuilt from them."""

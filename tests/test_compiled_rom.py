@@ -109,6 +109,40 @@ def test_the_step_s_short_path_gives_the_checked_path_s_results_and_errors(model
     np.testing.assert_array_equal(short.terminate()["full_field"], checked.terminate()["full_field"])
 
 
+@pytest.mark.parametrize("name", ["rbf", "qm_cubic"])
+def test_the_served_step_gives_the_step_s_results_with_one_c_call(models, name):  # noqa: F811
+    path, _, F = models[name]
+    settings = {"model": str(path), "arithmetic": "compiled", "on_out_of_range": "fallback", "range_margin": 0.05,
+                "transient_calls": 1, "transient_margin": 0.5}
+    stepped, served = RomSolid(), RomSolid()
+    for component in (stepped, served):
+        component.instantiate(settings)
+    assert served._served is not None
+    far = F[0] * 3.0 - 1.0                              # out of range: the fallback's windows are left out
+    inputs = [F[0], F[1], far, far, F[2], F[3], F[3], far, F[4]]
+    times = [0.0, 0.0, 0.01, 0.01, 0.02, 0.03, 0.03, 0.04, 0.05]
+    name, output = served.input_name, served.output_name
+    inputs += [F[5].astype(np.float32), F[5]]          # another dtype: the checked path; then a last window
+    times += [0.06, 0.07]
+    last_flag = {}                                      # of each window's last call
+    for t, f in zip(times, inputs):
+        a = stepped.step(t, 0.01, {name: f})
+        b = served.served_step(t, 0.01, {name: f})
+        assert a.keys() == b.keys()
+        for key in a:
+            assert a[key].tobytes() == b[key].tobytes(), key     # the distance too: both take IEEE roots
+        last_flag[t] = b["rom_out_of_range"][0]
+    assert last_flag[0.01] == 1.0 and last_flag[0.0] == 0.0   # a window's second far call answers to range_margin
+    kept = b[output].copy()
+    served.served_step(0.08, 0.01, {name: F[6]})
+    assert b[output].tobytes() != kept.tobytes()          # the served arrays are the ROM's own buffers
+    assert served.get_values([output])[output].tobytes() == stepped.step(0.08, 0.01, {name: F[6]})[output].tobytes()
+    a, b = stepped.terminate(), served.terminate()
+    np.testing.assert_array_equal(a["full_field"], b["full_field"])
+    expected = [t + 0.01 for t, flag in last_flag.items() if flag == 0.0] + [0.09]
+    np.testing.assert_allclose(b["time"], expected)     # the windows that fell back are left out
+
+
 def test_a_tube_rom_fom_run_is_the_same_with_the_compiled_path(fom, model, tmp_path):  # noqa: F811
     rom_run(tmp_path / "reproducible", model, TRAIN_END)
     rom_run(tmp_path / "compiled", model, TRAIN_END, "components.solid.rom.arithmetic=compiled")

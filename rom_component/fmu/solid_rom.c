@@ -43,6 +43,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "fmi2Functions.h"
 
@@ -56,6 +59,7 @@ typedef struct {
     double *E, *e, *centres, *H, *At, *base, *Bt, *c2;
     int32_t *qi, *qj, *qk;
     int32_t n_quad;           /* r_u (r_u + 1) / 2 */
+    double *panels;           /* with vector sums: the decoder's coefficients in read order (fill_panels) */
     char guid[GUID_LENGTH + 1];
     char input_name[NAME_LENGTH + 1], output_name[NAME_LENGTH + 1];
 } Model;
@@ -385,46 +389,64 @@ HOT static void pairwise_dots(const double *rows, size_t stride, const double *v
     for (; k < count; k++) out[k] = pairwise_dot(rows + (size_t)k * stride, v, n);
 }
 
+#ifdef VECTOR_SUMS
+/* The decoder's coefficients in panels of PANEL outputs, in the order decode reads them: per panel the r_u
+ * columns of A, base, then (quadratic decoder) the n_quad columns of B, PANEL values each, the last panel padded
+ * with zeros. decode then reads one forward stream instead of r_u + n_quad strided ones: after the other solver's
+ * turn the caches are cold, and a single stream is what the hardware fetches ahead. */
+#define PANEL 16
+static size_t panel_width(const Model *m) { return (size_t)(m->r_u + 1 + (m->decoder == 1 ? m->n_quad : 0)) * PANEL; }
+static int32_t panel_count(const Model *m) { return (m->n_out + PANEL - 1) / PANEL; }
+
+static void fill_panels(Model *m) {
+    const size_t width = panel_width(m);
+    int32_t b, o, a, q;
+    for (b = 0; b < panel_count(m); b++)
+        for (o = 0; o < PANEL; o++) {
+            const int32_t out = b * PANEL + o, valid = out < m->n_out;
+            double *p = m->panels + (size_t)b * width + o;
+            for (a = 0; a < m->r_u; a++) p[(size_t)a * PANEL] = valid ? m->At[(size_t)a * m->n_out + out] : 0.0;
+            p[(size_t)m->r_u * PANEL] = valid ? m->base[out] : 0.0;
+            if (m->decoder == 1)
+                for (q = 0; q < m->n_quad; q++)
+                    p[(size_t)(m->r_u + 1 + q) * PANEL] = valid ? m->Bt[(size_t)q * m->n_out + out] : 0.0;
+        }
+}
+#endif
+
 /* the decoder, u = A u~ summed sequentially over r_u, + base, + (B q(u~) summed sequentially over the quadratic
- * terms), as OnlineRom sums them; with vector sums, 16 outputs at a time keep their partial sums in registers
- * while the columns stream past */
+ * terms), as OnlineRom sums them; with vector sums, a panel of 16 outputs at a time keeps its partial sums in
+ * registers while its coefficients stream past (the last panel's padded lanes are computed and dropped) */
 HOT static void decode(const Model *m, const double *reduced, const double *quad, double *out, double *scratch) {
     int32_t a, q, o;
 #ifdef VECTOR_SUMS
-    int32_t o0, j;
-    (void)scratch;
-    for (o0 = 0; o0 + 16 <= m->n_out; o0 += 16) {
+    const size_t width = panel_width(m);
+    int32_t b, j;
+    (void)o;
+    for (b = 0; b < panel_count(m); b++) {
         vec4 s[4], t[4];
-        const double *col = m->At + o0;
-        for (j = 0; j < 4; j++) s[j] = *(const vec4 *)(col + 4 * j) * reduced[0];
+        const double *p = m->panels + (size_t)b * width, *col;
+        double *target = (b + 1) * PANEL <= m->n_out ? out + (size_t)b * PANEL : scratch;
+        for (j = 0; j < 4; j++) s[j] = *(const vec4 *)(p + 4 * j) * reduced[0];
         for (a = 1; a < m->r_u; a++) {
             const double r = reduced[a];
-            col = m->At + (size_t)a * m->n_out + o0;
+            col = p + (size_t)a * PANEL;
             for (j = 0; j < 4; j++) s[j] += *(const vec4 *)(col + 4 * j) * r;
         }
-        for (j = 0; j < 4; j++) s[j] += *(const vec4 *)(m->base + o0 + 4 * j);
+        col = p + (size_t)m->r_u * PANEL;
+        for (j = 0; j < 4; j++) s[j] += *(const vec4 *)(col + 4 * j);
         if (m->decoder == 1) {
-            col = m->Bt + o0;
+            col += PANEL;
             for (j = 0; j < 4; j++) t[j] = *(const vec4 *)(col + 4 * j) * quad[0];
             for (q = 1; q < m->n_quad; q++) {
                 const double w = quad[q];
-                col = m->Bt + (size_t)q * m->n_out + o0;
+                col += PANEL;
                 for (j = 0; j < 4; j++) t[j] += *(const vec4 *)(col + 4 * j) * w;
             }
             for (j = 0; j < 4; j++) s[j] += t[j];
         }
-        for (j = 0; j < 4; j++) *(vec4 *)(out + o0 + 4 * j) = s[j];
-    }
-    for (o = o0; o < m->n_out; o++) {     /* the last n_out % 16 outputs */
-        double s = m->At[o] * reduced[0], t;
-        for (a = 1; a < m->r_u; a++) s = s + m->At[(size_t)a * m->n_out + o] * reduced[a];
-        s = s + m->base[o];
-        if (m->decoder == 1) {
-            t = m->Bt[o] * quad[0];
-            for (q = 1; q < m->n_quad; q++) t = t + m->Bt[(size_t)q * m->n_out + o] * quad[q];
-            s = s + t;
-        }
-        out[o] = s;
+        for (j = 0; j < 4; j++) *(vec4 *)(target + 4 * j) = s[j];
+        if (target == scratch) memcpy(out + (size_t)b * PANEL, scratch, sizeof(double) * (size_t)(m->n_out - b * PANEL));
     }
 #else
     /* outputs in the inner loop, so that the compiler vectorises across them without changing any sum */
@@ -571,8 +593,15 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     inst->z = (double *)allocate(functions, (size_t)(m->m + m->r_f + 1), sizeof(double));
     inst->reduced = (double *)allocate(functions, (size_t)m->r_u, sizeof(double));
     inst->quad = (double *)allocate(functions, (size_t)m->n_quad, sizeof(double));
-    inst->scratch = (double *)allocate(functions, (size_t)m->n_out, sizeof(double));
-    if (!inst->inputs || !inst->outputs || !inst->x || !inst->z || !inst->reduced || !inst->quad || !inst->scratch) {
+    inst->scratch = (double *)allocate(functions, (size_t)(m->n_out > 16 ? m->n_out : 16), sizeof(double));
+#ifdef VECTOR_SUMS
+    inst->model.panels = (double *)allocate(functions, (size_t)panel_count(m) * panel_width(m), sizeof(double));
+    if (inst->model.panels) fill_panels(&inst->model);
+#else
+    inst->model.panels = inst->scratch;   /* not used */
+#endif
+    if (!inst->inputs || !inst->outputs || !inst->x || !inst->z || !inst->reduced || !inst->quad || !inst->scratch ||
+        !m->panels) {
         log_message(functions, instanceName, fmi2Error, "logStatusError", "out of memory");
         fmi2FreeInstance(inst);
         return NULL;
@@ -607,6 +636,9 @@ void fmi2FreeInstance(fmi2Component c) {
     release(&cb, inst->z);
     release(&cb, inst->reduced);
     release(&cb, inst->quad);
+#ifdef VECTOR_SUMS
+    release(&cb, inst->model.panels);
+#endif
     release(&cb, inst->scratch);
     release(&cb, inst->buffer);
     release(&cb, inst->name);
@@ -909,5 +941,59 @@ void solid_rom_evaluate_trust(void *c, const double *f, double *u, double *x, do
     solid_rom_evaluate(c, f, u, x, reduced);
     solid_rom_trust(c, low, high, mean, precision, out);
 }
+
+/* square root of q >= 0 without libm: the SSE2 instruction (IEEE, correctly rounded, as Python's math.sqrt),
+ * else Newton's method from q (the last bit may differ) */
+static double root(double q) {
+#if defined(__SSE2__)
+    return _mm_cvtsd_f64(_mm_sqrt_sd(_mm_setzero_pd(), _mm_set_sd(q)));
+#else
+    double r = q > 1.0 ? q : 1.0, previous = 0.0;
+    int i;
+    if (!(q > 0.0)) return q;
+    for (i = 0; i < 2000 && r != previous; i++) { previous = r; r = 0.5 * (r + q / r); }
+    return r;
+#endif
+}
+
+/* The served call of the in-process ROM, bound once to the caller's buffers so that a call converts a single
+ * argument (the margin) in the caller's language: f (n_in) in; u (n_out), x (r_f), reduced (r_u) out; with an
+ * envelope (low not NULL) trust gets (excess, distance = sqrt(quadratic) / max_distance, 1.0 if excess > margin
+ * else 0.0), without one trust is left as it is. */
+typedef struct {
+    Instance *inst;
+    double *f;
+    const double *low, *high, *mean, *precision;
+    double *u, *x, *reduced, *trust;
+    double max_distance;
+} Served;
+
+void *solid_rom_bind(void *c, double *f, double *u, double *x, double *reduced, const double *low,
+                     const double *high, const double *mean, const double *precision, double max_distance,
+                     double *trust) {
+    Served *s = (Served *)calloc(1, sizeof(Served));
+    if (s == NULL) return NULL;
+    s->inst = (Instance *)c;
+    s->f = f; s->u = u; s->x = x; s->reduced = reduced; s->trust = trust;
+    s->low = low; s->high = high; s->mean = mean; s->precision = precision; s->max_distance = max_distance;
+    return s;
+}
+
+/* one served call on the bound buffers, its input f (n_in) first copied into the bound input buffer (if f is not
+ * NULL); returns 1 if the call is out of range (excess beyond margin) */
+int solid_rom_serve(void *served, double margin, const double *f) {
+    const Served *s = (const Served *)served;
+    double out[2];
+    if (f != NULL) memcpy(s->f, f, sizeof(double) * (size_t)s->inst->model.n_in);
+    solid_rom_evaluate(s->inst, s->f, s->u, s->x, s->reduced);
+    if (s->low == NULL) return 0;
+    solid_rom_trust(s->inst, s->low, s->high, s->mean, s->precision, out);
+    s->trust[0] = out[0];
+    s->trust[1] = root(out[1]) / s->max_distance;
+    s->trust[2] = out[0] > margin ? 1.0 : 0.0;
+    return out[0] > margin;
+}
+
+void solid_rom_unbind(void *served) { free(served); }
 
 void solid_rom_close(void *c) { fmi2FreeInstance((fmi2Component)c); }
