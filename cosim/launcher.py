@@ -21,6 +21,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Sequence
 
 from cosim.errors import ComponentDied, ComponentError
 
@@ -72,8 +73,10 @@ class Launcher:
         if self._previous_sigterm is not None:
             signal.signal(signal.SIGTERM, self._previous_sigterm)
 
-    def spawn(self, name: str, entry: str, environment: dict[str, str] | None = None) -> ComponentProcess:
-        """Start one component with extra ``environment`` variables (returns before its handshake)."""
+    def spawn(self, name: str, entry: str, environment: dict[str, str] | None = None,
+              cores: Sequence[int] = ()) -> ComponentProcess:
+        """Start one component with extra ``environment`` variables, on ``cores`` if given (returns before its
+        handshake)."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log_path = self.log_dir / f"{name}.log"
         env = {**os.environ, **(environment or {})}
@@ -85,6 +88,11 @@ class Launcher:
                                      env=env, start_new_session=True)
         process = ComponentProcess(name, popen, log_path)
         self.processes.append(process)
+        if cores:
+            try:
+                os.sched_setaffinity(popen.pid, cores)   # before it imports its solver (its threads inherit)
+            except ProcessLookupError:
+                pass                                     # gone already: the handshake reports how
         return process
 
     def handshake(self, process: ComponentProcess) -> str:

@@ -287,7 +287,8 @@ class RunResults:
         timings = [self.file[p][:] if p in self.file else np.zeros(0)
                    for p in (Layout.timing(name, "compute"), Layout.timing(name, "roundtrip"))]
         final = {k: v[:] for k, v in self.file.get(Layout.final(name), {}).items()}
-        attributes = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
+        attributes = {k: (v.item() if getattr(v, "size", 0) == 1 else v.tolist() if hasattr(v, "tolist") else v)
+                      for k, v in group.attrs.items()}
         variables = json.loads(attributes.pop("variables", "[]"))
         meshes = {k: v[:] for k, v in self.file.get(Layout.meshes(name), {}).items()}
         return ComponentRecord(name, attributes, *timings, final, variables, meshes)

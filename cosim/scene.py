@@ -11,6 +11,8 @@ checks those tables against the chosen plug-in before anything starts.
 
 from __future__ import annotations
 
+import os
+
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +30,7 @@ COMPONENT = {
     "timeout": Positive(120.0),         # seconds per request
     "startup_timeout": Positive(60.0),
     "threads": Positive(1),             # OpenMP/BLAS threads of the component's process
+    "cores": [],            # CPU cores the component's process may run on (Linux affinity; empty: any)
     "environment": AnyTable(),          # extra environment variables of the component's process
     "backend": "fom",       # "fom": the entry above; "rom" or "fmu": see the tables below
     "rom": {                # a trained ROM (the .npz written by `cosim train`)
@@ -163,6 +166,7 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
                   for name, spec in components_raw.items()}
     for name, spec in components.items():
         _string_list(spec["sections"], f"components.{name}.sections", source)
+        _cores(spec["cores"], f"components.{name}.cores", source)
     sections = {s for spec in components.values() for s in spec["sections"]}
     known = set(SCHEMA) | set(LISTS) | sections
     for key in raw:
@@ -208,6 +212,19 @@ def _string_list(value: list, where: str, source: str) -> None:
     for i, item in enumerate(value):
         if not isinstance(item, str):
             raise SceneError(f"{source}: '{where}.{i}' must be a string, got {item!r}")
+
+
+def _cores(value: list, where: str, source: str) -> None:
+    """Cores this process may use (a component's cores must be among them)."""
+    allowed = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
+    for i, item in enumerate(value):
+        if isinstance(item, bool) or not isinstance(item, int):
+            raise SceneError(f"{source}: '{where}.{i}' must be a core number, got {item!r}")
+        if allowed is None:
+            raise SceneError(f"{source}: '{where}' is set, but this platform cannot pin processes to cores")
+        if item not in allowed:
+            raise SceneError(f"{source}: '{where}' names core {item}; this process may use cores "
+                             f"{', '.join(map(str, allowed))}")
 
 
 def _one_of(value: Any, allowed: tuple, where: str, source: str) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import socket
 import sys
 import time
@@ -84,7 +85,9 @@ def plan_backends(scene: Scene) -> list[Backend]:
 
 def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) -> None:
     """Spawn every local backend first (they start in parallel), then handshake each."""
-    processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(scene["components"][b.participant]))
+    components = scene["components"]
+    processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(components[b.participant]),
+                                        components[b.participant]["cores"])
                  for b in backends if b.entry}
     for backend in backends:
         spec = scene["components"][backend.participant]
@@ -97,6 +100,16 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) ->
         backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"])
         if process is None:
             backend.proxy.pid = int(backend.proxy.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
+
+
+def placement(backend: Backend) -> dict[str, list[int]]:
+    """The cores a local backend's process may run on (as the run started), for the results file."""
+    if not backend.entry or not hasattr(os, "sched_getaffinity"):
+        return {}
+    try:
+        return {"cores": sorted(os.sched_getaffinity(backend.proxy.pid))}
+    except (ProcessLookupError, TypeError):
+        return {}
 
 
 def recorded_shapes(backends: list[Backend]) -> dict[str, dict[str, tuple[int, ...]]]:
@@ -233,7 +246,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 for b in backends:
                     host = b.address or socket.gethostname()
                     store.add_component(b.name, b.proxy.pid, host, b.entry or b.address, b.proxy.endpoint,
-                                        participant=b.participant, kind=b.kind, start_time=b.start_time)
+                                        participant=b.participant, kind=b.kind, start_time=b.start_time,
+                                        **placement(b))
                     b.proxy.instantiate(b.parameters)
                     store.write_description(b.name, [asdict(v) for v in b.proxy.variables.values()],
                                             b.proxy.meshes)

@@ -55,6 +55,20 @@ def test_short_tube_run_over_localhost(tmp_path):
     assert (tmp_path / "run" / "run.png").stat().st_size > 10_000
 
 
+def test_components_run_on_the_cores_the_scene_names(tmp_path):
+    cores = sorted(os.sched_getaffinity(0))
+    fluid, solid = cores[0], cores[-1]
+    summary, path = run(tmp_path, "time.end=0.3", f"components.fluid.cores=[{fluid}]",
+                        f"components.solid.cores=[{solid}]")
+    assert summary.windows == 3
+    with RunResults(path) as results:
+        assert np.atleast_1d(results.component("fluid").attributes["cores"]).tolist() == [fluid]
+        assert np.atleast_1d(results.component("solid").attributes["cores"]).tolist() == [solid]
+    _, path = run(tmp_path, "time.end=0.1", name="anywhere")
+    with RunResults(path) as results:
+        assert np.atleast_1d(results.component("solid").attributes["cores"]).tolist() == cores
+
+
 def test_schemes_agree_on_the_converged_solution(tmp_path):
     tight = ["time.end=1", "coupling.convergence.0.limit=1e-9", "coupling.convergence.1.limit=1e-9"]
     run(tmp_path, *tight, name="serial")

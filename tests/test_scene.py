@@ -57,6 +57,8 @@ def test_set_overrides_values_and_records_them(tube_scene_path):
     ("exchange.0.mapping=magic", "'exchange.0.mapping.type' is 'magic'; known mappings: identity"),
     ("components.solid.entyr=x", "unknown key 'components.solid.entyr'.*did you mean 'components.solid.entry'"),
     ("inlte.f=1", "unknown key 'inlte'.*did you mean 'inlet'"),
+    ('components.solid.cores=["0"]', r"'components.solid.cores.0' must be a core number, got '0'"),
+    ("components.solid.cores=[4096]", r"'components.solid.cores' names core 4096; this process may use cores 0"),
 ])
 def test_bad_scenes_name_the_key(tube_scene_path, override, message):
     with pytest.raises(SceneError, match=message):
