@@ -26,6 +26,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -94,15 +95,17 @@ def kratos_call_times(force: np.ndarray, calls: int) -> dict[str, np.ndarray]:
     return times
 
 
-def coupled_step_times(model: Path, out: Path, windows: int, keep_warm: float = 0.0) -> tuple[np.ndarray, float]:
-    """Compute seconds of the ROM component's calls in a coupled double-flap run of ``windows`` windows, and
-    the share of one core its keep-warm repeats took over the run's wall."""
+def coupled_step_times(model: Path, out: Path, windows: int, keep_warm: float = 0.0,
+                       overrides: Sequence[str] = ()) -> tuple[np.ndarray, float]:
+    """Compute seconds of the ROM component's calls in a coupled double-flap run of ``windows`` windows (scene
+    ``overrides`` added), and the share of one core its keep-warm repeats took over the run's wall."""
     from coupler.run import run_scene
     from cosim.results import RunResults
     from cosim.scene import load_scene
     scene = load_scene(ROOT / "scenes" / "double_flap.toml",
                        ["components.solid.backend=rom", f"components.solid.rom.model={model}",
-                        f"components.solid.rom.keep_warm={keep_warm!r}", f"time.end={windows * 0.008!r}"])
+                        f"components.solid.rom.keep_warm={keep_warm!r}", f"time.end={windows * 0.008!r}",
+                        *overrides])
     run_scene(scene, out, progress=False)
     with RunResults(out / "results.h5") as run:
         roms = [run.component(name) for name in run.component_names()

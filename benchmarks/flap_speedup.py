@@ -15,8 +15,9 @@ the cost of extra iterations from the coupler's and the machine's.
 
 Usage:
   python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
-      --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--set KEY=VALUE ...]
+      --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--pin] [--set KEY=VALUE ...]
       [--readme [--block NAME]]          --set: scene overrides of the ROM-FOM run (e.g. the ROM's transient calls)
+                                         --pin: one after the other, each solver on a core of its own
   python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
   python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-... [...]  the tables of earlier runs again
       (of several pairs also their geometric means, per model)
@@ -47,16 +48,17 @@ SCENE = ROOT / "scenes" / "double_flap.toml"
 ROM_CONFIG = ROOT / "scenes" / "double_flap_rom.toml"
 DT = 0.008
 ROM_SETTINGS = ("arithmetic", "on_out_of_range", "transient_calls", "transient_margin", "keep_warm")   # shown in the table
+PINNED = ("components.fluid.cores=[0]", "components.solid.cores=[1]")   # --pin: a core per solver, in both runs
 SMALL = {"windows": 8, "train_windows": 4, "reynolds": 250.0}
 SMALL_MODEL = ["selection.choose='fixed'", "selection.table=false", "model.n_force_modes=4", "model.n_disp_modes=3",
                "model.quadratic_modes=0"]
 
 
 def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | None = None,
-             rom_settings: Sequence[str] = ()) -> dict:
+             rom_settings: Sequence[str] = (), common: Sequence[str] = ()) -> dict:
     """One run of the scene into ``out``: the FOM-FOM reference, or with ``rom = (model, switch_time)`` and the
-    scene overrides ``rom_settings``."""
-    overrides = [f"flow.reynolds={reynolds!r}", f"time.end={end!r}"]
+    scene overrides ``rom_settings``; ``common``: overrides of either run."""
+    overrides = [f"flow.reynolds={reynolds!r}", f"time.end={end!r}", *common]
     if rom:
         overrides += ["components.solid.backend=rom", f"components.solid.rom.model={rom[0]}",
                       f"components.solid.rom.switch_time={rom[1]!r}", *rom_settings]
@@ -119,6 +121,8 @@ def main(argv: list[str] | None = None) -> dict:
     order.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
     order.add_argument("--side-by-side", action="store_true",
                        help="run both at the same time, each pinned to a core of its own")
+    parser.add_argument("--pin", action="store_true",
+                        help="one after the other, in both runs the fluid on core 0 and the solid (FOM or ROM) on core 1")
     parser.add_argument("--swap-cores", action="store_true", help="side by side: the reference on core 1, the ROM on 0")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="a scene override of the ROM-FOM run, e.g. components.solid.rom.transient_calls=2 (repeatable)")
@@ -132,6 +136,8 @@ def main(argv: list[str] | None = None) -> dict:
                         help="print (and with --readme write) the tables of earlier runs' directories; of several pairs "
                              "also their geometric means")
     args = parser.parse_args(argv)
+    if args.pin and args.side_by_side:
+        parser.error("--pin runs one after the other; it does not go with --side-by-side")
     if not (args.small or args.report) and (args.model is None or args.reynolds is None or args.switch_time is None):
         parser.error("give --model, --reynolds and --switch-time, or --small, or --report")
     if args.report:      # the machine's load then: the table's column "load before" (the machine line's is of now)
@@ -154,12 +160,13 @@ def main(argv: list[str] | None = None) -> dict:
     if args.small:
         reynolds, end = SMALL["reynolds"], SMALL["windows"] * DT
         trained_on = out / ("training" if args.side_by_side else "reference")
-        timings = {"reference": run_once(trained_on, reynolds, end)}
+        timings = {"reference": run_once(trained_on, reynolds, end, common=PINNED if args.pin else ())}
         model, switch = small_model(trained_on, out / "model.npz")
         if args.side_by_side:
             timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores, args.set)
         else:
-            timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch), args.set)
+            timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch), args.set,
+                                      PINNED if args.pin else ())
     else:
         reynolds, end, model, switch = args.reynolds, args.end, Path(args.model).resolve(), args.switch_time
         if args.side_by_side:
@@ -169,7 +176,7 @@ def main(argv: list[str] | None = None) -> dict:
             timings = {}
             for kind in order:
                 timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None,
-                                         args.set)
+                                         args.set, PINNED if args.pin else ())
     result = tabulate(out, machine_line, timings)
     return publish(result["lines"], args.block if args.readme else None, result)
 
@@ -223,8 +230,11 @@ def tabulate(out: Path, machine_line: str, timings: dict) -> dict:
     served_bound_iterations = (served["fluid_compute_s"] + served["solid_compute_s"]) / (
         served["fluid_compute_s"] * served_ratio + served_solid / sigma)
     cores = {kind: t["core"] for kind, t in timings.items() if "core" in t}
+    placed = {name: spec.get("cores") for name, spec in runs["reference"].scene["components"].items()}
+    pinned = "; in both runs " + ", ".join(f"the {name} on core{'s' if len(c) > 1 else ''} {', '.join(map(str, c))}"
+                                          for name, c in placed.items() if c) if any(placed.values()) else ""
     order = (f"side by side, reference on core {cores['reference']}, ROM-FOM on core {cores['rom']}" if cores
-             else f"order: {' then '.join(timings)}")
+             else f"order: {' then '.join(timings)}{pinned}")
     lines += [f"double flap, Re = {reynolds:g}, [0, {end:g}] s, ROM from {switch:g} s ({row['predicted_windows']} of "
               f"{len(runs['rom'].time)} windows); model {model}; {order}",
               "ROM settings: " + ", ".join(f"{key} = {rom_table[key]}" for key in ROM_SETTINGS if key in rom_table),

@@ -73,11 +73,16 @@ def test_flap_rom_call_benchmark_small(capsys):
 def test_flap_speedup_benchmark_small(capsys):
     from benchmarks import flap_speedup
     from rom_component.report import Run
-    result = flap_speedup.main(["--small"])
+    pin = len(os.sched_getaffinity(0)) >= 2 and {0, 1} <= os.sched_getaffinity(0)
+    result = flap_speedup.main(["--small", *(["--pin"] if pin else [])])
     text = capsys.readouterr().out
     assert "FOM-FOM" in text and "ROM-FOM" in text and "bound at these iterations" in text
     row, out = result["row"], Path(result["out"])
     reference, rom = Run.read(out / "reference"), Run.read(out / "rom")
+    if pin:       # a core per solver in both runs: the table says so, and the results record where each ran
+        assert "order: reference then rom; in both runs the fluid on core 0, the solid on core 1" in text
+        assert [reference.components[n]["cores"] for n in ("fluid", "solid")] == [0, 1]
+        assert rom.components[rom.rom_backend]["cores"] == 1
     assert row["predicted_windows"] == 4 and len(rom.time) == len(reference.time) == 8
     assert row["total_speedup"] == pytest.approx(reference.wall / rom.wall, rel=1e-12)
     # the bound priced at the run's own iterations: the fluid's compute scaled by their ratio
