@@ -11,6 +11,7 @@ Prints per-call times (median and interquartile range of repeated timings, micro
 - the exported FMU through the fmu component (raw fmi2 calls) and, as a baseline, through fmpy;
 - unless --small, the ROM component's step inside a coupled run (Kratos fluid, the scene's settings, the
   first COUPLED windows from t = 0) from the run's own timings: its caches are cold after each fluid solve;
+  with keep_warm, and with a core per solver (with and without keep_warm);
 and the solid speed-up sigma = FOM / ROM for each. The ROM has r_f = 45, r_u = 9, as in the paper.
 
 Usage:
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -49,6 +51,7 @@ MESHES = ROOT / "scenes" / "double_flap"
 PARAMS = {"n_force_modes": 45, "n_disp_modes": 9, "decoder": "quadratic", "regressor": "poly", "input_scaling": "global"}
 
 
+PINNED = ("components.fluid.cores=[0]", "components.solid.cores=[1]")
 KEEP_WARM = 0.001      # seconds between the idle repeats of the ROM's last call (components.solid.rom.keep_warm)
 
 
@@ -207,6 +210,13 @@ def main(argv: list[str] | None = None) -> dict:
         seconds, share = coupled_step_times(leading_path, out / "coupled_keep_warm", args.coupled, KEEP_WARM)
         rows.append((f"  the same, the last call repeated every {KEEP_WARM * 1e3:g} ms between calls "
                      f"({share:.1%} of a core)", Timing.of(seconds)))
+        if {0, 1} <= os.sched_getaffinity(0):      # a core per solver: the fluid on 0, the ROM on 1
+            seconds, _ = coupled_step_times(leading_path, out / "coupled_pinned", args.coupled, 0.0, PINNED)
+            rows.append(("  the same, a core per solver (fluid on core 0, ROM on core 1)", Timing.of(seconds)))
+            seconds, share = coupled_step_times(leading_path, out / "coupled_pinned_keep_warm", args.coupled,
+                                                KEEP_WARM, PINNED)
+            rows.append((f"  the same, a core per solver, repeated every {KEEP_WARM * 1e3:g} ms ({share:.1%} of "
+                         f"the ROM's core)", Timing.of(seconds)))
     kratos = kratos_call_times(force, fom_calls)
     fom_rows = [(f"solid FOM, Kratos, {solver}{' (the authors)' if solver == 'sparse_qr' else ''}",
                  Timing.of(seconds)) for solver, seconds in kratos.items()]

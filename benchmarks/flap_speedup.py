@@ -121,6 +121,8 @@ def main(argv: list[str] | None = None) -> dict:
     order.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
     order.add_argument("--side-by-side", action="store_true",
                        help="run both at the same time, each pinned to a core of its own")
+    parser.add_argument("--calls", type=Path, help="calls.json of benchmarks/flap_rom_call.py: the table adds sigma "
+                                                   "against its solid call with the authors' sparse_qr")
     parser.add_argument("--pin", action="store_true",
                         help="one after the other, in both runs the fluid on core 0 and the solid (FOM or ROM) on core 1")
     parser.add_argument("--swap-cores", action="store_true", help="side by side: the reference on core 1, the ROM on 0")
@@ -145,7 +147,7 @@ def main(argv: list[str] | None = None) -> dict:
         if missing:
             parser.error(f"--report: {', '.join(missing)} holds no speedup.json (not a finished flap_speedup run)")
         results = [tabulate(Path(directory), machine().split(", load average")[0],
-                            json.loads((Path(directory) / "speedup.json").read_text())["timings"])
+                            json.loads((Path(directory) / "speedup.json").read_text())["timings"], authors_call(args.calls))
                    for directory in args.report]
         lines = results[0]["lines"] + [line for result in results[1:] for line in ["", *result["lines"][1:]]]  # one machine line
         if len(results) > 1:
@@ -177,7 +179,7 @@ def main(argv: list[str] | None = None) -> dict:
             for kind in order:
                 timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None,
                                          args.set, PINNED if args.pin else ())
-    result = tabulate(out, machine_line, timings)
+    result = tabulate(out, machine_line, timings, authors_call(args.calls))
     return publish(result["lines"], args.block if args.readme else None, result)
 
 
@@ -211,8 +213,20 @@ def pairs_summary(results: list[dict]) -> list[str]:
     return lines
 
 
-def tabulate(out: Path, machine_line: str, timings: dict) -> dict:
-    """The table of the two runs in ``out`` (``lines`` of the result); writes speedup.json."""
+def authors_call(calls: Path | None) -> float | None:
+    """Seconds of one solid FOM call with the authors' sparse_qr, from a flap_rom_call.py calls.json (or None)."""
+    if calls is None:
+        return None
+    medians = json.loads(calls.read_text())["median_seconds"]
+    found = [seconds for label, seconds in medians.items() if "sparse_qr" in label]
+    if not found:
+        raise SystemExit(f"--calls: {calls} holds no sparse_qr call")
+    return float(found[0])
+
+
+def tabulate(out: Path, machine_line: str, timings: dict, qr_seconds: float | None = None) -> dict:
+    """The table of the two runs in ``out`` (``lines`` of the result); writes speedup.json. ``qr_seconds``: a
+    solid FOM call with the authors' solver, for sigma against it."""
     lines = [f"machine: {machine_line}"]
     runs = {"reference": Run.read(out / "reference"), "rom": Run.read(out / "rom")}
     rom_table = runs["rom"].scene["components"][runs["rom"].participant]["rom"]
@@ -251,7 +265,10 @@ def tabulate(out: Path, machine_line: str, timings: dict) -> dict:
                      f"{run.wall:>9.1f}{int(run.iterations.sum()):>11}{others:>16.1f}{solids:>16.1f}"
                      f"   {per_call[~after].mean():.1f}, {per_call[after].mean():.1f}")
     lines += [f"solid sigma (compute per call, FOM over ROM): {solid['speedup_compute']:.0f} "
-              f"(ROM {solid['rom_compute_median_s'] * 1e6:.0f} us median in the run, FOM {solid['fom_compute_median_s'] * 1e3:.1f} ms)",
+              f"(ROM {solid['rom_compute_median_s'] * 1e6:.0f} us median in the run, FOM {solid['fom_compute_median_s'] * 1e3:.1f} ms)"
+              + ("" if qr_seconds is None else f"; against the authors' sparse_qr ({qr_seconds * 1e3:.1f} ms a call, "
+                 f"flap_rom_call.py; the ROM's mean call, {solid['rom_compute_per_call_s'] * 1e6:.0f} us): "
+                 f"{qr_seconds / solid['rom_compute_per_call_s']:.0f}"),
               f"{'':<22}{'speed-up':>10}{'bound':>8}{'ratio':>8}{'iterations':>12}{'bound at these iterations':>27}{'ratio':>8}",
               f"{'whole run':<22}{row['total_speedup']:>10.3f}{row['total_speedup_bound']:>8.3f}"
               f"{row['total_speedup'] / row['total_speedup_bound']:>8.1%}{ratio - 1:>+12.2%}{bound_iterations:>27.3f}"

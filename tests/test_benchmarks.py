@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -93,8 +94,14 @@ def test_flap_speedup_benchmark_small(capsys):
     assert result["bound_at_run_iterations"] == pytest.approx(expected, rel=1e-12)
     assert (result["bound_at_run_iterations"] < row["total_speedup_bound"]) == (ratio > 1)
     assert 1.0 < row["total_speedup_bound"] < (fluid + solid) / fluid    # the ROM cannot remove the fluid's cost
-    again = flap_speedup.main(["--report", str(out)])          # the table of the recorded runs, again
+    capsys.readouterr()
+    calls = out / "calls.json"                # a flap_rom_call.py result: sigma against its sparse_qr call too
+    calls.write_text(json.dumps({"median_seconds": {"solid FOM, Kratos, sparse_qr (the authors)": 0.15}}))
+    again = flap_speedup.main(["--report", str(out), "--calls", str(calls)])   # the table of the recorded runs, again
     assert again["row"]["total_speedup"] == row["total_speedup"] and again["switch_time"] == pytest.approx(4 * 0.008)
+    rom_call = row["solid"]["rom_compute_per_call_s"]
+    assert f"against the authors' sparse_qr (150.0 ms a call, flap_rom_call.py; the ROM's mean call, " \
+           f"{rom_call * 1e6:.0f} us): {0.15 / rom_call:.0f}" in capsys.readouterr().out
 
 
 @pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="side by side needs two cores")

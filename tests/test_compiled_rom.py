@@ -133,6 +133,9 @@ def test_the_served_step_gives_the_step_s_results_with_one_c_call(models, name):
             assert a[key].tobytes() == b[key].tobytes(), key     # the distance too: both take IEEE roots
         last_flag[t] = b["rom_out_of_range"][0]
     assert last_flag[0.01] == 1.0 and last_flag[0.0] == 0.0   # a window's second far call answers to range_margin
+    before = {key: value.copy() for key, value in b.items()}
+    served.idle()                                           # keep_warm repeats the served call: the same bits
+    assert served.keep_warm_calls == 1 and all(b[key].tobytes() == before[key].tobytes() for key in b)
     kept = b[output].copy()
     served.served_step(0.08, 0.01, {name: F[6]})
     assert b[output].tobytes() != kept.tobytes()          # the served arrays are the ROM's own buffers
