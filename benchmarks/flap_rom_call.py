@@ -7,7 +7,7 @@ Prints per-call times (median and interquartile range of repeated timings, micro
 - the ROM's online interface path (530 forces in, 530 interface displacements out: encoder, sparse
   quadratic polynomial, quadratic manifold restricted to the interface) in fast and reproducible arithmetic,
   and compiled (the FMU's C code in-process, bit-identical to reproducible; and, as a baseline, built without
-  its vector sums), and the ROM component's step;
+  its vector sums), and the ROM component's step, and its served_step (one C call on bound buffers);
 - the exported FMU through the fmu component (raw fmi2 calls) and, as a baseline, through fmpy;
 - unless --small, the ROM component's step inside a coupled run (Kratos fluid, the scene's settings, the
   first COUPLED windows from t = 0) from the run's own timings: its caches are cold after each fluid solve;
@@ -158,6 +158,9 @@ def main(argv: list[str] | None = None) -> dict:
     def compiled_step() -> dict:
         return compiled_component.step(0.0, 0.008, {"force": force})
 
+    def served_step() -> dict:
+        return compiled_component.served_step(0.0, 0.008, {"force": force})
+
     def fmpy_convenience() -> list:
         slave.setReal(refs_in, list(f))
         slave.doStep(0.0, 0.008)
@@ -181,6 +184,10 @@ def main(argv: list[str] | None = None) -> dict:
          cold_call(compiled_step, repeat)),
         ("  the same after 10 ms of the caller spinning (no other data touched)",
          idle_call(compiled_step, repeat)),
+        ("ROM component served_step (compiled, one C call, as cosim serve calls it)",
+         per_call(served_step, repeat)),
+        ("  the same with cold caches (64 MB of other data touched before each call)",
+         cold_call(served_step, repeat)),
         ("FMU ROM: fmi2DoStep alone (the ROM inside the FMU)", per_call(lambda: fmu.do_step(0.0, 0.008), repeat)),
         ("  the same after 10 ms of the caller spinning (the C code's own cold cost)",
          idle_call(lambda: fmu.do_step(0.0, 0.008), repeat)),
