@@ -13,6 +13,7 @@ from typing import Callable
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
+CORE_PER_SOLVER = ("components.fluid.cores=[0]", "components.solid.cores=[1]")   # double flap: fluid 0, solid 1
 
 
 def machine() -> str:

@@ -35,7 +35,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.common import Timing, cold_call, fresh_directory, idle_call, machine, per_call, rewrite_readme  # noqa: E402
+from benchmarks.common import CORE_PER_SOLVER, Timing, cold_call, fresh_directory, idle_call, machine, per_call, rewrite_readme  # noqa: E402
 from cosim.component import MESH_PREFIX  # noqa: E402
 from rom_component import persistence  # noqa: E402
 from rom_component.compiled import CompiledRom  # noqa: E402
@@ -51,7 +51,6 @@ MESHES = ROOT / "scenes" / "double_flap"
 PARAMS = {"n_force_modes": 45, "n_disp_modes": 9, "decoder": "quadratic", "regressor": "poly", "input_scaling": "global"}
 
 
-PINNED = ("components.fluid.cores=[0]", "components.solid.cores=[1]")
 KEEP_WARM = 0.001      # seconds between the idle repeats of the ROM's last call (components.solid.rom.keep_warm)
 
 
@@ -218,10 +217,11 @@ def main(argv: list[str] | None = None) -> dict:
         rows.append((f"  the same, the last call repeated every {KEEP_WARM * 1e3:g} ms between calls "
                      f"({share:.1%} of a core)", Timing.of(seconds)))
         if {0, 1} <= os.sched_getaffinity(0):      # a core per solver: the fluid on 0, the ROM on 1
-            seconds, _ = coupled_step_times(leading_path, out / "coupled_pinned", args.coupled, 0.0, PINNED)
+            seconds, _ = coupled_step_times(leading_path, out / "coupled_pinned", args.coupled, 0.0,
+                                            CORE_PER_SOLVER)
             rows.append(("  the same, a core per solver (fluid on core 0, ROM on core 1)", Timing.of(seconds)))
             seconds, share = coupled_step_times(leading_path, out / "coupled_pinned_keep_warm", args.coupled,
-                                                KEEP_WARM, PINNED)
+                                                KEEP_WARM, CORE_PER_SOLVER)
             rows.append((f"  the same, a core per solver, repeated every {KEEP_WARM * 1e3:g} ms ({share:.1%} of "
                          f"the ROM's core)", Timing.of(seconds)))
     kratos = kratos_call_times(force, fom_calls)

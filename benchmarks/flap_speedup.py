@@ -38,7 +38,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.common import fresh_directory, machine, rewrite_readme  # noqa: E402
+from benchmarks.common import CORE_PER_SOLVER, fresh_directory, machine, rewrite_readme  # noqa: E402
 from coupler.run import run_scene  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
 from rom_component.report import Run, call_windows, compare  # noqa: E402
@@ -48,7 +48,6 @@ SCENE = ROOT / "scenes" / "double_flap.toml"
 ROM_CONFIG = ROOT / "scenes" / "double_flap_rom.toml"
 DT = 0.008
 ROM_SETTINGS = ("arithmetic", "on_out_of_range", "transient_calls", "transient_margin", "keep_warm")   # shown in the table
-PINNED = ("components.fluid.cores=[0]", "components.solid.cores=[1]")   # --pin: a core per solver, in both runs
 SMALL = {"windows": 8, "train_windows": 4, "reynolds": 250.0}
 SMALL_MODEL = ["selection.choose='fixed'", "selection.table=false", "model.n_force_modes=4", "model.n_disp_modes=3",
                "model.quadratic_modes=0"]
@@ -159,16 +158,16 @@ def main(argv: list[str] | None = None) -> dict:
         return {}
     machine_line = machine()
     out = fresh_directory("flap_speedup")
+    common = CORE_PER_SOLVER if args.pin else ()     # --pin: a core per solver, in both runs
     if args.small:
         reynolds, end = SMALL["reynolds"], SMALL["windows"] * DT
         trained_on = out / ("training" if args.side_by_side else "reference")
-        timings = {"reference": run_once(trained_on, reynolds, end, common=PINNED if args.pin else ())}
+        timings = {"reference": run_once(trained_on, reynolds, end, common=common)}
         model, switch = small_model(trained_on, out / "model.npz")
         if args.side_by_side:
             timings = side_by_side(out, reynolds, end, (str(model), switch), args.swap_cores, args.set)
         else:
-            timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch), args.set,
-                                      PINNED if args.pin else ())
+            timings["rom"] = run_once(out / "rom", reynolds, end, (str(model), switch), args.set, common)
     else:
         reynolds, end, model, switch = args.reynolds, args.end, Path(args.model).resolve(), args.switch_time
         if args.side_by_side:
@@ -178,7 +177,7 @@ def main(argv: list[str] | None = None) -> dict:
             timings = {}
             for kind in order:
                 timings[kind] = run_once(out / kind, reynolds, end, (str(model), switch) if kind == "rom" else None,
-                                         args.set, PINNED if args.pin else ())
+                                         args.set, common)
     result = tabulate(out, machine_line, timings, authors_call(args.calls))
     return publish(result["lines"], args.block if args.readme else None, result)
 

@@ -108,7 +108,7 @@ def placement(backend: Backend) -> dict[str, list[int]]:
         return {}
     try:
         return {"cores": sorted(os.sched_getaffinity(backend.proxy.pid))}
-    except (ProcessLookupError, TypeError):
+    except ProcessLookupError:
         return {}
 
 

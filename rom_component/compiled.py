@@ -98,21 +98,20 @@ class CompiledRom(OnlineRom):
         buffers = (handle, self._f.ctypes.data, self._u.ctypes.data, self._x_slot.ctypes.data, self._reduced.ctypes.data)
         self._call = (self._lib.solid_rom_evaluate, *buffers)
         self._evaluate = self._compiled
+        envelope = (0, 0, 0, 0)            # NULL pointers: no envelope, no trust
+        self._max_distance = 1.0
         if self.envelope is not None:      # with an envelope, each call computes its trust too (one ctypes call)
             env = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in self.envelope.items()}
+            envelope = tuple(env[k].ctypes.data for k in ("envelope_low", "envelope_high", "envelope_mean",
+                                                          "envelope_precision"))
             self._trust_out = np.full(2, np.nan)
-            self._call = (self._lib.solid_rom_evaluate_trust, *buffers,
-                          *(env[k].ctypes.data for k in ("envelope_low", "envelope_high", "envelope_mean",
-                                                         "envelope_precision")), self._trust_out.ctypes.data)
+            self._call = (self._lib.solid_rom_evaluate_trust, *buffers, *envelope, self._trust_out.ctypes.data)
             self._envelope_arrays, self._max_distance = env, float(env["envelope_max_distance"][0])
-        self.served = self._bind(buffers)
+        self.served = self._bind(buffers, envelope)
 
-    def _bind(self, buffers: tuple) -> Served:
+    def _bind(self, buffers: tuple, envelope: tuple) -> Served:
         trust = np.array([np.nan, np.nan, 0.0])
-        envelope = (0, 0, 0, 0, 1.0) if self.envelope is None else \
-            (*(self._envelope_arrays[k].ctypes.data for k in ("envelope_low", "envelope_high", "envelope_mean",
-                                                             "envelope_precision")), self._max_distance)
-        served = self._lib.solid_rom_bind(*buffers, *envelope, trust.ctypes.data)
+        served = self._lib.solid_rom_bind(*buffers, *envelope, self._max_distance, trust.ctypes.data)
         if not served:
             raise CosimError("the compiled ROM could not bind its served call (out of memory)")
         weakref.finalize(self, self._lib.solid_rom_unbind, served)

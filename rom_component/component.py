@@ -104,21 +104,22 @@ class RomSolid(Component):
                  **{name: self.trust_values[i:i + 1] for i, name in enumerate(TRUST_LOCALS)}}
         return {name: np.array(known[name]) for name in names}
 
-    def _count_call(self, t: float) -> None:
+    def _count_call(self, t: float) -> float:
+        """Count a call of window ``t`` (closing the last window at a new ``t``); the range margin it answers to."""
         if t != self._window_time:
             if self._window_time is not None:
                 self._keep_converged()
             self._calls_in_window, self._window_time = 1, t
         else:
             self._calls_in_window += 1
+        return self.transient_margin if self._calls_in_window <= self.transient_calls else self.range_margin
 
     def do_step(self, t: float, dt: float) -> None:
-        self._count_call(t)
+        margin = self._count_call(t)
         rom = self.rom
         self.displacement = rom(self.force)
         self._last_reduced = rom.reduced
         excess, distance = rom.trust()
-        margin = self.transient_margin if self._calls_in_window <= self.transient_calls else self.range_margin
         out = excess > margin
         self.trust_values = np.array((excess, distance, 1.0 if out else 0.0))
         if out:
@@ -158,8 +159,7 @@ class RomSolid(Component):
         if served is None or len(inputs) != 1 or type(force) is not np.ndarray or force.shape != self.input_shape \
                 or force.dtype is not FLOAT64:
             return self.step(t, dt, inputs)
-        self._count_call(t)
-        margin = self.transient_margin if self._calls_in_window <= self.transient_calls else self.range_margin
+        margin = self._count_call(t)
         out = served.call(margin, force.tobytes())    # bytes: the cheapest way to hand the input to C
         self._margin = margin
         self.force = self._warm_input = served.force
