@@ -1,16 +1,20 @@
 # `make demo` runs the paper's tube protocol end to end (FOM-FOM, train, ROM-FOM, report: runs/demo/);
 # `make test` runs the tests.
-# Both create .venv and install the project into it on first use.
+# Both create .venv and install the project into it on first use, with the versions of constraints.txt
+# (the lock: the versions the README's figures were made with). `make lock` upgrades the lock to the
+# newest versions the registry serves; `make test-latest` runs the tests against them without touching it.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
+EXTRAS := .[test,rom,fmu,kratos,sweep]
+LOCK := constraints.txt
 
-.PHONY: demo demo-flap campaign test bench figures clean
+.PHONY: demo demo-flap campaign test test-latest lock bench figures clean
 
-$(BIN)/cosim: pyproject.toml
+$(BIN)/cosim: pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[test,rom,fmu,kratos,sweep]'
+	$(BIN)/pip install --quiet --constraint $(LOCK) --upgrade pip
+	$(BIN)/pip install --quiet --constraint $(LOCK) -e '$(EXTRAS)'
 	touch $@
 
 demo: $(BIN)/cosim
@@ -26,6 +30,26 @@ campaign: $(BIN)/cosim
 test: $(BIN)/cosim
 	$(BIN)/python -m pytest -q
 
+# the suite against the newest versions (a scratch .venv-latest, the lock untouched): drift shows here first
+test-latest:
+	rm -rf .venv-latest
+	$(PYTHON) -m venv .venv-latest
+	.venv-latest/bin/pip install --quiet --upgrade pip
+	.venv-latest/bin/pip install --quiet -e '$(EXTRAS)'
+	.venv-latest/bin/pip freeze --exclude-editable | diff $(LOCK) - | grep '^[<>]' || true
+	.venv-latest/bin/python -m pytest -q
+
+# write the lock anew from the newest versions; then `rm -rf .venv && make figures` and commit both
+lock:
+	rm -rf .venv-lock
+	$(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/pip install --quiet --upgrade pip
+	.venv-lock/bin/pip install --quiet -e '$(EXTRAS)'
+	{ echo "# The versions the README's figures were made with ($$(.venv-lock/bin/python -c 'import platform; print("Python", platform.python_version() + ",", platform.machine(), platform.system())'))."; \
+	  echo "# Installed by make and .ci/run as pip constraints; to upgrade: make lock, then make figures (see README)."; \
+	  .venv-lock/bin/pip freeze --all --exclude-editable | grep -v -i '^setuptools=='; } > $(LOCK)
+	rm -rf .venv-lock
+
 figures: $(BIN)/cosim
 	$(BIN)/python scripts/figures.py
 
@@ -34,4 +58,4 @@ bench: $(BIN)/cosim
 	$(BIN)/python benchmarks/rom_call.py
 
 clean:
-	rm -rf $(VENV) runs
+	rm -rf $(VENV) .venv-latest .venv-lock runs
