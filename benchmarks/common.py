@@ -94,9 +94,11 @@ def idle_call(function: Callable[[], object], repeat: int = 15, idle_seconds: fl
 
 
 def fresh_directory(kind: str) -> Path:
-    """A new directory under runs/bench/ for this benchmark run (runs never overwrite each other)."""
+    """A new directory under runs/bench/ (or ``$COSIM_BENCH_DIR``: the tests' own) for this benchmark run (runs
+    never overwrite each other)."""
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    path = ROOT / "runs" / "bench" / f"{kind}-{stamp}-{os.getpid()}"
+    base = Path(os.environ.get("COSIM_BENCH_DIR") or ROOT / "runs" / "bench")
+    path = base / f"{kind}-{stamp}-{os.getpid()}"
     path.mkdir(parents=True)
     return path
 

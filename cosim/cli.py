@@ -41,15 +41,30 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    """Run one subcommand; its exit code: 0, 2 for bad input (one line on stderr), 130 when interrupted."""
+    command = "cosim"
+    try:
+        args = parser().parse_args(argv)     # Ctrl-C while the commands load is an interruption too
+        command = f"cosim {args.command}"
+        return _call(args)
+    except KeyboardInterrupt:
+        print(f"{command}: interrupted; components stopped", file=sys.stderr)
+        return 130
+
+
+def _call(args: argparse.Namespace) -> int:
+    if isinstance(getattr(args, "out", None), str) and not args.out.strip():
+        print(f"cosim {args.command}: error: --out is empty; name a directory or file", file=sys.stderr)
+        return 2
     try:
         return args.func(args)
     except CosimError as exc:
         print(f"cosim {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"cosim {args.command}: interrupted; components stopped", file=sys.stderr)
-        return 130
+    except OSError as exc:   # the file system said no: a full disk, a path under a file, no permission
+        where = f" '{exc.filename}'" if exc.filename else ""
+        print(f"cosim {args.command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -85,6 +85,10 @@ class Component:
     #: seconds without a request after which the server calls ``idle`` (None: never)
     idle_interval: float | None = None
 
+    #: the ``cosim.schema`` schema of ``instantiate``'s parameters, if declared: the coupler then checks a
+    #: scene's parameters against it before any process starts, naming the scene key of a bad one
+    parameter_schema: dict[str, Any] | None = None
+
     @property
     def can_get_and_set_state(self) -> bool:
         return type(self).save_state is not Component.save_state

@@ -13,6 +13,7 @@ from __future__ import annotations
 import atexit
 import json
 import os
+import secrets
 import selectors
 import signal
 import subprocess
@@ -26,6 +27,7 @@ from typing import Sequence
 from cosim.errors import ComponentDied, ComponentError
 
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
+TOKEN_VARIABLE = "COSIM_SHUTDOWN_TOKEN"   # read (and removed from its environment) by `cosim serve`
 
 
 @dataclass
@@ -36,6 +38,7 @@ class ComponentProcess:
     popen: subprocess.Popen
     log_path: Path
     endpoint: str = ""
+    token: str = ""      # the run's secret that ``shutdown`` must carry (given in the environment, never on argv)
 
     @property
     def pid(self) -> int:
@@ -81,12 +84,14 @@ class Launcher:
         log_path = self.log_dir / f"{name}.log"
         env = {**os.environ, **(environment or {})}
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
+        token = secrets.token_hex(16)
+        env[TOKEN_VARIABLE] = token
         command = [sys.executable, "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",
                    "--name", name, "--parent-pid", str(os.getpid())]
         with open(log_path, "wb") as log:
             popen = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log,
                                      env=env, start_new_session=True)
-        process = ComponentProcess(name, popen, log_path)
+        process = ComponentProcess(name, popen, log_path, token=token)
         self.processes.append(process)
         if cores:
             try:

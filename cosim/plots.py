@@ -21,7 +21,7 @@ def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) ->
         windows = run.windows
         fields = run.fields()
     time, iterations = windows.time, windows.iterations
-    field = output.get("plot_field") or next(iter(fields), "")
+    field = output.get("plot_field") or next(iter(sorted(fields)), "")
     index = int(output.get("plot_index", 0))
     values = fields[field].reshape(len(fields[field]), -1)[:, index] if field in fields else np.zeros(0)
     label = f"{output.get('plot_label') or f'{field}[{index}]'} [{output.get('plot_unit') or 'dimensionless'}]"

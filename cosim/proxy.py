@@ -171,7 +171,9 @@ class ComponentProxy:
         return {k: np.array(v) for k, v in self.call("terminate")[1].items()}
 
     def shutdown(self, timeout: float = 2.0) -> None:
-        self.call("shutdown", timeout=timeout)
+        """Stop the component; one this run launched carries the run's token (it refuses any other)."""
+        token = self.process.token if self.process is not None else ""
+        self.call("shutdown", {"token": token} if token else None, timeout=timeout)
 
     def close(self) -> None:
         self._socket.close(linger=0)

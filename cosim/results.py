@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import platform
+import shutil
 import signal
 import socket
 import threading
@@ -28,6 +29,7 @@ from cosim.errors import CosimError
 
 WINDOW_COLUMNS = {"time": np.float64, "iterations": np.int32, "converged": np.bool_, "wall_seconds": np.float64}
 FILE_NAME = "results.h5"
+RESERVED_BYTES = 256 << 10   # kept free for HDF5's metadata (its B-trees, the attributes at close) and status.json
 
 
 class Layout:
@@ -82,6 +84,10 @@ def versions() -> dict[str, str]:
             "msgpack": ".".join(map(str, msgpack.version))}
 
 
+class DiskFullError(CosimError):
+    """The results' file system has no room for the next window."""
+
+
 class ResultsStore:
     """Appends rows to growable datasets; one ``append_window`` per time window."""
 
@@ -92,15 +98,20 @@ class ResultsStore:
             self.file = h5py.File(self.path, "w-")  # never truncate an existing file
         except FileExistsError:
             raise CosimError(f"'{self.path}' exists; a run never overwrites another") from None
-        self.file.attrs["scene"] = scene_text
-        self.file.attrs["versions"] = json.dumps(versions())
-        self.file.attrs["host"] = socket.gethostname()
-        self.file.attrs["windows_completed"] = 0
         self._columns: dict[str, _GrowingDataset] = {}
         self._windows_written = 0
-        for name, dtype in WINDOW_COLUMNS.items():  # present (empty) even if no window finishes
-            self._append(Layout.window(name), np.zeros(0, dtype=dtype))
-        self.file.flush()
+        try:
+            self.file.attrs["scene"] = scene_text
+            self.file.attrs["versions"] = json.dumps(versions())
+            self.file.attrs["host"] = socket.gethostname()
+            self.file.attrs["windows_completed"] = 0
+            for name, dtype in WINDOW_COLUMNS.items():  # present (empty) even if no window finishes
+                self._append(Layout.window(name), np.zeros(0, dtype=dtype))
+            self.file.flush()
+        except OSError:      # a full disk at start: leave no half-made file behind
+            self.file.close()
+            self.path.unlink(missing_ok=True)
+            raise
 
     # --- growable datasets ----------------------------------------------------
     def _append(self, name: str, rows: np.ndarray) -> None:
@@ -123,41 +134,58 @@ class ResultsStore:
                       snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float] = ()) -> None:
         """One window: its summary, converged fields, per-call timings, recorded calls and residual norms.
 
-        Ctrl-C and SIGTERM are held back until the window is written, so every dataset
-        holds the same windows whenever the run stops.
+        The window is written whole or not at all: a window the disk has no room for is refused
+        (``DiskFullError``) before any of it is written, and Ctrl-C and SIGTERM are held back until
+        it is written, so every dataset holds the same windows whenever the run stops.
         """
+        rows = self._window_rows(time, iterations, converged, wall_seconds, fields, timings, snapshots, residuals)
+        self._check_room(rows)
         with _signals_deferred():
-            self._append_window(time, iterations, converged, wall_seconds, fields, timings, snapshots, residuals)
+            for name, value in rows:
+                self._append(name, value)
+            self._windows_written += 1
+            self.file.attrs["windows_completed"] = self._windows_written   # true after a crash too
+            self.file.flush()
 
-    def _append_window(self, time: float, iterations: int, converged: bool, wall_seconds: float,
-                       fields: Mapping[str, np.ndarray],
-                       timings: Mapping[str, tuple[list[float], list[float]]],
-                       snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float] = ()) -> None:
-        self._windows_written += 1
-        self._append(Layout.window("time"), np.array([time]))
+    def _window_rows(self, time: float, iterations: int, converged: bool, wall_seconds: float,
+                     fields: Mapping[str, np.ndarray], timings: Mapping[str, tuple[list[float], list[float]]],
+                     snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float]) -> list:
+        """(dataset, rows) of one window, in the order they are written."""
+        rows = [(Layout.window("time"), np.array([time]))]
         if len(residuals):
-            self._append(Layout.residual("window"), np.full(len(residuals), self._windows_written, dtype=np.int32))
-            self._append(Layout.residual("norm"), np.asarray(residuals, dtype=np.float64))
-        self._append(Layout.window("iterations"), np.array([iterations], dtype=np.int32))
-        self._append(Layout.window("converged"), np.array([converged]))
-        self._append(Layout.window("wall_seconds"), np.array([wall_seconds]))
-        for name, value in fields.items():
-            self._append(Layout.field(name), np.asarray(value)[None])
+            rows += [(Layout.residual("window"), np.full(len(residuals), self._windows_written + 1, dtype=np.int32)),
+                     (Layout.residual("norm"), np.asarray(residuals, dtype=np.float64))]
+        rows += [(Layout.window("iterations"), np.array([iterations], dtype=np.int32)),
+                 (Layout.window("converged"), np.array([converged])),
+                 (Layout.window("wall_seconds"), np.array([wall_seconds]))]
+        rows += [(Layout.field(name), np.asarray(value)[None]) for name, value in fields.items()]
         for name, (compute, roundtrip) in timings.items():
             if compute:
-                self._append(Layout.timing(name, "compute"), np.array(compute))
-                self._append(Layout.timing(name, "roundtrip"), np.array(roundtrip))
+                rows += [(Layout.timing(name, "compute"), np.array(compute)),
+                         (Layout.timing(name, "roundtrip"), np.array(roundtrip))]
         for name, calls in snapshots.items():
             if not calls["window"]:
                 continue
             base = Layout.calls(name)
-            for kind in ("inputs", "outputs"):
-                for var, rows in calls[kind].items():
-                    self._append(f"{base}/{kind}/{var}", np.stack(rows))
-            self._append(f"{base}/window", np.array(calls["window"], dtype=np.int32))
-            self._append(f"{base}/iteration", np.array(calls["iteration"], dtype=np.int32))
-            self._append(f"{base}/converged", np.array(calls["converged"]))
-        self.file.flush()
+            rows += [(f"{base}/{kind}/{var}", np.stack(values)) for kind in ("inputs", "outputs")
+                     for var, values in calls[kind].items()]
+            rows += [(f"{base}/window", np.array(calls["window"], dtype=np.int32)),
+                     (f"{base}/iteration", np.array(calls["iteration"], dtype=np.int32)),
+                     (f"{base}/converged", np.array(calls["converged"]))]
+        return rows
+
+    def _check_room(self, rows: list) -> None:
+        """Refuse a window the disk cannot hold before any of it is written: a write that fails half-way leaves
+        HDF5's state undefined, so every dataset keeps the same windows only if none is ever attempted."""
+        needed = RESERVED_BYTES
+        for name, value in rows:
+            column = self._columns.get(name)
+            needed += column.bytes_to_append(len(value)) if column else _GrowingDataset.first_bytes(np.asarray(value))
+        free = shutil.disk_usage(self.path.parent).free
+        if free < needed:
+            raise DiskFullError(f"no room for window {self._windows_written + 1} in '{self.path.parent}': "
+                                f"{free:,} bytes free, the window needs up to {needed:,}; the "
+                                f"{self._windows_written} windows before it are kept")
 
     def write_description(self, component: str, variables: list[dict[str, Any]],
                           meshes: Mapping[str, np.ndarray]) -> None:
@@ -240,7 +268,13 @@ class RunResults:
             raise CosimError(f"no results file at '{self.path}'")
         if not h5py.is_hdf5(self.path):
             raise CosimError(f"'{self.path}' is not an HDF5 results file")
-        self.file = h5py.File(self.path, "r")
+        try:
+            self.file = h5py.File(self.path, "r")
+        except BlockingIOError:
+            raise CosimError(f"'{self.path}' is being written by a run in progress; read it once the run "
+                             "has stopped") from None
+        except OSError as exc:
+            raise CosimError(f"cannot read '{self.path}': it is truncated or damaged ({exc})") from None
 
     def __enter__(self) -> "RunResults":
         return self
@@ -340,11 +374,21 @@ class _GrowingDataset:
         if rows.ndim == 0:
             rows = rows[None]
         self.name, self.row_shape, self.dtype = name, rows.shape[1:], rows.dtype
-        row_bytes = max(1, int(np.prod(self.row_shape, dtype=np.int64)) * rows.dtype.itemsize)
-        chunk_rows = max(1, min(4096, (1 << 16) // row_bytes))
+        self.chunk_rows, self.chunk_bytes = _chunking(rows)
         self.dataset = file.create_dataset(name, data=rows, maxshape=(None, *self.row_shape),
-                                           chunks=(chunk_rows, *self.row_shape))
+                                           chunks=(self.chunk_rows, *self.row_shape))
         self.length = len(rows)
+
+    @staticmethod
+    def first_bytes(rows: np.ndarray) -> int:
+        """Bytes the file grows by when a dataset is made of ``rows`` (whole chunks)."""
+        chunk_rows, chunk_bytes = _chunking(np.atleast_1d(rows))
+        return -(-max(len(np.atleast_1d(rows)), 1) // chunk_rows) * chunk_bytes
+
+    def bytes_to_append(self, count: int) -> int:
+        """Bytes the file grows by when ``count`` rows are appended (the chunks they start)."""
+        chunks = lambda rows: -(-rows // self.chunk_rows)  # noqa: E731
+        return (chunks(self.length + count) - chunks(self.length)) * self.chunk_bytes
 
     def append(self, rows: np.ndarray) -> None:
         rows = np.ascontiguousarray(rows, dtype=self.dtype)
@@ -361,3 +405,10 @@ class _GrowingDataset:
         file_space.select_hyperslab((self.length, *([0] * len(self.row_shape))), rows.shape)
         dataset_id.write(h5py.h5s.create_simple(rows.shape), file_space, rows)
         self.length += count
+
+
+def _chunking(rows: np.ndarray) -> tuple[int, int]:
+    """(rows, bytes) of one chunk of a dataset of such rows: about 64 KiB, at most 4096 rows."""
+    row_bytes = max(1, int(np.prod(rows.shape[1:], dtype=np.int64)) * rows.dtype.itemsize)
+    chunk_rows = max(1, min(4096, (1 << 16) // row_bytes))
+    return chunk_rows, chunk_rows * row_bytes

@@ -34,6 +34,8 @@ class RunDirectory:
     """Context manager holding ``path`` for one run."""
 
     def __init__(self, path: str | Path, overwrite: bool = False, status_interval: float = 0.5):
+        if not str(path).strip():
+            raise RunDirectoryError("the output directory (--out) is empty; name a directory")
         self.path = Path(path)
         self.overwrite = overwrite
         self.status_interval = status_interval
@@ -41,23 +43,19 @@ class RunDirectory:
         self._last_status = 0.0
 
     def __enter__(self) -> "RunDirectory":
-        self.path.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
-            os.close(fd)
-            raise RunDirectoryError(f"'{self.path}' is in use by a run in progress (pid {holder}); "
-                                    "choose another --out") from None
+        fd = hold(self.path, "run")
         if (self.path / "results.h5").exists():
             if not self.overwrite:
                 os.close(fd)
-                raise RunDirectoryError(f"'{self.path}' already holds a run (results.h5); choose another --out "
-                                        "or pass --overwrite to replace it")
+                raise RunDirectoryError(f"'{self.path}' already holds a run ({describe_run(self.path)}); "
+                                        "choose another --out or pass --overwrite to replace it")
             self._remove_old_run()
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, str(os.getpid()).encode(), 0)
+        except OSError as exc:        # a full disk
+            os.close(fd)
+            raise RunDirectoryError(f"cannot use '{self.path}' as the run's directory: {exc.strerror}") from None
         self._lock = fd
         return self
 
@@ -82,13 +80,69 @@ class RunDirectory:
         self._last_status = now
         document = {"state": state, "pid": os.getpid(), "updated": time.time(), **fields}
         partial = self.path / f".{STATUS}.{os.getpid()}"
-        partial.write_text(json.dumps(document))
-        os.replace(partial, self.path / STATUS)
+        try:
+            partial.write_text(json.dumps(document))
+            os.replace(partial, self.path / STATUS)
+        except OSError:            # a full disk: the run's own error says what happened
+            partial.unlink(missing_ok=True)
+
+
+def hold(path: Path, what: str) -> int:
+    """Create ``path`` and lock its ``.lock`` (a file descriptor the caller closes); refused while another
+    process holds it."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise RunDirectoryError(f"cannot use '{path}' as the {what}'s directory: {exc.strerror or exc}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
+        os.close(fd)
+        raise RunDirectoryError(f"'{path}' is in use by a {what} in progress (pid {holder}); "
+                                "choose another --out") from None
+    return fd
 
 
 def read_status(path: str | Path) -> dict[str, Any]:
-    """The last ``status.json`` of the run in ``path`` ({} if there is none yet)."""
+    """The last ``status.json`` of the run in ``path`` ({} if there is none yet). A run whose process is
+    gone while its status still says it is starting or running is reported as ``"died"``."""
     try:
-        return json.loads((Path(path) / STATUS).read_text())
+        status = json.loads((Path(path) / STATUS).read_text())
     except (OSError, ValueError):
         return {}
+    if status.get("state") in ("starting", "running") and not _alive(status.get("pid")):
+        status["state"] = "died"
+    return status
+
+
+def _alive(pid: Any) -> bool:
+    if not isinstance(pid, int) or pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def describe_run(path: str | Path) -> str:
+    """What the run in ``path`` came to, in a few words, from its status file."""
+    status = read_status(path)
+    state = status.get("state")
+    done = status.get("windows_completed", 0)
+    total = status.get("windows_total")
+    of = f" of {total}" if total is not None else ""
+    if state == "finished":
+        return f"finished, {done} windows"
+    if state == "failed":
+        error = str(status.get("error", "")).splitlines()[0][:160] if status.get("error") else ""
+        return f"failed after {done}{of} windows" + (f": {error}" if error else "")
+    if state == "interrupted":
+        return f"interrupted after {done}{of} windows"
+    if state == "died":
+        return f"its process (pid {status.get('pid')}) died after {done}{of} windows"
+    return "results.h5 without a status"

@@ -57,6 +57,7 @@ COMPONENT = {
 BACKEND_FILE = {"rom": "model", "fmu": "path"}
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity")}
 MAX_WINDOWS = 10_000_000
+MAX_FILE_BYTES = 16 << 20
 SCHEMA = {
     "name": "",
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
@@ -107,6 +108,8 @@ def parse_override(text: str) -> tuple[list[str], Any]:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw
+    except RecursionError:
+        raise SceneError(f"--set '{key}': the value nests arrays or tables too deeply") from None
     return [part.strip() for part in key.strip().split(".")], value
 
 
@@ -140,20 +143,61 @@ def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     """Read, override and validate a scene file."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise SceneError(f"cannot read scene '{path}': {exc.strerror}") from None
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: {exc}") from None
+    text, raw = read_toml(path, "scene")
     for item in overrides:
         apply_override(raw, *parse_override(item))
     scene = Scene(validate_scene(raw, str(path)), text, str(path))
     if overrides:
         scene.text += "\n# --set " + "\n# --set ".join(overrides) + "\n"
     return scene
+
+
+MAX_DEPTH = 32   # tables and arrays nested deeper than this are no scene (and would exhaust the stack)
+
+
+def read_toml(path: str | Path, what: str = "scene") -> tuple[str, dict[str, Any]]:
+    """The text of a TOML file and its data; every failure is a one-line ``SceneError`` naming the file."""
+    path = Path(path)
+    try:
+        if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
+            raise SceneError(f"{path}: {path.stat().st_size:,} bytes; a {what} file has at most {MAX_FILE_BYTES:,}")
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SceneError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        line = exc.object[:exc.start].count(b"\n") + 1
+        raise SceneError(f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} on line {line})") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: tables or arrays nest more than {MAX_DEPTH} deep") from None
+    if _depth(raw) > MAX_DEPTH:
+        raise SceneError(f"{path}: tables or arrays nest more than {MAX_DEPTH} deep")
+    return text, raw
+
+
+def _depth(value: Any) -> int:
+    """How deep tables and arrays nest in ``value`` (iterative: no recursion limit)."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        item, depth = stack.pop()
+        children = item.values() if isinstance(item, dict) else item if isinstance(item, list) else ()
+        deepest = max(deepest, depth)
+        if depth <= MAX_DEPTH:
+            stack.extend((child, depth + 1) for child in children)
+    return deepest
+
+
+def _address(value: str, where: str, source: str) -> None:
+    """A component served by hand is reached at tcp://HOST:PORT (or ipc://PATH)."""
+    transport, sep, rest = value.partition("://")
+    host, colon, port = rest.rpartition(":")
+    tcp = transport == "tcp" and colon and host and port.isdigit() and 0 < int(port) < 65536
+    if not value or not (tcp or (transport == "ipc" and sep and rest)):
+        raise SceneError(f"{source}: '{where}' is {value!r}; allowed: tcp://HOST:PORT (PORT 1 to 65535) or "
+                         "ipc://PATH, the address `cosim serve` printed")
 
 
 def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]:
@@ -167,8 +211,9 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
     for name, spec in components.items():
         _string_list(spec["sections"], f"components.{name}.sections", source)
         _cores(spec["cores"], f"components.{name}.cores", source)
-    sections = {s for spec in components.values() for s in spec["sections"]}
-    known = set(SCHEMA) | set(LISTS) | sections
+    # in the order the components name them: the resolved scene (and results.h5) is the same on every run
+    sections = list(dict.fromkeys(s for spec in components.values() for s in spec["sections"]))
+    known = set(SCHEMA) | set(LISTS) | set(sections)
     for key in raw:
         if key not in known:
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
@@ -180,6 +225,8 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
                              f"'components.{name}.{backend}.{BACKEND_FILE[backend]}' is not set")
         if bool(spec["entry"]) == bool(spec["address"]):
             raise SceneError(f"{source}: components.{name} needs exactly one of 'entry' or 'address'")
+        if spec["address"]:
+            _address(spec["address"], f"components.{name}.address", source)
         for section in spec["sections"]:
             if section not in raw:
                 raise SceneError(f"{source}: components.{name}.sections names '{section}', "

@@ -9,10 +9,12 @@ server never crashes on input.
 
 from __future__ import annotations
 
+import hmac
 import importlib
 import ipaddress
 import json
 import os
+import signal
 import sys
 import time
 import traceback
@@ -24,6 +26,7 @@ import zmq
 from cosim import protocol
 from cosim.component import Component
 from cosim.errors import ComponentError, CosimError, ProtocolError
+from cosim.launcher import TOKEN_VARIABLE
 
 PARENT_CHECK_SECONDS = 0.5
 
@@ -40,6 +43,9 @@ def load_entry(entry: str) -> type:
     cls = getattr(module, class_name, None)
     if cls is None:
         raise CosimError(f"entry '{entry}': module '{module_name}' has no '{class_name}'")
+    if not (isinstance(cls, type) and issubclass(cls, Component)):
+        raise CosimError(f"entry '{entry}': '{class_name}' is not a component class (a subclass of "
+                         "cosim.component.Component)")
     return cls
 
 
@@ -82,8 +88,9 @@ def bind_socket(bind: str, max_bytes: int = protocol.MAX_MESSAGE_BYTES) -> zmq.S
 class ComponentServer:
     """Dispatches decoded requests to a component instance."""
 
-    def __init__(self, component: Component):
+    def __init__(self, component: Component, token: str = ""):
         self.component = component
+        self.token = token     # non-empty: ``shutdown`` must carry it (a launched component's run secret)
         c = component
         self.handlers: dict[str, Callable[[dict, dict], Any]] = {
             "describe": lambda a, arr: c.describe(),
@@ -91,7 +98,7 @@ class ComponentServer:
             "enter_initialization_mode": lambda a, arr: c.enter_initialization_mode(protocol.number(a, "start"),
                                                                                     protocol.number(a, "stop")),
             "exit_initialization_mode": lambda a, arr: c.exit_initialization_mode(),
-            "set_values": lambda a, arr: c.set_values(arr),
+            "set_values": lambda a, arr: c.set_values(real_inputs(arr)),
             "get_values": lambda a, arr: c.get_values(a["names"]),
             "do_step": lambda a, arr: c.do_step(protocol.number(a, "t"), protocol.number(a, "dt")),
             "step": self._step,
@@ -100,14 +107,18 @@ class ComponentServer:
             "free_state": lambda a, arr: c.free_state(a["handle"]),
             "terminate": lambda a, arr: c.terminate(),
             "ping": lambda a, arr: {"pid": os.getpid()},
-            "shutdown": lambda a, arr: None,
+            "shutdown": self._shutdown,
         }
+
+    def _shutdown(self, args: dict, arrays: dict) -> None:
+        if self.token and not hmac.compare_digest(str(args.get("token", "")), self.token):
+            raise ProtocolError("'shutdown' refused: only the run that launched this component may stop it")
 
     def _step(self, args: dict, arrays: dict) -> Any:
         restore = args.get("restore")
         if restore is not None:
             self.component.set_state(restore)
-        return self.component.served_step(protocol.number(args, "t"), protocol.number(args, "dt"), arrays)
+        return self.component.served_step(protocol.number(args, "t"), protocol.number(args, "dt"), real_inputs(arrays))
 
     def handle(self, frames: list) -> tuple[list, bool]:
         """Reply frames for one request, and whether to stop serving."""
@@ -124,6 +135,7 @@ class ComponentServer:
             start = time.perf_counter()
             result = self.handlers[op](args, arrays)
             compute = time.perf_counter() - start
+            stop = op == "shutdown"   # only once the handler accepted it
         except Exception as exc:  # every failure becomes an error reply
             if not isinstance(exc, (CosimError, KeyError, ValueError, TypeError)):
                 traceback.print_exc(file=sys.stderr)
@@ -139,7 +151,15 @@ class ComponentServer:
         warnings = self.component.take_warnings()
         if warnings:
             reply["warnings"] = warnings
-        return protocol.encode(reply, out_arrays), op == "shutdown"
+        return protocol.encode(reply, out_arrays), stop
+
+
+def real_inputs(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Inputs as they must come over the wire: every variable is real, float64 (FMI's Real)."""
+    for name, value in arrays.items():
+        if value.dtype != np.float64:
+            raise ProtocolError(f"input '{name}' is {value.dtype}; every variable is float64")
+    return arrays
 
 
 def run_idle(component: Component) -> None:
@@ -154,10 +174,13 @@ def run_idle(component: Component) -> None:
 def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None = None) -> int:
     """Serve ``entry`` on ``bind`` until shutdown; returns the exit code."""
     check_bind_address(bind)
+    # SIGTERM (the launcher's stop) ends the process through SystemExit: atexit and finally blocks run,
+    # so a component's temporary files go with it
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
     component = load_entry(entry)()
     if name:
         component.name = name
-    server = ComponentServer(component)
+    server = ComponentServer(component, os.environ.pop(TOKEN_VARIABLE, ""))
     socket = bind_socket(bind)
     endpoint = socket.getsockopt_string(zmq.LAST_ENDPOINT)
     sys.stdout.write(json.dumps({"endpoint": endpoint, "pid": os.getpid(), "name": component.name}) + "\n")

@@ -30,7 +30,6 @@ import heapq
 import json
 import shutil
 import time
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -39,6 +38,7 @@ import numpy as np
 
 from cosim.errors import CosimError, SceneError
 from cosim.schema import Required, validate
+from cosim.scene import read_toml
 from coupler.sweep import (TABLE, SweepRun, SweepTable, check_runs, finished_row, run_one, scene_fingerprint,
                            setting_keys)
 
@@ -74,12 +74,7 @@ class Plan:
 def load_plan(path: str | Path, out: Path) -> Plan:
     """Read and check a campaign file; model paths are placed in ``out/models``."""
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except OSError as exc:
-        raise SceneError(f"cannot read campaign '{path}': {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: {exc}") from None
+    raw = read_toml(path, "campaign")[1]
     plan = validate(raw, PLAN, source=str(path))
     base = path.parent
     fom = {name: SweepRun(tuple(overrides)) for name, overrides in plan["fom"].items()}
@@ -144,7 +139,7 @@ def _end_time(run_dir: Path) -> float:
 def _training_end(rom_config: Path, overrides: list[str]) -> float:
     """``snapshots.t_max`` of a model: a FOM run that failed after it still holds all its training data."""
     from cosim.scene import apply_override, parse_override
-    raw = tomllib.loads(rom_config.read_text())
+    raw = read_toml(rom_config, "ROM configuration")[1]
     for item in overrides:
         apply_override(raw, *parse_override(item))
     return float(raw.get("snapshots", {}).get("t_max", float("inf")))

@@ -17,6 +17,20 @@ def _arguments(parser: argparse.ArgumentParser) -> None:
                         help="replace a finished run in --out (never one in progress)")
 
 
+def _scheduler_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="an existing Dask scheduler instead of a local cluster: tls://HOST:PORT (Dask's TLS "
+                             "settings), or tcp:// on loopback")
+    parser.add_argument("--insecure-scheduler", action="store_true",
+                        help="accept a tcp:// scheduler off this host (unencrypted, unauthenticated, pickles)")
+
+
+def _scheduler(args: argparse.Namespace) -> str | None:
+    from coupler.sweep import check_scheduler
+    check_scheduler(args.scheduler, args.insecure_scheduler)
+    return args.scheduler
+
+
 def _run(args: argparse.Namespace) -> int:
     from coupler.run import run_scene
     from cosim.scene import load_scene
@@ -38,12 +52,14 @@ def _sweep_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value in every run")
     parser.add_argument("--out", required=True, help="sweep directory: sweep.csv and runs/<name>/")
     parser.add_argument("--workers", type=int, default=2, help="local Dask workers, one run each at a time (default 2)")
-    parser.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:port) instead")
+    _scheduler_arguments(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from coupler.sweep import file_runs, grid_runs, run_sweep
+    from collections import Counter
+
+    from coupler.sweep import file_runs, grid_runs, read_rows, run_sweep
     from cosim.errors import SceneError
 
     if bool(args.grid) == bool(args.runs):
@@ -52,9 +68,12 @@ def _sweep(args: argparse.Namespace) -> int:
         raise SceneError(f"--workers is {args.workers}; allowed: an integer >= 1")
     common = args.set or []
     runs = grid_runs(args.grid, common) if args.grid else file_runs(args.runs, common)
-    table = run_sweep(args.scene, runs, args.out, args.workers, args.scheduler, progress=not args.quiet)
-    print(f"{len(runs)} runs; table in {table}")
-    return 0
+    table = run_sweep(args.scene, runs, args.out, args.workers, _scheduler(args), progress=not args.quiet)
+    failures = Counter(row["failure"] for row in read_rows(table, runs) if row["failure"])
+    failed = f"{sum(failures.values())} failed ({', '.join(f'{k} {n}' for k, n in failures.items())})" \
+        if failures else "none failed"
+    print(f"{len(runs)} runs, {failed}; table in {table}")
+    return 1 if failures else 0
 
 
 def _numbers(text: str, option: str) -> list[float]:
@@ -80,7 +99,7 @@ def _stability_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--windows", type=int, default=20, help="windows per run (default 20)")
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value in every run")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--scheduler", metavar="ADDRESS")
+    _scheduler_arguments(parser)
     parser.add_argument("--quiet", action="store_true")
 
 
@@ -108,7 +127,7 @@ def _stability(args: argparse.Namespace) -> int:
         writer.writeheader()
         writer.writerows(spectra)
     table = run_sweep(args.scene, matrix_runs(factors, dts, methods, args.windows, args.wall_law, common), out,
-                      args.workers, args.scheduler, progress=not args.quiet, keys=MATRIX_KEYS)
+                      args.workers, _scheduler(args), progress=not args.quiet, keys=MATRIX_KEYS)
     with open(table, newline="") as stream:
         rows = list(csv.DictReader(stream))
     plot_matrix(rows, spectra, methods, factors, dts, out / "stability.png")
@@ -127,7 +146,7 @@ def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign", help="campaign file (TOML), e.g. scenes/double_flap_campaign.toml")
     parser.add_argument("--out", required=True, help="campaign directory: fom/, models/, rom/, report/")
     parser.add_argument("--workers", type=int, default=2, help="local Dask workers, one run each at a time (default 2)")
-    parser.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:port) instead")
+    _scheduler_arguments(parser)
     parser.add_argument("--retry-failed", action="store_true",
                         help="run the ROM-FOM runs that failed once more (after a change to the scene, say)")
     parser.add_argument("--status", action="store_true",
@@ -144,7 +163,7 @@ def _campaign(args: argparse.Namespace) -> int:
         return 0
     if args.workers < 1:
         raise SceneError(f"--workers is {args.workers}; allowed: an integer >= 1")
-    report = run_campaign(args.campaign, args.out, args.workers, args.scheduler, retry_failed=args.retry_failed)
+    report = run_campaign(args.campaign, args.out, args.workers, _scheduler(args), retry_failed=args.retry_failed)
     print(f"report written to {report}")
     return 0
 

@@ -23,6 +23,7 @@ from coupler.acceleration import make_acceleration
 from coupler.convergence import make_measure
 from coupler.mapping import make_mapping
 from coupler.plugins import resolve_plugins
+from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange
@@ -197,8 +198,11 @@ def check_precision(measures: list[dict], precision: dict[str, float]) -> None:
 
 def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:
     """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
+    if not str(out_dir).strip():
+        raise SceneError("the output directory (--out) is empty; name a directory")
     out_dir = Path(out_dir)
     resolve_plugins(scene)
+    check_parameters(scene)
     run_plot_hooks(scene)   # unknown plot names fail before anything starts
     start, end, dt = scene["time"]["start"], scene["time"]["end"], scene["time"]["dt"]
     n_windows = int(math.floor((end - start) / dt + 0.5))
@@ -206,11 +210,23 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
         raise SceneError(f"{scene.source}: time.end - time.start = {end - start:g} is not a multiple of time.dt = {dt:g}")
     with RunDirectory(out_dir, overwrite) as directory:
         summary = _run(scene, directory, start, dt, n_windows, progress)
-    from cosim.plots import plot_run
-    plot_run(out_dir / "results.h5", out_dir / "run.png", scene["output"])
-    for hook in run_plot_hooks(scene):
-        hook(out_dir / "results.h5", out_dir)
+        # under the lock: no other run may take the directory over while its plots are drawn
+        from cosim.plots import plot_run
+        plot_run(out_dir / "results.h5", out_dir / "run.png", scene["output"])
+        for hook in run_plot_hooks(scene):
+            hook(out_dir / "results.h5", out_dir)
     return summary
+
+
+def check_plot(output: dict, values: dict) -> None:
+    """``output.plot_index`` must name a value of the plotted field (checked once its size is known)."""
+    if not values:
+        return
+    field = output["plot_field"] or sorted(values)[0]    # the run plot's choice (the results' first field)
+    size = values[field].size
+    if output["plot_index"] >= size:
+        raise SceneError(f"'output.plot_index' is {output['plot_index']}, but '{field}' has {size} values "
+                         f"(0 to {size - 1})")
 
 
 def run_plot_hooks(scene: Scene) -> list:
@@ -229,8 +245,13 @@ def run_plot_hooks(scene: Scene) -> list:
 def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windows: int,
          progress: bool) -> RunSummary:
     out_dir = directory.path
-    store = ResultsStore(out_dir / "results.h5", scene.text)
-    store.set_attributes(scene_resolved=json.dumps(scene.data))
+    try:
+        store = ResultsStore(out_dir / "results.h5", scene.text)
+        store.set_attributes(scene_resolved=json.dumps(scene.data))
+    except OSError as exc:
+        error = f"cannot create '{out_dir / 'results.h5'}': {exc.strerror or exc}"
+        directory.status("failed", force=True, windows_total=n_windows, windows_completed=0, error=error)
+        raise CosimError(error) from None
     wall_start = time.perf_counter()
     windows = iterations = unconverged = warned = 0
     state = "failed"
@@ -257,6 +278,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                              for n, s in scene["components"].items() if s["record"]}
                 participants = participants_of(backends)
                 scheme = build_scheme(scene, participants, recorders)
+                check_plot(scene["output"], scheme.values)
                 store.write_initial(scheme.values)
                 bar = _progress(n_windows, progress)
                 phase = ""

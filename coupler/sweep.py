@@ -24,9 +24,9 @@ import csv
 import hashlib
 import itertools
 import json
+import os
 import shlex
 import time
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -34,6 +34,7 @@ from typing import Any, Callable
 import numpy as np
 
 from cosim.errors import SceneError
+from cosim.scene import read_toml
 
 COLUMNS = ["name", "windows_converged", "windows_total", "mean_iterations", "max_iterations", "contraction",
            "failure", "failure_message", "wall_seconds"]
@@ -41,13 +42,19 @@ TABLE = "sweep.csv"
 FINGERPRINT = "sweep.scene"
 
 
-def scene_fingerprint(scene_path: str | Path) -> str:
-    """SHA-256 of a scene file's data (its comments and layout aside)."""
-    try:
-        raw = tomllib.loads(Path(scene_path).read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise SceneError(f"scene '{scene_path}': {exc}") from None
+def scene_fingerprint(scene_path: str | Path, shared: tuple[str, ...] = ()) -> str:
+    """SHA-256 of a scene file's data (its comments and layout aside) with the ``shared`` overrides applied."""
+    from cosim.scene import apply_override, parse_override
+    raw = read_toml(scene_path, "scene")[1]
+    for item in shared:
+        apply_override(raw, *parse_override(item))
     return hashlib.sha256(json.dumps(raw, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def shared_overrides(runs: list[SweepRun]) -> tuple[str, ...]:
+    """The overrides every run has (a sweep's ``--set`` items): part of its scene, not of a grid point."""
+    first, *rest = [run.overrides for run in runs] or [()]
+    return tuple(item for item in first if all(item in other for other in rest))
 
 
 @dataclass(frozen=True)
@@ -116,9 +123,35 @@ def file_runs(path: str | Path, common: list[str] = ()) -> list[SweepRun]:
     return runs
 
 
+def check_scheduler(address: str | None, insecure: bool = False) -> None:
+    """A Dask scheduler to reach: ``tls://`` (Dask's own TLS settings), loopback ``tcp://``, or any ``tcp://``
+    only when ``insecure``: Dask's tcp carries pickles, unencrypted and unauthenticated."""
+    if address is None:
+        return
+    transport, sep, rest = address.partition("://")
+    if not sep or transport not in ("tcp", "tls") or not rest:
+        raise SceneError(f"--scheduler '{address}' is not of the form tls://HOST:PORT or tcp://HOST:PORT")
+    host = rest.rsplit(":", 1)[0].strip("[]")
+    if transport == "tcp" and not insecure and not _loopback(host):
+        raise SceneError(f"--scheduler '{address}': Dask's tcp:// is neither encrypted nor authenticated, and its "
+                         "messages carry pickles; use tls:// (Dask's distributed.comm.tls settings) or pass "
+                         "--insecure-scheduler on a network you trust")
+
+
+def _loopback(host: str) -> bool:
+    import ipaddress
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
     """Every variant must load and name known plug-ins before anything runs (errors name the run)."""
     from coupler.plugins import resolve_plugins
+    from coupler.preflight import check_parameters
     from cosim.scene import load_scene
     if not runs:
         raise SceneError("the sweep has no runs")
@@ -127,7 +160,9 @@ def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
         raise SceneError("the sweep lists the same run twice")
     for run in runs:
         try:
-            resolve_plugins(load_scene(scene_path, list(run.overrides)))
+            scene = load_scene(scene_path, list(run.overrides))
+            resolve_plugins(scene)
+            check_parameters(scene)
         except SceneError as exc:
             raise SceneError(f"run {run.name} ({' '.join(run.overrides)}): {exc}") from None
 
@@ -191,6 +226,13 @@ def _row(out_dir: str | Path, failure: str, message: str, failed_residuals: list
     return row
 
 
+def read_rows(table: Path, runs: list[SweepRun]) -> list[dict[str, str]]:
+    """The table's rows of ``runs`` (a table may hold rows of earlier sweeps into the same directory)."""
+    names = {run.name for run in runs}
+    with open(table, newline="") as stream:
+        return [row for row in csv.DictReader(stream) if row["name"] in names]
+
+
 def contraction(per_window: list) -> float:
     """Measured contraction per iteration: the median over windows (two iterations or more) of
     (r_last / r_first)^(1 / (k - 1)), r the coupling residual norms of a window's k iterations."""
@@ -246,6 +288,11 @@ class SweepTable:
         self.done[run.name] = {k: str(v) for k, v in values.items()}
 
 
+def every_key(runs: list[SweepRun]) -> list[str]:
+    """Every key any run sets, in first-seen order: a row tells its run's whole settings."""
+    return list(dict.fromkeys(key for run in runs for key in run.settings()))
+
+
 def setting_keys(runs: list[SweepRun]) -> list[str]:
     """The keys that vary between runs (or all keys if none varies), in first-seen order."""
     keys: dict[str, set[str]] = {}
@@ -261,11 +308,22 @@ def run_sweep(scene_path: str, runs: list[SweepRun], out: str | Path, workers: i
               on_row: Callable[[SweepRun, dict], None] | None = None, keys: list[str] | None = None) -> Path:
     """Run every run not yet in ``out/sweep.csv`` on Dask; returns the table's path.
 
-    ``keys`` are the settings the table shows (default: those that vary between runs).
+    ``keys`` are the settings the table shows (default: every key a run sets). ``out`` is held for
+    the whole sweep: a second sweep into it is refused while this one runs.
     """
+    from cosim.rundir import hold
     out = Path(out)
     check_runs(scene_path, runs)
-    table = SweepTable(out / TABLE, keys or setting_keys(runs), scene_fingerprint(scene_path))
+    lock = hold(out, "sweep")
+    try:
+        return _run_sweep(scene_path, runs, out, workers, scheduler, progress, on_row, keys)
+    finally:
+        os.close(lock)
+
+
+def _run_sweep(scene_path: str, runs: list[SweepRun], out: Path, workers: int, scheduler: str | None,
+               progress: bool, on_row: Callable[[SweepRun, dict], None] | None, keys: list[str] | None) -> Path:
+    table = SweepTable(out / TABLE, keys or every_key(runs), scene_fingerprint(scene_path, shared_overrides(runs)))
     for run in runs:
         row = None if run.name in table.done else finished_row(out / "runs" / run.name)
         if row is not None:

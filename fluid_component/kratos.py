@@ -40,6 +40,7 @@ class KratosFluid(KratosComponent):
     """Kratos FluidDynamicsAnalysis with the ``ale_fluid`` solver, one solve per coupling iteration."""
 
     name = "fluid"
+    parameter_schema = FLUID_SCHEMA
     input_name = "displacement"
     solve_label = "fluid solve"
 

@@ -24,7 +24,10 @@ from cosim.errors import ComponentError
 from cosim.schema import Positive, Value, validate
 from fluid_component.inlet import DUFFING_DEFAULTS, make_inlet
 
-TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0),
+# the fluid holds about 670 bytes a cell (10 million cells took it past 6.7 GB), and results.h5 grows by 16 bytes
+# a cell every window: a million cells is 0.7 GB in memory and 19 GB of results for 1200 windows
+MAX_CELLS = 1_000_000
+TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=MAX_CELLS), "a0": Positive(1.0),
                "stiffness_factor": Positive(1.0),   # scales the wall law (the solid's)
                "wall_law": "piecewise"}             # or "linear": sigma = E_small eps at every strain
 FLUID_SCHEMA = {
@@ -43,6 +46,7 @@ class TubeFluid(Component):
     """The tube's flow solver."""
 
     name = "fluid"
+    parameter_schema = FLUID_SCHEMA
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, FLUID_SCHEMA, prefix="")

@@ -21,10 +21,10 @@ from typing import Any, Mapping
 import numpy as np
 
 from rom_component.envelope import trust
+from rom_component.model_check import check_arrays
 from rom_component.portable_log import thin_plate_terms
 
 TINY = 1e-300
-REQUIRED = {"E", "e", "H", "A", "base", "u_mean", "Phi_u"}
 
 
 ENVELOPE_KEYS = {"envelope_low", "envelope_high", "envelope_mean", "envelope_precision", "envelope_max_distance"}
@@ -43,9 +43,7 @@ class OnlineRom:
 
     def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any],
                  arithmetic: str = "reproducible"):
-        missing = REQUIRED - set(arrays)
-        if missing:
-            raise ValueError(f"ROM arrays lack {sorted(missing)}")
+        check_arrays(arrays, metadata)      # every shape the C code and the products below rely on
         if arithmetic not in ("reproducible", "fast"):
             raise ValueError(f"arithmetic {arithmetic!r} not in ('reproducible', 'fast')")
         self.arithmetic = arithmetic

@@ -15,6 +15,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from cosim.errors import CosimError
+from rom_component.model_check import ModelContentError, check_arrays, check_members
 from rom_component.online import OnlineRom
 
 FORMAT = "cosim-solid-rom/1"
@@ -30,6 +31,10 @@ def save(path: str | Path, arrays: Mapping[str, np.ndarray], metadata: Mapping[s
     for name, value in arrays.items():
         if np.asarray(value).dtype == object:
             raise ModelFileError(f"array '{name}' has dtype object, which cannot be saved without pickle")
+    try:
+        check_arrays({k: np.asarray(v) for k, v in arrays.items()}, metadata)
+    except ModelContentError as exc:
+        raise ModelFileError(f"model '{path}' is not saved: {exc}") from None
     document = json.dumps({"format": FORMAT, **metadata}, sort_keys=True)
     payload = {name: np.asarray(value) for name, value in arrays.items()}
     payload["metadata_json"] = np.frombuffer(document.encode(), dtype=np.uint8)
@@ -49,8 +54,12 @@ def load_arrays(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]
         if f.read(4) != b"PK\x03\x04":
             raise ModelFileError(f"model file '{path}' is not a valid .npz (not a zip archive)")
     try:
+        with zipfile.ZipFile(path) as archive:
+            check_members(archive)
         with np.load(path, allow_pickle=False) as data:
             arrays = {name: data[name] for name in data.files}
+    except ModelContentError as exc:
+        raise ModelFileError(f"model file '{path}': {exc}") from None
     except ValueError as exc:
         if "pickle" in str(exc).lower():
             raise ModelFileError(f"model file '{path}' carries pickled objects; refusing to load it") from None
@@ -63,8 +72,13 @@ def load_arrays(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]
         metadata = json.loads(arrays.pop("metadata_json").tobytes().decode())
     except (UnicodeDecodeError, ValueError) as exc:
         raise ModelFileError(f"model file '{path}': metadata is not valid JSON ({exc})") from None
-    if metadata.get("format") != FORMAT:
-        raise ModelFileError(f"model file '{path}' has format {metadata.get('format')!r}, expected {FORMAT!r}")
+    if not isinstance(metadata, dict) or metadata.get("format") != FORMAT:
+        found = metadata.get("format") if isinstance(metadata, dict) else metadata
+        raise ModelFileError(f"model file '{path}' has format {found!r}, expected {FORMAT!r}")
+    try:
+        check_arrays(arrays, metadata)
+    except ModelContentError as exc:
+        raise ModelFileError(f"model file '{path}': {exc}") from None
     return arrays, metadata
 
 

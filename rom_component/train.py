@@ -9,7 +9,6 @@ saves the online arrays plus metadata.
 from __future__ import annotations
 
 import time
-import tomllib
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -18,7 +17,7 @@ import numpy as np
 from cosim.errors import SceneError
 from cosim.component import MESH_PREFIX
 from cosim.results import RunResults
-from cosim.scene import apply_override, parse_override
+from cosim.scene import apply_override, parse_override, read_toml
 from cosim.schema import Value, validate
 from rom_component import persistence
 from rom_component.estimator import SolidRom
@@ -69,12 +68,7 @@ def load_config(path: str | Path | None, overrides: list[str] = ()) -> dict[str,
     source = "ROM config"
     if path:
         source = str(path)
-        try:
-            raw = tomllib.loads(Path(path).read_text())
-        except OSError as exc:
-            raise SceneError(f"cannot read ROM config '{path}': {exc.strerror}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError(f"{path}: {exc}") from None
+        raw = read_toml(path, "ROM config")[1]
     for item in overrides:
         apply_override(raw, *parse_override(item))
     config = validate(raw, CONFIG, source=source)

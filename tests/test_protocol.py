@@ -129,3 +129,50 @@ def test_an_oversize_frame_is_dropped_before_it_is_received():
     finally:
         for socket in (big, small, router):
             socket.close(linger=0)
+
+
+@pytest.mark.parametrize("dtype", ["int64", "uint8", "bool", "float32"])
+def test_an_input_that_is_not_float64_gets_an_error_reply(dtype):
+    server = ComponentServer(TubeSolid())
+    server.handle(protocol.encode({"op": "instantiate", "id": 1, "args": {"parameters": {}}}))
+    for op in ("step", "set_values"):
+        reply, stop = server.handle(protocol.encode({"op": op, "id": 2, "args": {"t": 0.0, "dt": 0.1}},
+                                                    {"pressure": np.zeros(101, dtype=dtype)}))
+        header, arrays = protocol.decode(reply)
+        assert header["ok"] is False and not stop and arrays == {}
+        assert header["error"]["message"] == f"input 'pressure' is {dtype}; every variable is float64"
+
+
+def test_a_launched_component_stops_only_for_the_run_that_launched_it(tmp_path):
+    """Any local process reaches a served component's port; only the launcher's run token stops it."""
+    import zmq
+
+    from cosim.launcher import Launcher
+    from cosim.proxy import ComponentProxy
+    from tests.conftest import children_of
+    import os
+    with Launcher(tmp_path) as launcher:
+        process = launcher.spawn("solid", "solid_component.tube:TubeSolid")
+        endpoint = launcher.handshake(process)
+        stranger = zmq.Context.instance().socket(zmq.DEALER)
+        stranger.setsockopt(zmq.LINGER, 0)
+        stranger.connect(endpoint)
+        try:
+            for token in (None, "0" * 32, process.token[:-1]):
+                stranger.send_multipart(protocol.encode({"op": "shutdown", "id": 1,
+                                                         "args": {} if token is None else {"token": token}}))
+                assert stranger.poll(30_000)
+                header, _ = protocol.decode(stranger.recv_multipart())
+                assert header["ok"] is False
+                assert header["error"]["message"] == ("'shutdown' refused: only the run that launched this "
+                                                      "component may stop it")
+            assert process.poll() is None
+            with open(f"/proc/{process.pid}/cmdline", "rb") as argv:       # the token is in no argv
+                assert process.token.encode() not in argv.read()
+        finally:
+            stranger.close()
+        proxy = ComponentProxy("solid", endpoint, process=process)
+        proxy.shutdown(timeout=30)
+        proxy.close()
+        assert process.popen.wait(timeout=30) == 0
+    assert children_of(os.getpid()) == []

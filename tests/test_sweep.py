@@ -169,3 +169,60 @@ def test_a_run_that_finished_without_its_row_is_taken_as_it_is_and_a_stopped_one
     assert (finished / "results.h5").stat().st_mtime_ns == stamp
     assert (stopped / "results.h5").stat().st_mtime_ns != stopped_stamp    # run again from its beginning
     assert again[runs[1].name]["windows_converged"] == table[runs[1].name]["windows_converged"] == "5"
+
+
+def test_a_key_only_a_component_checks_stops_the_sweep_before_anything_runs(tmp_path, capsys):
+    code = main(["sweep", str(TUBE_SCENE), "--grid", "inlet.hh=4,6", "--set", "time.end=0.3", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err
+    assert "unknown key 'inlet.hh'" in err and "did you mean 'inlet.h'?" in err
+    assert not (tmp_path / "runs").exists()
+
+
+def test_failed_runs_are_counted_and_set_the_exit_code(tmp_path, capsys):
+    code = main(["sweep", str(TUBE_SCENE), "--grid", "coupling.max_iterations=2,90", "--set", "time.end=0.3",
+                 "--out", str(tmp_path), "--quiet"])
+    out = capsys.readouterr().out.strip()
+    assert code == 1
+    assert out == f"2 runs, 1 failed (max-iterations 1); table in {tmp_path / 'sweep.csv'}"
+
+
+def test_a_sweeps_set_values_are_in_its_table_and_its_fingerprint(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(TUBE_SCENE), "--grid", "inlet.h=4,6", "--set", "time.end=0.3", "--out", str(out),
+                 "--quiet"]) == 0
+    table = rows(out)
+    assert sorted(row["time.end"] for row in table.values()) == ["0.3", "0.3"]
+    capsys.readouterr()
+    code = main(["sweep", str(TUBE_SCENE), "--grid", "inlet.h=4,6", "--set", "time.end=0.5", "--out", str(out),
+                 "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "holds runs made with other scene data" in err
+    assert rows(out) == table
+
+
+def test_a_second_sweep_into_a_directory_in_use_is_refused(tmp_path):
+    from cosim.rundir import RunDirectoryError, hold
+    lock = hold(tmp_path, "sweep")      # as a sweep in progress holds it
+    try:
+        with pytest.raises(RunDirectoryError, match=f"'{tmp_path}' is in use by a sweep in progress \\(pid "):
+            run_sweep(str(TUBE_SCENE), grid_runs(["inlet.h=4"], SHORT), tmp_path, workers=1, progress=False)
+    finally:
+        os.close(lock)
+    assert not (tmp_path / "sweep.csv").exists()
+
+
+@pytest.mark.parametrize("address, refused", [
+    ("tcp://10.1.2.3:8786", "neither encrypted nor authenticated"),
+    ("tcp://scheduler.example:8786", "neither encrypted nor authenticated"),
+    ("http://127.0.0.1:8786", "is not of the form tls://HOST:PORT or tcp://HOST:PORT"),
+])
+def test_a_scheduler_off_this_host_needs_tls_or_an_explicit_insecure_flag(tmp_path, capsys, address, refused):
+    code = main(["sweep", str(TUBE_SCENE), "--grid", "inlet.h=4", "--out", str(tmp_path), "--scheduler", address])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and refused in err and "\n" not in err
+    from coupler.sweep import check_scheduler
+    for fine in ("tls://10.1.2.3:8786", "tcp://127.0.0.1:8786", "tcp://localhost:8786", "tcp://[::1]:8786"):
+        check_scheduler(fine)
+    if "not of the form" not in refused:
+        check_scheduler(address, insecure=True)

@@ -1,0 +1,120 @@
+"""What a model file may hold: the arrays a ROM reads, their dtypes, their shapes, finite values.
+
+``check_members`` runs on the zip archive before anything is decompressed: only known array
+names, no object arrays, and at most ``MAX_MODEL_BYTES`` in all as the arrays' own headers
+declare them. ``check_arrays`` runs on the loaded arrays: every shape follows from the model's
+mode counts and mesh sizes, index arrays stay in range, and every float is finite. Whatever
+reads a model (the online ROM, its compiled C path, the FMU export) reads only what passed both,
+so no C code is ever handed an array shorter than it expects.
+"""
+
+from __future__ import annotations
+
+import re
+import zipfile
+from typing import Any, Mapping
+
+import numpy as np
+
+MAX_MODEL_BYTES = 1 << 30          # 1 GiB decompressed; a double-flap model with its full field is a few MB
+MAX_METADATA_BYTES = 1 << 20
+FLOATS = {"E", "e", "A", "base", "u_mean", "Phi_u", "f_mean", "Phi_f", "force_singular_values",
+          "disp_singular_values", "B", "Phi_bar", "centres", "H", "envelope_low", "envelope_high", "envelope_mean",
+          "envelope_precision", "envelope_max_distance"}
+REQUIRED = ("E", "e", "H", "A", "base", "u_mean", "Phi_u")
+INDICES = {"quad_i", "quad_j", "cube_i", "cube_j", "cube_k"}
+MESH = re.compile(r"mesh:[A-Za-z0-9_.-]{1,64}")
+
+
+class ModelContentError(ValueError):
+    """A model file holds an array it should not, or one of the wrong kind or shape."""
+
+
+def known(name: str) -> bool:
+    return name in FLOATS or name in INDICES or name == "metadata_json" or MESH.fullmatch(name) is not None
+
+
+def check_members(archive: zipfile.ZipFile) -> None:
+    """Names and declared sizes of every member, read from the .npy headers alone."""
+    total = 0
+    for info in archive.infolist():
+        name = info.filename.removesuffix(".npy")
+        if not info.filename.endswith(".npy") or not known(name):
+            raise ModelContentError(f"it holds an unknown array '{info.filename}' (a model file holds only a ROM's "
+                                    "arrays)")
+        with archive.open(info) as member:
+            version = np.lib.format.read_magic(member)
+            readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+            if version not in readers:
+                raise ModelContentError(f"array '{name}' is in .npy format {version}; known: 1.0, 2.0")
+            shape, _, dtype = readers[version](member)
+        if dtype.hasobject:
+            raise ModelContentError(f"array '{name}' holds Python objects")
+        size = int(np.prod(shape, dtype=object)) * dtype.itemsize
+        limit = MAX_METADATA_BYTES if name == "metadata_json" else MAX_MODEL_BYTES
+        total += size
+        if size > limit or total > MAX_MODEL_BYTES:
+            raise ModelContentError(f"array '{name}' declares {size:,} bytes; a model holds at most "
+                                    f"{MAX_MODEL_BYTES:,} in all")
+
+
+def check_arrays(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) -> None:
+    """Dtypes, shapes and values of a model's arrays against each other."""
+    for name in REQUIRED:
+        if name not in arrays:
+            raise ModelContentError(f"it lacks the array '{name}'")
+    regressor = metadata.get("regressor")
+    if not isinstance(regressor, str):      # "rbf", or a polynomial form online ("poly", "potential")
+        raise ModelContentError(f"its metadata names no regressor (got {regressor!r})")
+    for name, value in arrays.items():
+        if name in INDICES:
+            if value.dtype.kind not in "iu" or value.ndim != 1:
+                raise ModelContentError(f"array '{name}' is {value.dtype} of shape {value.shape}; expected 1-D integers")
+        elif value.dtype != np.float64:
+            raise ModelContentError(f"array '{name}' is {value.dtype}; expected float64")
+        elif not np.isfinite(value).all():
+            raise ModelContentError(f"array '{name}' holds {np.count_nonzero(~np.isfinite(value))} values that are "
+                                    "not finite")
+    E, A = arrays["E"], arrays["A"]
+    if E.ndim != 2 or A.ndim != 2:
+        raise ModelContentError(f"arrays 'E' {E.shape} and 'A' {A.shape} must be matrices")
+    (r_f, n_in), (n_out, r_u) = E.shape, A.shape
+    n_full = arrays["u_mean"].size
+    terms = r_u * (r_u + 1) // 2
+    expected = {"e": (r_f,), "base": (n_out,), "u_mean": (n_full,), "Phi_u": (n_full, r_u), "f_mean": (n_in,),
+                "Phi_f": (n_in, r_f), "B": (n_out, terms), "Phi_bar": (n_full, terms), "envelope_low": (r_f,),
+                "envelope_high": (r_f,), "envelope_mean": (r_f,), "envelope_precision": (r_f, r_f),
+                "envelope_max_distance": (1,)}
+    if regressor == "rbf":
+        if "centres" not in arrays or arrays["centres"].ndim != 2:
+            raise ModelContentError("an rbf model needs the matrix 'centres'")
+        m = len(arrays["centres"])
+        expected["centres"] = (m, r_f)
+    else:
+        for name in ("quad_i", "quad_j"):
+            if name not in arrays:
+                raise ModelContentError(f"a poly model needs the array '{name}'")
+        m = _index_terms(arrays, ("quad_i", "quad_j"), r_f) + _index_terms(arrays, ("cube_i", "cube_j", "cube_k"), r_f)
+    expected["H"] = (r_u, m + r_f + 1)
+    if "B" in arrays and "Phi_bar" not in arrays:
+        raise ModelContentError("it has the quadratic decoder 'B' but not its full field 'Phi_bar'")
+    for name, shape in expected.items():
+        if name in arrays and arrays[name].shape != shape:
+            raise ModelContentError(f"array '{name}' has shape {arrays[name].shape}, expected {shape} (r_f = {r_f}, "
+                                    f"r_u = {r_u}, {n_in} inputs, {n_out} outputs, {n_full} field values)")
+    for name, value in arrays.items():
+        if MESH.fullmatch(name) and (value.ndim != 2 or not 1 <= value.shape[1] <= 3):
+            raise ModelContentError(f"mesh array '{name}' has shape {value.shape}, expected (nodes, 1 to 3)")
+
+
+def _index_terms(arrays: Mapping[str, np.ndarray], names: tuple[str, ...], r_f: int) -> int:
+    """The number of terms the index arrays ``names`` define (equal lengths, every index below r_f)."""
+    present = [arrays[n] for n in names if n in arrays]
+    if not present:
+        return 0
+    if len(present) != len(names) or len({len(a) for a in present}) != 1:
+        raise ModelContentError(f"arrays {', '.join(names)} must all be present, of one length")
+    for name, value in zip(names, present):
+        if len(value) and (value.min() < 0 or value.max() >= r_f):
+            raise ModelContentError(f"array '{name}' indexes reduced forces outside 0 to {r_f - 1}")
+    return len(present[0])
