@@ -77,13 +77,14 @@ class Launcher:
             signal.signal(signal.SIGTERM, self._previous_sigterm)
 
     def spawn(self, name: str, entry: str, environment: dict[str, str] | None = None,
-              cores: Sequence[int] = ()) -> ComponentProcess:
-        """Start one component with extra ``environment`` variables, on ``cores`` if given (returns before its
-        handshake)."""
+              cores: Sequence[int] = (), import_paths: Sequence[str | Path] = ()) -> ComponentProcess:
+        """Start one component with extra ``environment`` variables, on ``cores`` if given, finding its module
+        in ``import_paths`` too (a scene's folder); returns before its handshake."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log_path = self.log_dir / f"{name}.log"
         env = {**os.environ, **(environment or {})}
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", ""),
+                                                          *map(str, import_paths)]))
         token = secrets.token_hex(16)
         env[TOKEN_VARIABLE] = token
         command = [sys.executable, "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",

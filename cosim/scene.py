@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
-from cosim.schema import AnyTable, PluginChoice, Positive, Required, Value, unknown_key_message, validate
+from cosim.schema import (AnyTable, FilePath, PluginChoice, Positive, Required, Value, file_paths,
+                          unknown_key_message, validate)
 
 COMPONENT = {
     "entry": "",            # "package.module:Class", started as a local process
@@ -35,7 +36,7 @@ COMPONENT = {
     "backend": "fom",       # "fom": the entry above; "rom" or "fmu": see the tables below
     "rom": {                # a trained ROM (the .npz written by `cosim train`)
         "entry": "rom_component.component:RomSolid",
-        "model": "",
+        "model": FilePath(),
         "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
         # "reproducible": bit-identical to the exported FMU; "compiled": the FMU's own C code in-process (the same
         # results, a few times faster; needs a C compiler); "fast": BLAS products (not bit-identical)
@@ -49,7 +50,7 @@ COMPONENT = {
     },
     "fmu": {                # any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)
         "entry": "solid_component.fmu:FmuSolid",
-        "path": "",
+        "path": FilePath(),
         "switch_time": 0.0,
         "stateful": False,   # true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate
     },
@@ -87,9 +88,28 @@ class Scene:
     data: dict[str, Any]
     text: str
     source: str
+    overridden: frozenset[str] = frozenset()    # dotted keys given by --set
 
     def __getitem__(self, key: str) -> Any:
         return self.data[key]
+
+    @property
+    def folder(self) -> Path:
+        """The scene file's folder: relative paths and component modules in the scene are found there."""
+        return Path(self.source).resolve().parent
+
+    def resolve_paths(self, keys: list[str]) -> None:
+        """Make the relative file paths at the dotted ``keys`` the scene folder's, unless --set gave them
+        (those stay the working directory's, as the shell gave them)."""
+        for key in keys:
+            *parents, last = key.split(".")
+            node: Any = self.data
+            for part in parents:
+                node = node.get(part) if isinstance(node, dict) else None
+            value = node.get(last) if isinstance(node, dict) else None
+            given = any(key == item or key.startswith(item + ".") for item in self.overridden)
+            if isinstance(value, str) and value and not Path(value).is_absolute() and not given:
+                node[last] = str(self.folder / value)
 
     def component_parameters(self, name: str) -> dict[str, Any]:
         """A component's full-order parameters plus the model sections it names."""
@@ -146,7 +166,10 @@ def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) ->
     text, raw = read_toml(path, "scene")
     for item in overrides:
         apply_override(raw, *parse_override(item))
-    scene = Scene(validate_scene(raw, str(path)), text, str(path))
+    given = frozenset(".".join(parse_override(item)[0]) for item in overrides)
+    scene = Scene(validate_scene(raw, str(path)), text, str(path), given)
+    scene.resolve_paths([f"components.{name}.{key}" for name in scene["components"]
+                         for key in file_paths(COMPONENT)])
     if overrides:
         scene.text += "\n# --set " + "\n# --set ".join(overrides) + "\n"
     return scene

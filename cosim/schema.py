@@ -78,6 +78,15 @@ class AnyTable:
 
 
 @dataclass(frozen=True)
+class FilePath:
+    """A file's path, a string ("" for none). In a scene file a relative path is the scene folder's; given
+    by ``--set`` it is the working directory's (see ``cosim.scene.Scene.resolve_paths``)."""
+
+    default: str = ""
+    required: bool = False
+
+
+@dataclass(frozen=True)
 class PluginChoice:
     """A plug-in named by a string or by a table with ``type`` (validated by its registry later)."""
 
@@ -142,6 +151,10 @@ def _leaf(given: dict[str, Any], key: str, spec: Any, where: str, source: str) -
     """The validated value of one key."""
     if isinstance(spec, AnyTable):
         return dict(check_type(given.get(key, {}), dict, where))
+    if isinstance(spec, FilePath):
+        if spec.required and key not in given:
+            raise SceneError(f"missing key '{where}'")
+        return check_type(given.get(key, spec.default), str, where)
     if isinstance(spec, PluginChoice):
         if key not in given and spec.default is _NO_DEFAULT:
             raise SceneError(f"missing key '{where}'")
@@ -161,3 +174,14 @@ def _leaf(given: dict[str, Any], key: str, spec: Any, where: str, source: str) -
         return value
     kind = list if isinstance(spec, list) else float if isinstance(spec, float) else type(spec)
     return check_type(given.get(key, spec), kind, where)
+
+
+def file_paths(schema: Mapping[str, Any], prefix: str = "") -> list[str]:
+    """The dotted keys of every ``FilePath`` in ``schema``."""
+    found = []
+    for key, spec in schema.items():
+        if isinstance(spec, FilePath):
+            found.append(f"{prefix}{key}")
+        elif isinstance(spec, Mapping):
+            found += file_paths(spec, f"{prefix}{key}.")
+    return found

@@ -39,7 +39,8 @@ def load_entry(entry: str) -> type:
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise CosimError(f"entry '{entry}': cannot import module '{module_name}': {exc}") from None
+        raise CosimError(f"entry '{entry}': cannot import module '{module_name}': {exc} (a module of your own goes "
+                         "next to the scene file, or on PYTHONPATH)") from None
     cls = getattr(module, class_name, None)
     if cls is None:
         raise CosimError(f"entry '{entry}': module '{module_name}' has no '{class_name}'")

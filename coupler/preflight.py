@@ -9,25 +9,41 @@ its own process at ``instantiate`` instead.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from cosim.errors import CosimError, SceneError
 from cosim.scene import Scene
-from cosim.schema import unknown_key_message, validate
+from cosim.schema import file_paths, unknown_key_message, validate
 
 
 def check_parameters(scene: Scene) -> None:
     """Every component's parameters against its declared schema; raises ``SceneError`` naming the key."""
-    from cosim.server import load_entry
     for name, spec in scene["components"].items():
         if not spec["entry"]:
             continue
         try:
-            schema = load_entry(spec["entry"]).parameter_schema
+            schema = _component_class(spec["entry"], scene.folder).parameter_schema
         except CosimError as exc:
             if "cannot import module" in str(exc):
                 continue                 # its own process will say what is missing
             raise SceneError(f"{scene.source}: 'components.{name}.entry': {exc}") from None
         if schema is not None:
             _check(scene, name, schema)
+
+
+def _component_class(entry: str, folder: Path) -> type:
+    """The class of ``entry``, found as its process finds it: the scene's folder is searched last."""
+    import sys
+
+    from cosim.server import load_entry
+    added = str(folder) not in sys.path
+    if added:
+        sys.path.append(str(folder))
+    try:
+        return load_entry(entry)
+    finally:
+        if added:
+            sys.path.remove(str(folder))
 
 
 def _check(scene: Scene, name: str, schema: dict) -> None:
@@ -44,3 +60,17 @@ def _check(scene: Scene, name: str, schema: dict) -> None:
     for key, item in schema.items():
         prefix = "" if key in spec["sections"] and key not in spec["parameters"] else own
         validate({key: given[key]} if key in given else {}, {key: item}, prefix, scene.source)
+        keys = [p if prefix == "" else own + p for p in file_paths({key: item})]
+        scene.resolve_paths(keys)
+        for dotted in keys:
+            _check_file(scene, dotted)
+
+
+def _check_file(scene: Scene, key: str) -> None:
+    """The file a component parameter names must exist (it is read once the component starts)."""
+    node = scene.data
+    for part in key.split("."):
+        node = node.get(part) if isinstance(node, dict) else None
+    if isinstance(node, str) and node and not Path(node).is_file():
+        given = "given by --set, the working directory's" if key in scene.overridden else "the scene folder's"
+        raise SceneError(f"{scene.source}: '{key}' names '{node}', which is not a file (a relative path is {given})")

@@ -88,7 +88,7 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) ->
     """Spawn every local backend first (they start in parallel), then handshake each."""
     components = scene["components"]
     processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(components[b.participant]),
-                                        components[b.participant]["cores"])
+                                        components[b.participant]["cores"], [scene.folder])
                  for b in backends if b.entry}
     for backend in backends:
         spec = scene["components"][backend.participant]

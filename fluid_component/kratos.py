@@ -19,14 +19,14 @@ import numpy as np
 
 from cosim.component import Variable
 from cosim.kratos_stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
-from cosim.schema import Positive, Required, validate
+from cosim.schema import FilePath, Positive, Required, validate
 
 FLUID_SCHEMA = {
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
     "flow": {"reynolds": Positive(250.0), "density": Positive(1000.0), "peak_velocity": Positive(2.5),
              "diameter": Positive(0.1), "ramp_time": Positive(1.0), "channel_height": Positive(0.492),
              "profile_coefficient": Positive(41.32)},   # v(y) = c y (h - y): the authors' 41.32 (4 v_max / h^2 = 41.31)
-    "mesh": Required(str),                 # the .mdpa file
+    "mesh": FilePath(required=True),       # the .mdpa file
     "tolerance": Positive(1e-6),
     "max_iterations": Positive(20),
     "on_unconverged": "warn",              # "warn" or "fail" when Newton hits max_iterations

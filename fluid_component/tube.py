@@ -21,7 +21,7 @@ from scipy.linalg import solve_banded
 
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
-from cosim.schema import Positive, Value, validate
+from cosim.schema import FilePath, Positive, Value, validate
 from fluid_component.inlet import DUFFING_DEFAULTS, make_inlet
 
 # the fluid holds about 670 bytes a cell (10 million cells took it past 6.7 GB), and results.h5 grows by 16 bytes
@@ -32,7 +32,7 @@ TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=MAX_CEL
                "wall_law": "piecewise"}             # or "linear": sigma = E_small eps at every strain
 FLUID_SCHEMA = {
     "tube": TUBE_SCHEMA,
-    "inlet": {"f": 2.0, "h": 6.0, "table": "", **DUFFING_DEFAULTS},
+    "inlet": {"f": 2.0, "h": 6.0, "table": FilePath(), **DUFFING_DEFAULTS},
     "rho": Positive(1.0),
     "v_ref": Value(6.0, low=0.0),
     "newton_tolerance": Value(1e-10, low=0.0, high=1.0, low_open=True, high_open=True),

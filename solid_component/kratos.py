@@ -19,7 +19,7 @@ import numpy as np
 from cosim.component import Variable
 from cosim.errors import ComponentError
 from cosim.kratos_stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
-from cosim.schema import Positive, Required, Value, validate
+from cosim.schema import FilePath, Positive, Required, Value, validate
 
 LINEAR_SOLVERS = {
     "sparse_qr": "LinearSolversApplication.sparse_qr",     # the authors' (slow)
@@ -28,7 +28,7 @@ LINEAR_SOLVERS = {
 }
 SOLID_SCHEMA = {
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
-    "mesh": Required(str),                 # the .mdpa file
+    "mesh": FilePath(required=True),       # the .mdpa file
     "young_modulus": Positive(10e6),
     "poisson_ratio": Value(0.3, low=0.0, high=0.5, high_open=True),
     "density": Positive(1000.0),           # unused by the static solver, required by the material

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import importlib.util
 import os
 import time
 from pathlib import Path
@@ -13,6 +14,10 @@ REFERENCE = ROOT / "scenes" / "inlet"  # copies of shared/reference/tube-inlet-m
 
 
 T = TypeVar("T")
+
+#: the double flap's solvers; the tube needs none of Kratos, and a tube-only install skips these tests
+needs_kratos = pytest.mark.skipif(importlib.util.find_spec("KratosMultiphysics") is None,
+                                  reason="needs Kratos Multiphysics (pip install -e '.[kratos]')")
 
 
 def wait_for(condition: Callable[[], T], what: str, timeout: float = 60.0, poll: float = 0.05) -> T:

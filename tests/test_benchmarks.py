@@ -12,10 +12,14 @@ import numpy as np
 import pytest
 
 from benchmarks import rom_call, tube_run
+from tests.conftest import needs_kratos
 
 
 def test_tube_run_benchmark_small(capsys):
+    checkout = Path(__file__).resolve().parent.parent / "runs" / "bench"
+    before = sorted(checkout.iterdir()) if checkout.is_dir() else []
     results = tube_run.main(["--small"])
+    assert (sorted(checkout.iterdir()) if checkout.is_dir() else []) == before    # its runs went to the tests' tmp
     text = capsys.readouterr().out
     assert "machine: " in text and "raw ZeroMQ ping-pong" in text and "median [IQR]" in text
     main = results["main"]
@@ -38,6 +42,7 @@ def test_rom_call_benchmark_small(capsys):
     assert {key[1] for key in results["coupled"]} == {"solid", "solid_rom", "solid_fmu", "fluid"}
 
 
+@needs_kratos
 def test_double_flap_benchmark_small(capsys):
     from benchmarks import double_flap_run
     results = double_flap_run.main(["--small"])
@@ -51,6 +56,7 @@ def test_double_flap_benchmark_small(capsys):
         assert abs(ours[f"tip_{side}"][-1] - peer[f"tip_{side}"][-1]) < 0.05 * abs(peer[f"tip_{side}"][-1])
 
 
+@needs_kratos
 def test_flap_rom_call_benchmark_small(capsys):
     from benchmarks import flap_rom_call
     results = flap_rom_call.main(["--small"])   # asserts inside: FMU = online ROM bit for bit = offline on K
@@ -71,6 +77,7 @@ def test_flap_rom_call_benchmark_small(capsys):
         calls["ROM online interface path, reproducible arithmetic (= the FMU)"].median
 
 
+@needs_kratos
 def test_flap_speedup_benchmark_small(capsys):
     from benchmarks import flap_speedup
     from rom_component.report import Run
@@ -104,6 +111,7 @@ def test_flap_speedup_benchmark_small(capsys):
            f"{rom_call * 1e6:.0f} us): {0.15 / rom_call:.0f}" in capsys.readouterr().out
 
 
+@needs_kratos
 @pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="side by side needs two cores")
 def test_flap_speedup_side_by_side_small(capsys):
     from benchmarks import flap_speedup

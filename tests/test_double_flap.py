@@ -15,6 +15,10 @@ from cosim.errors import ComponentError
 from cosim.results import RunResults
 from cosim.scene import load_scene
 
+from tests.conftest import needs_kratos
+
+pytestmark = needs_kratos
+
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "scenes" / "double_flap.toml"
 MESHES = ROOT / "scenes" / "double_flap"

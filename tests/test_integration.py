@@ -17,7 +17,7 @@ from cosim.results import RunResults
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, SceneError
 from cosim.scene import load_scene
 
-from tests.conftest import ROOT, TUBE_SCENE, alive_with, children_of, cmdline, wait_for, windows_done
+from tests.conftest import REFERENCE, ROOT, TUBE_SCENE, alive_with, children_of, cmdline, wait_for, windows_done
 
 
 def run(tmp_path, *overrides, name="run"):
@@ -194,3 +194,32 @@ def test_larger_inlet_amplitudes_converge_with_the_default_iqn_ils(tmp_path, gai
     # without the check the same run breaks early (a negative cross-section reaches the fluid)
     with pytest.raises(ComponentError, match="a cross-section must be positive"):
         run(tmp_path, f"inlet.g={gain!r}", "time.end=30", "coupling.acceleration.stale_step_ratio=0", name="off")
+
+
+def test_paths_and_modules_in_a_scene_are_the_scene_folders_and_set_values_the_working_directorys(
+        tmp_path, monkeypatch):
+    """A scene copied with its inlet table and a component module of its own, run from another folder."""
+    import shutil
+    case, elsewhere = tmp_path / "case", tmp_path / "elsewhere"
+    (case / "tables").mkdir(parents=True)
+    elsewhere.mkdir()
+    shutil.copy(REFERENCE / "tube-inlet-mu1.csv", case / "tables" / "inlet.csv")
+    (case / "my_solid.py").write_text("from solid_component.tube import TubeSolid\n\n\nclass MySolid(TubeSolid):\n"
+                                      "    \"\"\"The tube's solid under another name.\"\"\"\n")
+    text = TUBE_SCENE.read_text().replace('table = ""', 'table = "tables/inlet.csv"', 1)
+    text = text.replace('entry = "solid_component.tube:TubeSolid"', 'entry = "my_solid:MySolid"', 1)
+    assert "my_solid" in text and "tables/inlet.csv" in text
+    (case / "tube.toml").write_text(text)
+    monkeypatch.chdir(elsewhere)
+    summary = run_scene(load_scene(case / "tube.toml", ["time.end=0.3"]), "run", progress=False)
+    assert summary.windows == 3 and (elsewhere / "run" / "results.h5").is_file()
+    with RunResults(elsewhere / "run") as results:
+        assert results.scene["inlet"]["table"] == str(case / "tables" / "inlet.csv")
+    shutil.copy(REFERENCE / "tube-inlet-mu1.csv", elsewhere / "mine.csv")     # --set: the working directory's
+    scene = load_scene(case / "tube.toml", ["time.end=0.3", "inlet.table=mine.csv"])
+    run_scene(scene, "run2", progress=False)
+    assert scene["inlet"]["table"] == "mine.csv"
+    with pytest.raises(SceneError, match=r"'inlet.table' names '.*case/tables/missing.csv', which is not a file "
+                                         r"\(a relative path is the scene folder's\)"):
+        (case / "tube.toml").write_text(text.replace("tables/inlet.csv", "tables/missing.csv"))
+        run_scene(load_scene(case / "tube.toml", ["time.end=0.3"]), "run3", progress=False)
