@@ -5,7 +5,8 @@ process dies), so a second run on the same directory is refused while the first 
 progress, with or without ``--overwrite``. A directory that holds a finished or crashed run
 (``results.h5``) is refused too, unless ``overwrite`` is given; then the old run's files are
 removed only once the new run holds the lock. ``status.json`` tells how far the run has come
-(written atomically: a reader never sees half a file).
+(written atomically: a reader never sees half a file); a run whose process is gone while its status
+says it runs reads as ``died``. Sweeps and campaigns hold their own directories the same way (``hold``).
 """
 
 from __future__ import annotations
@@ -50,12 +51,6 @@ class RunDirectory:
                 raise RunDirectoryError(f"'{self.path}' already holds a run ({describe_run(self.path)}); "
                                         "choose another --out or pass --overwrite to replace it")
             self._remove_old_run()
-        try:
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, str(os.getpid()).encode(), 0)
-        except OSError as exc:        # a full disk
-            os.close(fd)
-            raise RunDirectoryError(f"cannot use '{self.path}' as the run's directory: {exc.strerror}") from None
         self._lock = fd
         return self
 
@@ -102,6 +97,12 @@ def hold(path: Path, what: str) -> int:
         os.close(fd)
         raise RunDirectoryError(f"'{path}' is in use by a {what} in progress (pid {holder}); "
                                 "choose another --out") from None
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)     # who holds it, for the message above
+    except OSError as exc:        # a full disk
+        os.close(fd)
+        raise RunDirectoryError(f"cannot use '{path}' as the {what}'s directory: {exc.strerror}") from None
     return fd
 
 

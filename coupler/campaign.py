@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import heapq
 import json
+import os
 import shutil
 import time
 from dataclasses import dataclass
@@ -178,9 +179,20 @@ def _model_is_current(model: Path, key: dict) -> bool:
 def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, scheduler: str | None = None,
                  echo: Callable[[str], None] = print, retry_failed: bool = False) -> Path:
     """Run what is missing of a campaign (with ``retry_failed``, the failed ROM-FOM runs too), then write the
-    report; returns the report directory."""
+    report; returns the report directory. ``out`` is held for the whole campaign: a second one into it is
+    refused while this one runs."""
+    from cosim.rundir import hold
     out = Path(out).resolve()
     plan = load_plan(campaign, out)
+    lock = hold(out, "campaign")
+    try:
+        return _run_campaign(plan, out, workers, scheduler, echo, retry_failed)
+    finally:
+        os.close(lock)
+
+
+def _run_campaign(plan: Plan, out: Path, workers: int, scheduler: str | None, echo: Callable[[str], None],
+                  retry_failed: bool) -> Path:
     check_runs(str(plan.scene), [*plan.fom.values(), *(p.run for p in plan.predictions)])
     scene = scene_fingerprint(plan.scene)
     fom_table = SweepTable(out / "fom" / TABLE, setting_keys(list(plan.fom.values())), scene)

@@ -325,3 +325,19 @@ switch_time = 2.0
     order, done = task_order(plan, tmp_path / "out")
     # one worker: model b trains first (listed first), but a's prediction is listed first, so it runs first
     assert order == ["fom training", "model b", "model a", "rom a-training", "rom b-training"], done.stdout
+
+
+def test_a_second_campaign_into_a_directory_in_use_is_refused(tmp_path):
+    from cosim.rundir import hold
+    path = tmp_path / "campaign.toml"
+    path.write_text(CAMPAIGN.format(root=ROOT))
+    out = tmp_path / "out"
+    lock = hold(out, "campaign")       # as a campaign in progress holds it
+    try:
+        done = campaign(path, out)
+    finally:
+        os.close(lock)
+    assert done.returncode == 2
+    assert done.stderr.strip() == (f"cosim campaign: error: '{out}' is in use by a campaign in progress "
+                                   f"(pid {os.getpid()}); choose another --out")
+    assert not (out / "fom").exists()

@@ -126,3 +126,19 @@ def test_serve_on_a_port_in_use(capsys):
     assert done.stderr.strip().startswith(f"cosim serve: error: cannot bind 'tcp://127.0.0.1:{port}': "
                                           "Address already in use")
     assert "\n" not in done.stderr.strip()
+
+
+def test_train_and_report_of_a_truncated_results_file(capsys, tmp_path):
+    from coupler.run import run_scene
+    from cosim.scene import load_scene
+    run_scene(load_scene(TUBE_SCENE, ["time.end=0.5", "components.solid.record=true"]), tmp_path / "run",
+              progress=False)
+    whole = (tmp_path / "run" / "results.h5").read_bytes()
+    (tmp_path / "cut").mkdir()
+    cut = tmp_path / "cut" / "results.h5"
+    cut.write_bytes(whole[: len(whole) // 2])
+    for argv in (["train", str(cut), "--out", str(tmp_path / "m.npz")],
+                 ["report", f"{tmp_path / 'cut'}={tmp_path / 'run'}", "--out", str(tmp_path / "report")]):
+        err = one_line_error(capsys, argv)
+        assert f"cannot read '{cut}': it is truncated or damaged" in err
+    assert not (tmp_path / "m.npz").exists()

@@ -186,10 +186,10 @@ def test_a_run_keeps_its_directory_locked_while_it_draws_its_plots(tmp_path, mon
 
 
 def test_a_full_disk_stops_the_run_with_every_dataset_at_the_same_window(tmp_path, capsys):
-    """A 2 MB file system as --out: the run stops before the window it has no room for, in one line, exit 2."""
+    """A 1 MB file system as --out: the run stops before the window it has no room for, in one line, exit 2."""
     disk = tmp_path / "disk"
     disk.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)], capture_output=True)
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(disk)], capture_output=True)
     if mounted.returncode != 0:
         pytest.skip("needs a small tmpfs (mount as root)")
     try:
