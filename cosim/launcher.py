@@ -18,12 +18,12 @@ import selectors
 import signal
 import subprocess
 import sys
-import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
+from cosim import stop
 from cosim.errors import ComponentDied, ComponentError
 
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
@@ -62,19 +62,19 @@ class Launcher:
         self.log_dir = Path(log_dir)
         self.startup_timeout = startup_timeout
         self.processes: list[ComponentProcess] = []
-        self._previous_sigterm = None
 
     def __enter__(self) -> "Launcher":
         atexit.register(self.stop_all)
-        if threading.current_thread() is threading.main_thread():
-            self._previous_sigterm = signal.signal(signal.SIGTERM, _raise_system_exit)
+        self._stops = stop.handling_stops()     # Ctrl-C and SIGTERM stop the run at its next safe point
+        self._stops.__enter__()
         return self
 
     def __exit__(self, *exc_info) -> None:
-        self.stop_all()
-        atexit.unregister(self.stop_all)
-        if self._previous_sigterm is not None:
-            signal.signal(signal.SIGTERM, self._previous_sigterm)
+        try:
+            self.stop_all()
+        finally:
+            atexit.unregister(self.stop_all)
+            self._stops.__exit__(None, None, None)
 
     def spawn(self, name: str, entry: str, environment: dict[str, str] | None = None,
               cores: Sequence[int] = (), import_paths: Sequence[str | Path] = ()) -> ComponentProcess:
@@ -113,6 +113,7 @@ class Launcher:
                 if remaining <= 0:
                     raise ComponentError(process.name, f"did not start within {self.startup_timeout:g} s "
                                                        f"(log: {process.log_path})")
+                stop.check()
                 if selector.select(min(remaining, 0.1)):
                     chunk = os.read(process.popen.stdout.fileno(), 4096)
                     if not chunk:
@@ -154,7 +155,4 @@ def _signal(popen: subprocess.Popen, sig: int) -> None:
     except (ProcessLookupError, PermissionError):
         pass
 
-
-def _raise_system_exit(signum, frame) -> None:
-    raise SystemExit(128 + signum)
 

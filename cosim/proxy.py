@@ -15,7 +15,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import zmq
 
-from cosim import protocol
+from cosim import protocol, stop
 from cosim.component import MESH_PREFIX, Variable
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, NonFiniteOutput, ProtocolError
 from cosim.launcher import ComponentProcess
@@ -67,6 +67,7 @@ class ComponentProxy:
         limit = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
         while not self._socket.poll(LIVENESS_SLICE_SECONDS * 1000):
+            stop.check()
             self._check_alive()
             if time.monotonic() > deadline:
                 self._pending = None

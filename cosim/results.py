@@ -14,13 +14,10 @@ from __future__ import annotations
 import json
 import platform
 import shutil
-import signal
 import socket
-import threading
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import h5py
 import numpy as np
@@ -135,17 +132,16 @@ class ResultsStore:
         """One window: its summary, converged fields, per-call timings, recorded calls and residual norms.
 
         The window is written whole or not at all: a window the disk has no room for is refused
-        (``DiskFullError``) before any of it is written, and Ctrl-C and SIGTERM are held back until
-        it is written, so every dataset holds the same windows whenever the run stops.
+        (``DiskFullError``) before any of it is written, and a run acts on Ctrl-C and SIGTERM only
+        between windows (``cosim.stop``), so every dataset holds the same windows whenever it stops.
         """
         rows = self._window_rows(time, iterations, converged, wall_seconds, fields, timings, snapshots, residuals)
         self._check_room(rows)
-        with _signals_deferred():
-            for name, value in rows:
-                self._append(name, value)
-            self._windows_written += 1
-            self.file.attrs["windows_completed"] = self._windows_written   # true after a crash too
-            self.file.flush()
+        for name, value in rows:
+            self._append(name, value)
+        self._windows_written += 1
+        self.file.attrs["windows_completed"] = self._windows_written   # true after a crash too
+        self.file.flush()
 
     def _window_rows(self, time: float, iterations: int, converged: bool, wall_seconds: float,
                      fields: Mapping[str, np.ndarray], timings: Mapping[str, tuple[list[float], list[float]]],
@@ -350,20 +346,6 @@ class RunResults:
                   for kind in ("inputs", "outputs")}
         return Calls(arrays["inputs"], arrays["outputs"], group["window"][:][keep], group["iteration"][:][keep],
                      converged[keep])
-
-
-@contextmanager
-def _signals_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back (in the main thread) until the block has run."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held = {signal.SIGINT, signal.SIGTERM}
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 class _GrowingDataset:

@@ -14,7 +14,6 @@ import importlib
 import ipaddress
 import json
 import os
-import signal
 import sys
 import time
 import traceback
@@ -23,7 +22,7 @@ from typing import Any, Callable
 import numpy as np
 import zmq
 
-from cosim import protocol
+from cosim import protocol, stop
 from cosim.component import Component
 from cosim.errors import ComponentError, CosimError, ProtocolError
 from cosim.launcher import TOKEN_VARIABLE
@@ -175,9 +174,11 @@ def run_idle(component: Component) -> None:
 def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None = None) -> int:
     """Serve ``entry`` on ``bind`` until shutdown; returns the exit code."""
     check_bind_address(bind)
-    # SIGTERM (the launcher's stop) ends the process through SystemExit: atexit and finally blocks run,
-    # so a component's temporary files go with it
-    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    with stop.handling_stops():   # SIGTERM (the launcher's stop) ends the loop: atexit and finally blocks run
+        return _serve(entry, bind, name, parent_pid)
+
+
+def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None) -> int:
     component = load_entry(entry)()
     if name:
         component.name = name
@@ -192,6 +193,7 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
     parent_checked = time.monotonic()
     try:
         while True:
+            stop.check()
             interval = component.idle_interval
             wait = PARENT_CHECK_SECONDS if interval is None else min(interval, PARENT_CHECK_SECONDS)
             if not poller.poll(max(1, round(wait * 1000))):    # ZeroMQ polls in whole milliseconds
@@ -204,9 +206,9 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
                         return 3
                 continue
             identity, *frames = socket.recv_multipart(copy=False)
-            reply, stop = server.handle(frames)
+            reply, done = server.handle(frames)
             socket.send_multipart([identity, *reply], copy=False)
-            if stop:
+            if done:
                 return 0
     finally:
         socket.close()

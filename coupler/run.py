@@ -27,6 +27,7 @@ from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange
+from cosim import stop
 from cosim.errors import ComponentError, CosimError, SceneError
 from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
@@ -305,6 +306,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                             _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar)
                         directory.status("running", windows_total=n_windows, windows_completed=windows,
                                          time=result.time)
+                        stop.check()       # Ctrl-C or SIGTERM: stop here, between two windows
                         if bar is not None:
                             bar.update(1)
                             bar.set_postfix_str(_status(result, iterations / windows), refresh=False)
