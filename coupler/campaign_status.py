@@ -8,13 +8,12 @@ ROM-FOM run of an earlier model says so (a rerun runs it again and keeps it besi
 
 from __future__ import annotations
 
-import json
-import os
 import time
 from pathlib import Path
 
 from coupler.campaign import _model_is_current, _model_key, load_plan, ran_after_model
 from coupler.sweep import TABLE
+from cosim.rundir import read_status
 
 
 def _table(path: Path) -> dict[str, dict[str, str]]:
@@ -25,30 +24,19 @@ def _table(path: Path) -> dict[str, dict[str, str]]:
         return {row["name"]: row for row in csv.DictReader(stream)}
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def run_state(run_dir: Path, row: dict[str, str] | None, now: float | None = None) -> str:
     """One run's state in words, from its table row if it has one, else from its ``status.json``."""
     if row is not None:
         figures = (f"{row['windows_converged']}/{row['windows_total']} windows converged, "
                    f"{float(row['mean_iterations']):.3f} iterations/window, {float(row['wall_seconds']) / 60:.0f} min")
         return f"failed ({row['failure']}), {figures}" if row["failure"] else f"finished, {figures}"
-    try:
-        status = json.loads((run_dir / "status.json").read_text())
-    except (OSError, ValueError):
+    status = read_status(run_dir)
+    if not status:
         return "waiting"
     done = f"{status.get('windows_completed', 0)}/{status.get('windows_total', '?')} windows"
+    if status.get("state") == "died":
+        return f"stopped midway at {done} (its process is gone; a rerun starts it again)"
     if status.get("state") in ("starting", "running"):
-        if status.get("pid") and not _alive(int(status["pid"])):
-            return f"stopped midway at {done} (its process is gone; a rerun starts it again)"
         age = (now or time.time()) - float(status.get("updated", 0))
         where = f", t = {status['time']:g} s" if "time" in status else ""
         return f"running, {done}{where} (updated {age:.0f} s ago)"
