@@ -28,7 +28,7 @@ campaign: $(BIN)/cosim
 	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
 
 test: $(BIN)/cosim
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q --durations=15
 
 # the suite against the newest versions (a scratch .venv-latest, the lock untouched): drift shows here first
 test-latest:
