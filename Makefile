@@ -36,7 +36,9 @@ test-latest:
 	$(PYTHON) -m venv .venv-latest
 	.venv-latest/bin/pip install --quiet --upgrade pip
 	.venv-latest/bin/pip install --quiet -e '$(EXTRAS)'
-	.venv-latest/bin/pip freeze --exclude-editable | diff $(LOCK) - | grep '^[<>]' || true
+	grep -v '^#' $(LOCK) > .venv-latest/locked.txt
+	.venv-latest/bin/pip freeze --all --exclude-editable | grep -v -i '^setuptools==' \
+		| diff .venv-latest/locked.txt - | grep '^[<>]' || echo "the newest versions are the lock's"
 	.venv-latest/bin/python -m pytest -q
 
 # write the lock anew from the newest versions; then `rm -rf .venv && make figures` and commit both
