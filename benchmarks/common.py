@@ -104,13 +104,15 @@ def fresh_directory(kind: str) -> Path:
 
 
 def rewrite_readme(marker: str, lines: list[str], command: str) -> None:
-    """Replace the README's block between ``<!-- marker:begin`` and ``<!-- marker:end -->`` with ``lines``."""
-    readme = ROOT / "README.md"
-    text = readme.read_text()
+    """Replace the block between ``<!-- marker:begin`` and ``<!-- marker:end -->`` with ``lines``, in the
+    README or the docs page that holds it."""
     begin, end = f"<!-- {marker}:begin", f"<!-- {marker}:end -->"
-    if begin not in text or end not in text:
-        raise SystemExit(f"README.md has no '{begin}' ... '{end}' block")
-    head, rest = text.split(begin, 1)
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    holding = [p for p in pages if begin in (text := p.read_text()) and end in text]
+    if not holding:
+        raise SystemExit(f"neither README.md nor docs/ has a '{begin}' ... '{end}' block")
+    page = holding[0]
+    head, rest = page.read_text().split(begin, 1)
     _, tail = rest.split(end, 1)
     block = f"{begin} ({command} writes this part) -->\n```\n" + "\n".join(lines) + "\n```\n"
-    readme.write_text(head + block + end + tail)
+    page.write_text(head + block + end + tail)
