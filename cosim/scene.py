@@ -102,14 +102,27 @@ class Scene:
         """Make the relative file paths at the dotted ``keys`` the scene folder's, unless --set gave them
         (those stay the working directory's, as the shell gave them)."""
         for key in keys:
-            *parents, last = key.split(".")
-            node: Any = self.data
-            for part in parents:
-                node = node.get(part) if isinstance(node, dict) else None
-            value = node.get(last) if isinstance(node, dict) else None
-            given = any(key == item or key.startswith(item + ".") for item in self.overridden)
-            if isinstance(value, str) and value and not Path(value).is_absolute() and not given:
+            node, last = self._holder(key)
+            value = node.get(last) if node is not None else None
+            if isinstance(value, str) and value and not Path(value).is_absolute() and not self.given(key):
                 node[last] = str(self.folder / value)
+
+    def value(self, key: str) -> Any:
+        """The value at the dotted ``key`` (None if there is none)."""
+        node, last = self._holder(key)
+        return node.get(last) if node is not None else None
+
+    def given(self, key: str) -> bool:
+        """Whether --set gave ``key`` (or a table holding it)."""
+        return any(key == item or key.startswith(item + ".") for item in self.overridden)
+
+    def _holder(self, key: str) -> tuple[dict | None, str]:
+        """The table holding the dotted ``key``'s last part, and that part."""
+        *parents, last = key.split(".")
+        node: Any = self.data
+        for part in parents:
+            node = node.get(part) if isinstance(node, dict) else None
+        return (node if isinstance(node, dict) else None), last
 
     def component_parameters(self, name: str) -> dict[str, Any]:
         """A component's full-order parameters plus the model sections it names."""
@@ -164,10 +177,12 @@ def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) ->
     """Read, override and validate a scene file."""
     path = Path(path)
     text, raw = read_toml(path, "scene")
+    given = set()
     for item in overrides:
-        apply_override(raw, *parse_override(item))
-    given = frozenset(".".join(parse_override(item)[0]) for item in overrides)
-    scene = Scene(validate_scene(raw, str(path)), text, str(path), given)
+        key, value = parse_override(item)
+        apply_override(raw, key, value)
+        given.add(".".join(key))
+    scene = Scene(validate_scene(raw, str(path)), text, str(path), frozenset(given))
     scene.resolve_paths([f"components.{name}.{key}" for name in scene["components"]
                          for key in file_paths(COMPONENT)])
     if overrides:
@@ -182,8 +197,9 @@ def read_toml(path: str | Path, what: str = "scene") -> tuple[str, dict[str, Any
     """The text of a TOML file and its data; every failure is a one-line ``SceneError`` naming the file."""
     path = Path(path)
     try:
-        if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
-            raise SceneError(f"{path}: {path.stat().st_size:,} bytes; a {what} file has at most {MAX_FILE_BYTES:,}")
+        size = path.stat().st_size if path.is_file() else 0
+        if size > MAX_FILE_BYTES:
+            raise SceneError(f"{path}: {size:,} bytes; a {what} file has at most {MAX_FILE_BYTES:,}")
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SceneError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None

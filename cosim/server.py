@@ -52,6 +52,16 @@ def load_entry(entry: str) -> type:
 TRANSPORTS = ("tcp", "ipc")
 
 
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` (a name or an address, without brackets) is this machine's loopback."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def check_bind_address(address: str) -> None:
     """Refuse an unknown transport, and a TCP bind to anything but loopback (remote binding needs CURVE keys)."""
     transport, sep, _ = address.partition("://")
@@ -60,14 +70,7 @@ def check_bind_address(address: str) -> None:
                          "(transports are lower case)")
     if transport != "tcp":
         return
-    host = address[len("tcp://"):].rsplit(":", 1)[0].strip("[]")
-    if host == "localhost":
-        return
-    try:
-        loopback = ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        loopback = False
-    if not loopback:
+    if not is_loopback(address[len("tcp://"):].rsplit(":", 1)[0].strip("[]")):
         raise CosimError(f"refusing to bind '{address}': only loopback addresses are served "
                          "(a non-loopback address needs CURVE keys, which this build does not set up)")
 

@@ -68,9 +68,7 @@ def _check(scene: Scene, name: str, schema: dict) -> None:
 
 def _check_file(scene: Scene, key: str) -> None:
     """The file a component parameter names must exist (it is read once the component starts)."""
-    node = scene.data
-    for part in key.split("."):
-        node = node.get(part) if isinstance(node, dict) else None
+    node = scene.value(key)
     if isinstance(node, str) and node and not Path(node).is_file():
-        given = "given by --set, the working directory's" if key in scene.overridden else "the scene folder's"
+        given = "given by --set, the working directory's" if scene.given(key) else "the scene folder's"
         raise SceneError(f"{scene.source}: '{key}' names '{node}', which is not a file (a relative path is {given})")

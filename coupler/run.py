@@ -199,9 +199,8 @@ def check_precision(measures: list[dict], precision: dict[str, float]) -> None:
 
 def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:
     """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
-    if not str(out_dir).strip():
-        raise SceneError("the output directory (--out) is empty; name a directory")
-    out_dir = Path(out_dir)
+    directory = RunDirectory(out_dir, overwrite)     # refuses an empty name before it would mean "."
+    out_dir = directory.path
     resolve_plugins(scene)
     check_parameters(scene)
     run_plot_hooks(scene)   # unknown plot names fail before anything starts
@@ -209,7 +208,7 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
     n_windows = int(math.floor((end - start) / dt + 0.5))
     if abs(start + n_windows * dt - end) > 1e-9 * max(1.0, abs(end)):
         raise SceneError(f"{scene.source}: time.end - time.start = {end - start:g} is not a multiple of time.dt = {dt:g}")
-    with RunDirectory(out_dir, overwrite) as directory:
+    with directory:
         summary = _run(scene, directory, start, dt, n_windows, progress)
         # under the lock: no other run may take the directory over while its plots are drawn
         from cosim.plots import plot_run

@@ -126,26 +126,17 @@ def file_runs(path: str | Path, common: list[str] = ()) -> list[SweepRun]:
 def check_scheduler(address: str | None, insecure: bool = False) -> None:
     """A Dask scheduler to reach: ``tls://`` (Dask's own TLS settings), loopback ``tcp://``, or any ``tcp://``
     only when ``insecure``: Dask's tcp carries pickles, unencrypted and unauthenticated."""
+    from cosim.server import is_loopback
     if address is None:
         return
     transport, sep, rest = address.partition("://")
     if not sep or transport not in ("tcp", "tls") or not rest:
         raise SceneError(f"--scheduler '{address}' is not of the form tls://HOST:PORT or tcp://HOST:PORT")
     host = rest.rsplit(":", 1)[0].strip("[]")
-    if transport == "tcp" and not insecure and not _loopback(host):
+    if transport == "tcp" and not insecure and not is_loopback(host):
         raise SceneError(f"--scheduler '{address}': Dask's tcp:// is neither encrypted nor authenticated, and its "
                          "messages carry pickles; use tls:// (Dask's distributed.comm.tls settings) or pass "
                          "--insecure-scheduler on a network you trust")
-
-
-def _loopback(host: str) -> bool:
-    import ipaddress
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def check_runs(scene_path: str, runs: list[SweepRun]) -> None:

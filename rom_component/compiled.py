@@ -22,6 +22,7 @@ import numpy as np
 
 from cosim.errors import CosimError
 from rom_component.fmu_export import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
+from rom_component.model_check import check_arrays
 from rom_component.online import OnlineRom
 
 
@@ -82,6 +83,7 @@ class CompiledRom(OnlineRom):
 
     def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], defines: tuple[str, ...] = ()):
         """``defines``: preprocessor names for the build (``SOLID_ROM_SCALAR``: no vector types, same results)."""
+        check_arrays(arrays, metadata)     # the C code reads every array by the sizes it derives: whatever their source
         super().__init__(arrays, metadata, "reproducible")
         self.arithmetic = "compiled"
         self._lib = _library(defines)
