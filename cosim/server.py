@@ -30,6 +30,10 @@ from cosim.launcher import TOKEN_VARIABLE
 PARENT_CHECK_SECONDS = 0.5
 
 
+class EntryImportError(CosimError):
+    """An entry's module cannot be imported (here: its own process may still find it)."""
+
+
 def load_entry(entry: str) -> type:
     """The class named by ``"package.module:Class"``."""
     module_name, sep, class_name = entry.partition(":")
@@ -38,7 +42,7 @@ def load_entry(entry: str) -> type:
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise CosimError(f"entry '{entry}': cannot import module '{module_name}': {exc} (a module of your own goes "
+        raise EntryImportError(f"entry '{entry}': cannot import module '{module_name}': {exc} (a module of your own goes "
                          "next to the scene file, or on PYTHONPATH)") from None
     cls = getattr(module, class_name, None)
     if cls is None:

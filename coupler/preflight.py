@@ -13,6 +13,7 @@ from pathlib import Path
 
 from cosim.errors import CosimError, SceneError
 from cosim.scene import Scene
+from cosim.server import EntryImportError, load_entry
 from cosim.schema import file_paths, unknown_key_message, validate
 
 
@@ -23,9 +24,9 @@ def check_parameters(scene: Scene) -> None:
             continue
         try:
             schema = _component_class(spec["entry"], scene.folder).parameter_schema
+        except EntryImportError:
+            continue                     # its own process will say what is missing
         except CosimError as exc:
-            if "cannot import module" in str(exc):
-                continue                 # its own process will say what is missing
             raise SceneError(f"{scene.source}: 'components.{name}.entry': {exc}") from None
         if schema is not None:
             _check(scene, name, schema)
@@ -35,7 +36,6 @@ def _component_class(entry: str, folder: Path) -> type:
     """The class of ``entry``, found as its process finds it: the scene's folder is searched last."""
     import sys
 
-    from cosim.server import load_entry
     added = str(folder) not in sys.path
     if added:
         sys.path.append(str(folder))
