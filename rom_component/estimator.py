@@ -4,18 +4,8 @@ Snapshots are rows (scikit-learn convention): F (m, N) interface forces, U (m, N
 displacements. Encoder: centred POD of F with ``n_force_modes`` modes. Decoder:
 centred POD of U with ``n_disp_modes`` modes, linear or with a quadratic manifold.
 Regression from scaled reduced forces to reduced displacements: thin-plate-spline
-RBF, a BIC-sparse quadratic polynomial (or one fitted on all its terms by cross-validated ridge,
-``poly_fit = "ridge"``), or (``regressor = "potential"``) the gradient of a cubic potential.
-With ``force_basis = "work"`` the encoder is not the forces' POD but an orthonormal basis of the decoder's
-displacement modes on the interface (r_f = r_u): the reduced forces are then the work of the force on each
-displacement mode, the only part of a force a static elastic solid whose response lies in those modes answers
-(Maxwell-Betti); the potential then takes displacement modes whose interface rows are that basis, so that its
-outputs are the inputs' work conjugates and its compliance is symmetric. On the double flap both predict unseen
-calls as well as the forces' POD with 60 modes, and both failed in coupled runs within 30 windows (README, "The
-solid's compliance"). With ``secant_weight`` > 0 and the window of each
-snapshot (``fit(F, U, windows=...)``, rows of a window in call order), the polynomial also fits the
-differences between consecutive sub-iterations of a window: the solid's response along the
-directions the coupling explores, which fitting the levels alone leaves free.
+RBF, or a BIC-sparse quadratic polynomial (or one fitted on all its terms by cross-validated ridge,
+``poly_fit = "ridge"``, the windows of the snapshots grouping its cross-validation).
 """
 
 from __future__ import annotations
@@ -30,7 +20,7 @@ from rom_component.envelope import fit_envelope
 from rom_component.manifold import fit_quadratic_manifold, quadratic_terms
 from rom_component.online import OnlineRom
 from rom_component.pod import centred_pod
-from rom_component.regression import POLY_FITS, Scaling, make_regression
+from rom_component.regression import POLY_FITS, REGRESSORS, Scaling, make_regression
 
 
 class SolidRom(RegressorMixin, BaseEstimator):
@@ -44,7 +34,6 @@ class SolidRom(RegressorMixin, BaseEstimator):
     def __init__(self, n_force_modes: int = 3, n_disp_modes: int = 9, decoder: str = "linear",
                  regressor: str = "rbf", input_scaling: str = "global", manifold_regularization: float = 1e-6,
                  rbf_smoothing: float = 0.0, quadratic_modes: int = 0, feature_scaling: str = "standard",
-                 secant_weight: float = 0.0, force_basis: str = "pod", interface_index: np.ndarray | None = None,
                  cross_modes: int = 0, poly_fit: str = "lasso-bic", cubic_modes: int = 0):
         self.n_force_modes = n_force_modes
         self.n_disp_modes = n_disp_modes
@@ -55,9 +44,6 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.rbf_smoothing = rbf_smoothing
         self.quadratic_modes = quadratic_modes
         self.feature_scaling = feature_scaling
-        self.secant_weight = secant_weight
-        self.force_basis = force_basis
-        self.interface_index = interface_index
         self.cross_modes = cross_modes
         self.poly_fit = poly_fit
         self.cubic_modes = cubic_modes
@@ -78,6 +64,8 @@ class SolidRom(RegressorMixin, BaseEstimator):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if self.regressor not in REGRESSORS:
+            raise ValueError(f"regressor {self.regressor!r} not in {REGRESSORS}")
         if self.decoder not in ("linear", "quadratic"):
             raise ValueError(f"decoder {self.decoder!r} not in ('linear', 'quadratic')")
         for name in ("quadratic_modes", "cross_modes", "cubic_modes"):
@@ -87,36 +75,17 @@ class SolidRom(RegressorMixin, BaseEstimator):
                                  f"got {value!r}")
         if self.poly_fit not in POLY_FITS:
             raise ValueError(f"poly_fit {self.poly_fit!r} not in {POLY_FITS}")
-        if self.poly_fit == "ridge" and self.secant_weight > 0:
-            raise ValueError("poly_fit 'ridge' fits levels only: secant_weight must be 0")
-        for name in ("manifold_regularization", "rbf_smoothing", "secant_weight"):
+        for name in ("manifold_regularization", "rbf_smoothing"):
             value = getattr(self, name)
             if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if self.force_basis not in ("pod", "work"):
-            raise ValueError(f"force_basis {self.force_basis!r} not in ('pod', 'work')")
-        if self.regressor == "potential" and (self.force_basis, self.decoder, self.input_scaling) != \
-                ("work", "linear", "global"):
-            raise ValueError("regressor 'potential' needs force_basis 'work', decoder 'linear' and input_scaling "
-                             f"'global' (its outputs are the inputs' work conjugates), got {self.force_basis!r}, "
-                             f"{self.decoder!r} and {self.input_scaling!r}")
-        if self.secant_weight > 0 and self.regressor != "poly":
-            raise ValueError(f"secant_weight applies to the poly regressor, not {self.regressor!r}")
 
     def fit(self, X: np.ndarray, y: np.ndarray, windows: np.ndarray | None = None) -> "SolidRom":
-        """Fit on force rows ``X`` and displacement rows ``y``; ``windows``: the window of each row (rows of
-        one window in call order), needed with ``secant_weight`` > 0, and the ridge fit's cross-validation
-        groups (without them it cross-validates over snapshots)."""
+        """Fit on force rows ``X`` and displacement rows ``y``; ``windows``: the window of each row, the ridge
+        fit's cross-validation groups (without them it cross-validates over snapshots)."""
         self.check_params()
         F, U = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=np.float64,
                              ensure_min_samples=2)
-        pairs = None
-        if self.secant_weight > 0:
-            if windows is None or len(windows) != len(F):
-                raise ValueError(f"secant_weight > 0 needs the window of each of the {len(F)} snapshots")
-            windows = np.asarray(windows)
-            first = np.flatnonzero(windows[1:] == windows[:-1])
-            pairs = (first, first + 1)            # consecutive sub-iterations of one window
         self.single_output_ = U.ndim == 1
         U = U[:, None] if self.single_output_ else U
         self.n_force_modes_ = min(self.n_force_modes, len(F) - 1, F.shape[1])
@@ -125,14 +94,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
         self.Phi_f_ = modes[:, :self.n_force_modes_]
         self.u_mean_, modes, self.disp_singular_values_ = centred_pod(U)
         self.Phi_u_ = modes[:, :self.n_disp_modes_]
-        if self.force_basis == "work":
-            self.Phi_f_, conjugate = self._work_basis(F.shape[1], U.shape[1])
-            self.n_force_modes_ = self.Phi_f_.shape[1]
-            if self.regressor == "potential":     # displacement modes whose interface rows are the work basis
-                self.Phi_u_ = self.Phi_u_ @ conjugate
-                self.n_disp_modes_ = self.Phi_u_.shape[1]
-        # coordinates in the displacement modes (orthonormal from the POD; the work conjugates' are not)
-        Zu = (U - self.u_mean_) @ (self.Phi_u_ if self.regressor != "potential" else np.linalg.pinv(self.Phi_u_).T)
+        Zu = (U - self.u_mean_) @ self.Phi_u_
         self.Phi_bar_ = None
         if self.decoder == "quadratic":
             residual = (U - self.u_mean_) - Zu @ self.Phi_u_.T
@@ -143,28 +105,12 @@ class SolidRom(RegressorMixin, BaseEstimator):
         X = self.scaling_(Zf)
         regression = make_regression(self.regressor, self.rbf_smoothing, self.quadratic_modes, self.feature_scaling,
                                      self.cross_modes, self.poly_fit, self.cubic_modes)
-        if pairs is not None:
-            self.regression_ = regression.fit(X, Zu, pairs=pairs, pair_weight=self.secant_weight)
-        elif self.regressor == "poly":     # the windows group the ridge fit's cross-validation
+        if self.regressor == "poly":     # the windows group the ridge fit's cross-validation
             self.regression_ = regression.fit(X, Zu, groups=None if windows is None else np.asarray(windows))
         else:
             self.regression_ = regression.fit(X, Zu)
         self.envelope_ = fit_envelope(X)   # where the ROM has seen data (its trust range)
         return self
-
-    def _work_basis(self, n_force: int, n_disp: int) -> tuple[np.ndarray, np.ndarray]:
-        """Orthonormal basis Q (n_force, r = min(r_f, r_u)) of the displacement modes' interface rows, ordered by
-        their singular values: a force's coordinates in it carry its work on every displacement mode; and the
-        (r_u, r) change of displacement modes Phi_u -> Phi_u C whose interface rows are Q."""
-        index = np.arange(n_disp) if self.interface_index is None else np.asarray(self.interface_index)
-        if index.shape != (n_force,) or index.min() < 0 or index.max() >= n_disp:
-            raise ValueError(f"force_basis 'work' needs the interface's {n_force} columns of the {n_disp} "
-                             f"displacement values (interface_index), got shape {index.shape}")
-        basis, singular, vt = np.linalg.svd(self.Phi_u_[index], full_matrices=False)
-        r = min(self.n_force_modes_, basis.shape[1])
-        signs = np.sign(basis[np.argmax(np.abs(basis[:, :r]), axis=0), np.arange(r)])
-        signs = np.where(signs == 0, 1.0, signs)
-        return basis[:, :r] * signs, vt[:r].T / singular[:r] * signs
 
     def encode(self, F: np.ndarray) -> np.ndarray:
         return self.scaling_((np.atleast_2d(F) - self.f_mean_) @ self.Phi_f_)

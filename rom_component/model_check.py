@@ -64,7 +64,7 @@ def check_arrays(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) 
         if name not in arrays:
             raise ModelContentError(f"it lacks the array '{name}'")
     regressor = metadata.get("regressor")
-    if not isinstance(regressor, str):      # "rbf", or a polynomial form online ("poly", "potential")
+    if not isinstance(regressor, str):      # "rbf" or "poly"
         raise ModelContentError(f"its metadata names no regressor (got {regressor!r})")
     for name, value in arrays.items():
         if name in INDICES:

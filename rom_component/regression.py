@@ -6,8 +6,6 @@
   ``cubic_modes`` inputs) whose terms are chosen per output by a Lasso-LARS path with the BIC
   (``sklearn.linear_model.LassoLarsIC``), or fitted on all its terms by ridge regression with the
   penalty cross-validated over whole windows (``fit = "ridge"``).
-- ``PotentialRegression``: the gradient of a cubic potential, u~ = grad psi(x), fitted by least squares
-  over all outputs at once: a degree-2 polynomial whose Jacobian is symmetric by construction.
 
 Both expose ``online_arrays()``: the arrays of the evaluation
 u~ = H z with z = [kernel values or polynomial terms, x, 1], in the scaled input space.
@@ -22,6 +20,7 @@ from scipy.special import xlogy
 from rom_component.manifold import quadratic_index
 
 SCALINGS = ("global", "standard", "minmax", "none")
+REGRESSORS = ("rbf", "poly")
 POLY_FITS = ("lasso-bic", "ridge")
 # ridge penalties tried, per snapshot, with the terms scaled as for the Lasso: from a mere conditioning of the
 # normal equations to a damping of every term weaker than a thousandth of the strongest
@@ -146,11 +145,8 @@ class SparseQuadraticRegression:
         self.fit_method = fit
         self.cubic_modes = cubic_modes
 
-    def fit(self, X: np.ndarray, Y: np.ndarray, pairs: tuple[np.ndarray, np.ndarray] | None = None,
-            pair_weight: float = 0.0, groups: np.ndarray | None = None) -> "SparseQuadraticRegression":
-        """Least squares on the rows (X, Y); with ``pairs`` (a, b) of row indices, also on the differences
-        Y[b] - Y[a] against X[b] - X[a], weighted so that their squared sum is ``pair_weight`` times that
-        of the centred rows, per output; ``groups``: the window of each row (ridge's cross-validation)."""
+    def fit(self, X: np.ndarray, Y: np.ndarray, groups: np.ndarray | None = None) -> "SparseQuadraticRegression":
+        """Least squares on the rows (X, Y); ``groups``: the window of each row (ridge's cross-validation)."""
         from sklearn.linear_model import LassoLarsIC
         self.n_inputs = X.shape[1]
         self.quad_i, self.quad_j = product_index(self.n_inputs, self.quadratic_modes, self.cross_modes)
@@ -175,18 +171,7 @@ class SparseQuadraticRegression:
         coefficients = np.zeros((n_terms, Y.shape[1]))
         self.ridge_penalty = None
         if self.fit_method == "ridge":
-            if pairs is not None and pair_weight > 0:
-                raise ValueError("the ridge fit takes no sub-iteration steps (secant_weight)")
             coefficients = self._ridge(Phi, Ys, groups)
-        elif pairs is not None and len(pairs[0]) and pair_weight > 0:
-            a, b = pairs
-            dPhi, dY = Phi[b] - Phi[a], Ys[b] - Ys[a]      # the intercept cancels in a difference
-            steps = np.sum(dY ** 2, axis=0)
-            weights = np.sqrt(pair_weight * np.sum(Ys ** 2, axis=0) / np.where(steps > 0, steps, 1.0))
-            for k in range(Y.shape[1]):     # Phi and Ys are centred: no intercept to fit
-                model = LassoLarsIC(criterion="bic", fit_intercept=False, noise_variance=noise)
-                model.fit(np.vstack([Phi, weights[k] * dPhi]), np.concatenate([Ys[:, k], weights[k] * dY[:, k]]))
-                coefficients[:, k] = model.coef_
         else:
             for k in range(Y.shape[1]):
                 model = LassoLarsIC(criterion="bic", fit_intercept=True, noise_variance=noise)
@@ -232,69 +217,6 @@ class SparseQuadraticRegression:
         return arrays
 
 
-class PotentialRegression:
-    """u~ = grad psi(x) for a cubic polynomial psi (degree 1 to 3 monomials of the n inputs), one least-squares fit
-    of its coefficients over every output. The outputs must be the inputs' work conjugates (as many, paired by
-    index): for a hyperelastic static solid, the generalised displacements are the gradient of the complementary
-    energy in the generalised forces, so their Jacobian, the compliance, is symmetric (Maxwell-Betti), which a
-    fit per output does not keep. Online it is a degree-2 polynomial of the ``poly`` form."""
-
-    kind = "poly"
-
-    def fit(self, X: np.ndarray, Y: np.ndarray) -> "PotentialRegression":
-        n = X.shape[1]
-        if Y.shape[1] != n:
-            raise ValueError(f"the potential regressor needs as many outputs as inputs (work conjugates), "
-                             f"got {n} inputs and {Y.shape[1]} outputs")
-        self.n_inputs = n
-        self.quad_i, self.quad_j = quadratic_index(n)
-        # monomials of psi as exponent rows, degree 1 to 3; the derivative of x^a along x_l is a_l x^(a - e_l)
-        exponents = _exponents_up_to_3(n)
-        terms = {tuple(row): k for k, row in enumerate(self._term_exponents(n))}   # columns of z = [q(x), x, 1]
-        T = np.zeros((n, len(terms), len(exponents)))      # u~_l = sum_z sum_t T[l, z, t] theta_t z
-        for t, a in enumerate(exponents):
-            for l in np.flatnonzero(a):
-                b = a.copy()
-                b[l] -= 1
-                T[l, terms[tuple(b)], t] = a[l]
-        Z = self.features(X)
-        design = np.einsum("sz,lzt->slt", Z, T).reshape(-1, len(exponents))
-        theta, *_ = np.linalg.lstsq(design, Y.reshape(-1), rcond=None)
-        self.H = np.einsum("lzt,t->lz", T, theta)
-        self.n_parameters = len(exponents)
-        return self
-
-    @staticmethod
-    def _term_exponents(n: int) -> np.ndarray:
-        """Exponent rows of z = [x_i x_j (i <= j), x_i, 1], the online path's order."""
-        i, j = quadratic_index(n)
-        quadratic = np.zeros((len(i), n), dtype=int)
-        np.add.at(quadratic, (np.arange(len(i)), i), 1)
-        np.add.at(quadratic, (np.arange(len(i)), j), 1)
-        return np.vstack([quadratic, np.eye(n, dtype=int), np.zeros((1, n), dtype=int)])
-
-    def features(self, X: np.ndarray) -> np.ndarray:
-        return np.hstack([X[:, self.quad_i] * X[:, self.quad_j], X, np.ones((len(X), 1))])
-
-    def predict(self, X: np.ndarray) -> np.ndarray:
-        return self.features(X) @ self.H.T
-
-    def online_arrays(self) -> dict[str, np.ndarray]:
-        return {"H": np.ascontiguousarray(self.H), "quad_i": self.quad_i, "quad_j": self.quad_j}
-
-
-def _exponents_up_to_3(n: int) -> np.ndarray:
-    """Exponent rows of the monomials of degree 1 to 3 in n variables."""
-    from itertools import combinations_with_replacement
-    rows = []
-    for degree in (1, 2, 3):
-        for combo in combinations_with_replacement(range(n), degree):
-            row = np.zeros(n, dtype=int)
-            np.add.at(row, list(combo), 1)
-            rows.append(row)
-    return np.array(rows)
-
-
 def product_index(n: int, quadratic_modes: int = 0, cross_modes: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i <= j) of the products x_i x_j of n inputs: both among the leading ``quadratic_modes``
     (0: all n), or one among the leading ``cross_modes``; in the order of ``np.triu_indices``."""
@@ -321,6 +243,4 @@ def make_regression(kind: str, smoothing: float = 0.0, quadratic_modes: int = 0,
         return RbfRegression(smoothing)
     if kind == "poly":
         return SparseQuadraticRegression(quadratic_modes, feature_scaling, cross_modes, poly_fit, cubic_modes)
-    if kind == "potential":
-        return PotentialRegression()
-    raise ValueError(f"regressor {kind!r} not in ('rbf', 'poly', 'potential')")
+    raise ValueError(f"regressor {kind!r} not in {REGRESSORS}")

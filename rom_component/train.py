@@ -28,22 +28,11 @@ CONFIG = {
                   # a recorded local holding the whole displacement field (the double flap's displacement_field):
                   # the decoder learns it and the ROM's output is its part on the output's nodes
                   "field": "",
-                  "t_min": 0.0, "t_max": 1e300, "converged_only": False,
-                  # .npz files of the same solid's answers to chosen forces (scripts/flap_probes.py), trained on
-                  # next to the recorded calls: force, the learned output, and each probe's base time and window
-                  "probes": []},
+                  "t_min": 0.0, "t_max": 1e300, "converged_only": False},
     "model": {"n_force_modes": 3, "n_disp_modes": 9, "decoder": "linear", "regressor": "rbf",
               "input_scaling": "global", "manifold_regularization": 1e-6, "rbf_smoothing": 0.0,
               "quadratic_modes": 0,    # poly: products of the leading quadratic_modes reduced forces only (0: all)
               "feature_scaling": "standard",   # poly: each term to unit variance, or "global": one scale for all
-              # poly: also fit the steps between a window's sub-iterations, their squared sum weighted to this
-              # fraction of the levels' (0: levels only)
-              "secant_weight": Value(0.0, low=0.0),
-              # the encoder: the forces' POD ("pod", r_f = n_force_modes), or "work": the decoder's displacement
-              # modes on the interface, orthonormalised (r_f = r_u): the work of the force on each mode (with
-              # regressor = "potential" and decoder = "linear": a symmetric compliance). On the double flap its
-              # coupled runs failed within 30 windows of the switch (README, "The solid's compliance")
-              "force_basis": "pod",
               # poly: the products of the leading cross_modes reduced forces with every reduced force, too
               "cross_modes": 0,
               # poly: "lasso-bic" (terms chosen per output, the paper's) or "ridge" (all terms, the penalty
@@ -110,28 +99,6 @@ def read_training_set(results: Sequence[str | Path], spec: dict[str, Any]):
     return F, U, times, windows
 
 
-def read_probes(paths: Sequence[str | Path], spec: dict[str, Any], n_in: int, n_out: int):
-    """F, U, base times and base windows of the probe files ``paths`` (empty arrays if none)."""
-    learned = spec["field"] or spec["output"]
-    parts = []
-    for path in paths:
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                part = {k: np.asarray(data[k]) for k in ("force", learned, "time", "window") if k in data}
-        except (OSError, ValueError) as exc:
-            raise SceneError(f"snapshots.probes: cannot read '{path}': {exc}") from None
-        missing = {"force", learned, "time", "window"} - set(part)
-        if missing:
-            raise SceneError(f"snapshots.probes: '{path}' has no {', '.join(sorted(missing))}")
-        if part["force"].ndim != 2 or part["force"].shape[1] != n_in or part[learned].shape != (len(part["force"]), n_out):
-            raise SceneError(f"snapshots.probes: '{path}' has force {part['force'].shape} and {learned} "
-                             f"{part[learned].shape}; the recorded calls have ({n_in},) and ({n_out},) a row")
-        parts.append(part)
-    if not parts:
-        return np.empty((0, n_in)), np.empty((0, n_out)), np.empty(0), np.empty(0, dtype=int)
-    return tuple(np.concatenate([part[k] for part in parts]) for k in ("force", learned, "time", "window"))
-
-
 def read_interface(results: str | Path, spec: dict[str, Any]) -> tuple[list[dict[str, Any]], dict[str, np.ndarray]]:
     """The trained variables as the full-order component declared them (mesh, components) and their meshes."""
     with RunResults(results) as run:
@@ -183,20 +150,10 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     except ValueError as exc:
         raise SceneError(f"model: {exc}") from None
     K = interface_index(results, config["snapshots"]) if config["snapshots"]["field"] else None
-    probes = read_probes(config["snapshots"]["probes"], config["snapshots"], F.shape[1], U.shape[1])
-    if len(probes[0]):
-        if params["secant_weight"] > 0:
-            raise SceneError("snapshots.probes and model.secant_weight > 0 do not go together: probes are no "
-                             "sub-iterations of their base window")
-        # each probe joins its base call's window, so that a hold-out by windows holds them out together
-        F, U, times, windows = (np.concatenate(pair) for pair in zip((F, U, times, windows), probes))
-        echo(f"and {len(probes[0])} probes from {len(config['snapshots']['probes'])} file(s): F {F.shape}")
     selection = config["selection"]
-    if params["force_basis"] == "work":
-        params["interface_index"] = K     # the force's columns among the displacement field's (None: the same)
     table = None
-    # the steps between sub-iterations, and the ridge fit's cross-validation, go by window
-    fit_by_window = params["secant_weight"] > 0 or (params["regressor"] == "poly" and params["poly_fit"] == "ridge")
+    # the ridge fit cross-validates over whole windows
+    fit_by_window = params["regressor"] == "poly" and params["poly_fit"] == "ridge"
     started = time.perf_counter()
     tables = {}
     if selection["table"] or selection["choose"] == "holdout":
@@ -219,7 +176,6 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     model = SolidRom(**params).fit(F, U, windows=windows if fit_by_window else None)
     fit_seconds = time.perf_counter() - fit_started
     params["n_force_modes"], params["n_disp_modes"] = model.modes   # as used (capped by the data)
-    params.pop("interface_index", None)
     U_fit = model.predict(F)
     training_error = float(np.linalg.norm(U_fit - U, axis=1).mean())
     metadata = {
@@ -229,7 +185,6 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
         "t_range": [float(times.min()), float(times.max())], "n_snapshots": int(len(F)),
         "fit_seconds": fit_seconds, "cv_seconds": cv_seconds, "training_error": training_error,
         "results_all": [str(path) for path in sources],
-        "probes": [str(path) for path in config["snapshots"]["probes"]], "n_probes": int(len(probes[0])),
     }
     variables, meshes = read_interface(results, config["snapshots"])
     metadata["variables"] = variables   # the meshes the ROM declares, as the full-order solid did
