@@ -6,9 +6,9 @@ import os
 import platform
 import time
 import timeit
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -42,7 +42,7 @@ class Timing:
     samples: int
 
     @classmethod
-    def of(cls, seconds: np.ndarray) -> "Timing":
+    def of(cls, seconds: np.ndarray) -> Timing:
         us = np.asarray(seconds, dtype=float) * 1e6
         q1, median, q3 = np.percentile(us, [25, 50, 75])
         return cls(float(median), float(q1), float(q3), len(us))

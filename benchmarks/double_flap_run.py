@@ -29,9 +29,9 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import Timing, fresh_directory, machine, rewrite_readme  # noqa: E402
 from benchmarks.kratos_peer import TIPS  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
 from cosim.results import RunResults  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
+from coupler.run import run_scene  # noqa: E402
 
 SCENE = ROOT / "scenes" / "double_flap.toml"
 DT = 0.008

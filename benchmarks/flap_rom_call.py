@@ -27,15 +27,24 @@ import json
 import os
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.common import CORE_PER_SOLVER, Timing, cold_call, fresh_directory, idle_call, machine, per_call, rewrite_readme  # noqa: E402
+from benchmarks.common import (  # noqa: E402
+    CORE_PER_SOLVER,
+    Timing,
+    cold_call,
+    fresh_directory,
+    idle_call,
+    machine,
+    per_call,
+    rewrite_readme,
+)
 from cosim.component import MESH_PREFIX  # noqa: E402
 from rom_component import persistence  # noqa: E402
 from rom_component.compiled import CompiledRom  # noqa: E402
@@ -101,9 +110,9 @@ def coupled_step_times(model: Path, out: Path, windows: int, keep_warm: float = 
                        overrides: Sequence[str] = ()) -> tuple[np.ndarray, float]:
     """Compute seconds of the ROM component's calls in a coupled double-flap run of ``windows`` windows (scene
     ``overrides`` added), and the share of one core its keep-warm repeats took over the run's wall."""
-    from coupler.run import run_scene
     from cosim.results import RunResults
     from cosim.scene import load_scene
+    from coupler.run import run_scene
     scene = load_scene(ROOT / "scenes" / "double_flap.toml",
                        ["components.solid.backend=rom", f"components.solid.rom.model={model}",
                         f"components.solid.rom.keep_warm={keep_warm!r}", f"time.end={windows * 0.008!r}",

@@ -39,8 +39,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import CORE_PER_SOLVER, fresh_directory, machine, rewrite_readme  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
+from coupler.run import run_scene  # noqa: E402
 from rom_component.report import Run, call_windows, compare  # noqa: E402
 from rom_component.train import load_config, train  # noqa: E402
 

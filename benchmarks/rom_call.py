@@ -29,18 +29,18 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import Timing, fresh_directory, machine, per_call  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
 from cosim.component import MESH_PREFIX  # noqa: E402
 from cosim.results import RunResults  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
+from coupler.run import run_scene  # noqa: E402
 from rom_component import persistence  # noqa: E402
 from rom_component.component import RomSolid  # noqa: E402
 from rom_component.estimator import SolidRom  # noqa: E402
 from rom_component.fmu_export import export_fmu  # noqa: E402
 from rom_component.online import OnlineRom  # noqa: E402
-from solid_component.fmu import FmuSolid  # noqa: E402
 from rom_component.selection import holdout_table  # noqa: E402
 from rom_component.train import load_config, read_interface, read_snapshots  # noqa: E402
+from solid_component.fmu import FmuSolid  # noqa: E402
 from solid_component.tube import TubeSolid  # noqa: E402
 
 PAPER_ROM_CALL_US = 2800.0

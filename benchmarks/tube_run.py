@@ -23,9 +23,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.common import Timing, fresh_directory, machine  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
 from cosim.results import RunResults  # noqa: E402
 from cosim.scene import load_scene  # noqa: E402
+from coupler.run import run_scene  # noqa: E402
 
 SCENE = ROOT / "scenes" / "tube_fom.toml"
 PAPER_PRECICE = {"mu1": 4054 / 1200, "mu2": 3.21}   # coupling iterations per window, the paper's preCICE runs

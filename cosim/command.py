@@ -8,8 +8,8 @@ A command module should stay light: heavy imports belong inside ``run``, so that
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 GROUP = "cosim.commands"
 

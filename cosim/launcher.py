@@ -19,9 +19,9 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 from cosim import stop
 from cosim.errors import ComponentDied, ComponentError
@@ -63,7 +63,7 @@ class Launcher:
         self.startup_timeout = startup_timeout
         self.processes: list[ComponentProcess] = []
 
-    def __enter__(self) -> "Launcher":
+    def __enter__(self) -> Launcher:
         atexit.register(self.stop_all)
         self._stops = stop.handling_stops()     # Ctrl-C and SIGTERM stop the run at its next safe point
         self._stops.__enter__()

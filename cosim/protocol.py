@@ -10,7 +10,8 @@ before use and raises ``ProtocolError`` naming what was wrong.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import msgpack
 import numpy as np

@@ -10,7 +10,8 @@ from the validated settings.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Mapping, TypeVar
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar
 
 from cosim.errors import SceneError
 from cosim.schema import validate

@@ -15,9 +15,10 @@ import json
 import platform
 import shutil
 import socket
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import h5py
 import numpy as np
@@ -272,7 +273,7 @@ class RunResults:
         except OSError as exc:
             raise CosimError(f"cannot read '{self.path}': it is truncated or damaged ({exc})") from None
 
-    def __enter__(self) -> "RunResults":
+    def __enter__(self) -> RunResults:
         return self
 
     def __exit__(self, *exc_info: Any) -> None:

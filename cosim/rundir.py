@@ -43,7 +43,7 @@ class RunDirectory:
         self._lock: int | None = None
         self._last_status = 0.0
 
-    def __enter__(self) -> "RunDirectory":
+    def __enter__(self) -> RunDirectory:
         fd = hold(self.path, "run")
         if (self.path / "results.h5").exists():
             if not self.overwrite:

@@ -12,15 +12,23 @@ checks those tables against the chosen plug-in before anything starts.
 from __future__ import annotations
 
 import os
-
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
-from cosim.schema import (AnyTable, FilePath, PluginChoice, Positive, Required, Value, file_paths,
-                          unknown_key_message, validate)
+from cosim.schema import (
+    AnyTable,
+    FilePath,
+    PluginChoice,
+    Positive,
+    Required,
+    Value,
+    file_paths,
+    unknown_key_message,
+    validate,
+)
 
 COMPONENT = {
     "entry": "",            # "package.module:Class", started as a local process

@@ -31,17 +31,26 @@ import json
 import os
 import shutil
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
 from cosim.errors import CosimError, SceneError
-from cosim.schema import Required, validate
 from cosim.scene import read_toml
-from coupler.sweep import (TABLE, SweepRun, SweepTable, check_runs, finished_row, run_one, scene_fingerprint,
-                           setting_keys)
+from cosim.schema import Required, validate
+from coupler.sweep import (
+    TABLE,
+    SweepRun,
+    SweepTable,
+    check_runs,
+    finished_row,
+    run_one,
+    scene_fingerprint,
+    setting_keys,
+)
 
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "models": Required(dict),
         "predictions": Required(list)}

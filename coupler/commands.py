@@ -32,8 +32,8 @@ def _scheduler(args: argparse.Namespace) -> str | None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from coupler.run import run_scene
     from cosim.scene import load_scene
+    from coupler.run import run_scene
 
     scene = load_scene(args.scene, args.set or [])
     summary = run_scene(scene, args.out, progress=not args.quiet, overwrite=args.overwrite)
@@ -59,8 +59,8 @@ def _sweep_arguments(parser: argparse.ArgumentParser) -> None:
 def _sweep(args: argparse.Namespace) -> int:
     from collections import Counter
 
-    from coupler.sweep import file_runs, grid_runs, read_rows, run_sweep
     from cosim.errors import SceneError
+    from coupler.sweep import file_runs, grid_runs, read_rows, run_sweep
 
     if bool(args.grid) == bool(args.runs):
         raise SceneError("give --grid options or a --runs file (one of them)")
@@ -107,9 +107,9 @@ def _stability(args: argparse.Namespace) -> int:
     import csv
     from pathlib import Path
 
+    from cosim.errors import SceneError
     from coupler.stability import MATRIX_KEYS, METHODS, matrix_runs, plot_contraction, plot_matrix, spectral_table
     from coupler.sweep import run_sweep
-    from cosim.errors import SceneError
 
     factors, dts = _numbers(args.factors, "--factors"), _numbers(args.dts, "--dts")
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
@@ -154,8 +154,8 @@ def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _campaign(args: argparse.Namespace) -> int:
-    from coupler.campaign import run_campaign
     from cosim.errors import SceneError
+    from coupler.campaign import run_campaign
 
     if args.status:
         from coupler.campaign_status import campaign_status

@@ -3,11 +3,11 @@ checked against the chosen plug-in classes' own settings before a run starts."""
 
 from __future__ import annotations
 
+from cosim.scene import Scene
 from coupler.acceleration import resolve_acceleration
 from coupler.convergence import resolve_measure
 from coupler.mapping import MAPPINGS
 from coupler.schemes import SCHEMES
-from cosim.scene import Scene
 
 
 def resolve_plugins(scene: Scene) -> None:

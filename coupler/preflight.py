@@ -13,8 +13,8 @@ from pathlib import Path
 
 from cosim.errors import CosimError, SceneError
 from cosim.scene import Scene
-from cosim.server import EntryImportError, load_entry
 from cosim.schema import file_paths, unknown_key_message, validate
+from cosim.server import EntryImportError, load_entry
 
 
 def check_parameters(scene: Scene) -> None:

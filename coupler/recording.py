@@ -7,7 +7,8 @@ recorded as NaN, so that all datasets of a component keep one row per call.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 

@@ -19,6 +19,13 @@ from collections import Counter
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from cosim import stop
+from cosim.errors import ComponentError, CosimError, SceneError
+from cosim.launcher import Launcher
+from cosim.proxy import ComponentProxy
+from cosim.results import ResultsStore
+from cosim.rundir import RunDirectory
+from cosim.scene import Scene
 from coupler.acceleration import make_acceleration
 from coupler.convergence import make_measure
 from coupler.mapping import make_mapping
@@ -27,13 +34,6 @@ from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange
-from cosim import stop
-from cosim.errors import ComponentError, CosimError, SceneError
-from cosim.launcher import Launcher
-from cosim.proxy import ComponentProxy
-from cosim.results import ResultsStore
-from cosim.rundir import RunDirectory
-from cosim.scene import Scene
 
 
 @dataclass

@@ -9,20 +9,27 @@ when sent. In implicit schemes stateful participants are rolled back with
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 
+from cosim.errors import (
+    ComponentDied,
+    ComponentError,
+    ComponentTimeout,
+    ConvergenceError,
+    DivergenceError,
+    SceneError,
+    StalledError,
+)
+from cosim.proxy import ComponentProxy
+from cosim.registry import Registry
 from coupler.acceleration import Acceleration
 from coupler.convergence import ConvergenceMeasure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
-from cosim.errors import (ComponentDied, ComponentError, ComponentTimeout, ConvergenceError, DivergenceError,
-                          SceneError, StalledError)
-from cosim.proxy import ComponentProxy
-from cosim.registry import Registry
 
 SCHEMES = Registry("coupling scheme")
 

@@ -146,8 +146,8 @@ def matrix_runs(factors: list[float], dts: list[float], methods: list[str], wind
 def spectral_table(scene_path: str, factors: list[float], dts: list[float], wall_law: str,
                    common: list[str] = ()) -> list[dict[str, float]]:
     """Computed and theoretical Gauss-Seidel spectral radius at every (stiffness factor, dt)."""
-    from coupler.plugins import resolve_plugins
     from cosim.scene import load_scene
+    from coupler.plugins import resolve_plugins
     rows = []
     for factor in factors:
         for dt in dts:

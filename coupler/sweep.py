@@ -27,9 +27,10 @@ import json
 import os
 import shlex
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -141,9 +142,9 @@ def check_scheduler(address: str | None, insecure: bool = False) -> None:
 
 def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
     """Every variant must load and name known plug-ins before anything runs (errors name the run)."""
+    from cosim.scene import load_scene
     from coupler.plugins import resolve_plugins
     from coupler.preflight import check_parameters
-    from cosim.scene import load_scene
     if not runs:
         raise SceneError("the sweep has no runs")
     names = [run.name for run in runs]
@@ -160,10 +161,16 @@ def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
 
 def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, Any]:
     """Run one variant (on a Dask worker); a row of the sweep table, whatever happened."""
-    from coupler.run import run_scene
-    from cosim.errors import (ComponentError, ConvergenceError, CosimError, DivergenceError, NonFiniteOutput,
-                              StalledError)
+    from cosim.errors import (
+        ComponentError,
+        ConvergenceError,
+        CosimError,
+        DivergenceError,
+        NonFiniteOutput,
+        StalledError,
+    )
     from cosim.scene import load_scene
+    from coupler.run import run_scene
 
     started = time.perf_counter()
     failure, message, failed_residuals = "", "", []

@@ -14,7 +14,8 @@ extrapolated; outlet pressure 0.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from scipy.linalg import solve_banded

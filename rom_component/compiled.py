@@ -14,9 +14,10 @@ import math
 import os
 import tempfile
 import weakref
-from pathlib import Path
+from collections.abc import Callable, Mapping
 from functools import partial
-from typing import Any, Callable, Mapping, NamedTuple
+from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 

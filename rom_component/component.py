@@ -9,7 +9,8 @@ displacement field is rebuilt once, at ``terminate``, for the results file.
 from __future__ import annotations
 
 import time
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 

@@ -80,7 +80,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
             if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
 
-    def fit(self, X: np.ndarray, y: np.ndarray, windows: np.ndarray | None = None) -> "SolidRom":
+    def fit(self, X: np.ndarray, y: np.ndarray, windows: np.ndarray | None = None) -> SolidRom:
         """Fit on force rows ``X`` and displacement rows ``y``; ``windows``: the window of each row, the ridge
         fit's cross-validation groups (without them it cross-validates over snapshots)."""
         self.check_params()

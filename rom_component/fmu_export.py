@@ -17,14 +17,14 @@ import struct
 import subprocess
 import tempfile
 import uuid
+import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
-import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from cosim.errors import CosimError
 from cosim.component import MESH_PREFIX
+from cosim.errors import CosimError
 from rom_component.online import OnlineRom
 from rom_component.persistence import load_arrays
 

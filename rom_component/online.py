@@ -15,8 +15,8 @@ rebuilt only on request (``full_field``).
 from __future__ import annotations
 
 import math
-
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 

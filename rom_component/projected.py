@@ -12,7 +12,8 @@ reduced displacements from the ROM's regression instead, to find which of them c
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 

@@ -41,7 +41,7 @@ class Scaling:
             raise ValueError(f"scaling {kind!r} not in {SCALINGS}")
         self.kind = kind
 
-    def fit(self, X: np.ndarray) -> "Scaling":
+    def fit(self, X: np.ndarray) -> Scaling:
         r = X.shape[1]
         if self.kind == "none":
             self.shift, self.scale = np.zeros(r), np.ones(r)
@@ -82,7 +82,7 @@ class RbfRegression:
     def __init__(self, smoothing: float = 0.0):
         self.smoothing = smoothing
 
-    def fit(self, X: np.ndarray, Y: np.ndarray) -> "RbfRegression":
+    def fit(self, X: np.ndarray, Y: np.ndarray) -> RbfRegression:
         from scipy.linalg import LinAlgError, solve
         _, keep = np.unique(X, axis=0, return_index=True)  # repeated centres make the system singular
         keep.sort()
@@ -145,7 +145,7 @@ class SparseQuadraticRegression:
         self.fit_method = fit
         self.cubic_modes = cubic_modes
 
-    def fit(self, X: np.ndarray, Y: np.ndarray, groups: np.ndarray | None = None) -> "SparseQuadraticRegression":
+    def fit(self, X: np.ndarray, Y: np.ndarray, groups: np.ndarray | None = None) -> SparseQuadraticRegression:
         """Least squares on the rows (X, Y); ``groups``: the window of each row (ridge's cross-validation)."""
         from sklearn.linear_model import LassoLarsIC
         self.n_inputs = X.shape[1]

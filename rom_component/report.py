@@ -22,8 +22,8 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.results import RunResults
-from rom_component.report_plots import write_plots
 from rom_component.persistence import ModelFileError, load_arrays
+from rom_component.report_plots import write_plots
 
 
 def iterations_interval(iterations: np.ndarray, reference: np.ndarray, block: int = 10, resamples: int = 4000,
@@ -63,7 +63,7 @@ class Run:
     model: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
-    def read(cls, directory: str | Path) -> "Run":
+    def read(cls, directory: str | Path) -> Run:
         directory = Path(directory)
         with RunResults(directory) as results:
             components = {}

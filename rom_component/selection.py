@@ -7,8 +7,8 @@ reported together with its relative form eps / mean_i ||U_test,i - u_mean||.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from sklearn.base import clone

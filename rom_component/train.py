@@ -9,13 +9,14 @@ saves the online arrays plus metadata.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-from cosim.errors import SceneError
 from cosim.component import MESH_PREFIX
+from cosim.errors import SceneError
 from cosim.results import RunResults
 from cosim.scene import apply_override, parse_override, read_toml
 from cosim.schema import Value, validate

@@ -36,6 +36,7 @@ def _until_failure(campaign: Path, row: dict[str, str], fom: list[dict[str, str]
     """A failed ROM-FOM run over the windows it served before failing: interface displacement error and
     coupling iterations against the FOM-FOM run of the same Reynolds number."""
     import numpy as np
+
     from cosim.results import RunResults
     path = campaign / "rom" / "runs" / row["name"] / "results.h5"
     if not path.is_file():

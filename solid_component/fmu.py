@@ -10,17 +10,17 @@ quasi-static solid's); ``stateful = true`` uses ``fmi2GetFMUstate``/``fmi2SetFMU
 from __future__ import annotations
 
 import atexit
-import json
-
 import ctypes
+import json
 import os
 import re
 import shutil
 import sys
 import tempfile
 import zipfile
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -119,8 +119,12 @@ class FmuSolid(Component):
     def _callbacks(self):
         """FMI callbacks whose logger keeps the FMU's messages (and writes them to the log)."""
         from fmpy import calloc, free
-        from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                               fmi2CallbackLoggerTYPE)
+        from fmpy.fmi2 import (
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+        )
         self.messages: list[str] = []
 
         def logger(environment, instance, status, category, message):

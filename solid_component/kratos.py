@@ -11,8 +11,9 @@ Kratos is imported only here, in the component's own process.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -57,8 +58,9 @@ class KratosSolid(KratosComponent):
         mesh, materials = self.prepare(prm, self._materials(prm))
         import KratosMultiphysics as KM
         import KratosMultiphysics.StructuralMechanicsApplication as SMA
-        from KratosMultiphysics.StructuralMechanicsApplication.structural_mechanics_analysis import \
-            StructuralMechanicsAnalysis
+        from KratosMultiphysics.StructuralMechanicsApplication.structural_mechanics_analysis import (
+            StructuralMechanicsAnalysis,
+        )
         self.model = KM.Model()
         stage = StructuralMechanicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
         self.stepped = SteppedStage(self.name, stage, static=True)

@@ -11,14 +11,14 @@ by computing the three candidate roots and keeping the one inside its branch.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
 from cosim.schema import Positive, Value, validate
-
 
 # the [tube] section, read by fluid and solid alike (each component package stands alone)
 # the fluid holds about 670 bytes a cell (10 million cells took it past 6.7 GB), and results.h5 grows by 16 bytes

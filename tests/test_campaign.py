@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from coupler.campaign import load_plan
 from cosim.errors import SceneError
+from coupler.campaign import load_plan
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -8,7 +8,6 @@ import sys
 import pytest
 
 from cosim.cli import main
-
 from tests.conftest import ROOT, TUBE_SCENE
 
 
@@ -129,8 +128,8 @@ def test_serve_on_a_port_in_use(capsys):
 
 
 def test_train_and_report_of_a_truncated_results_file(capsys, tmp_path):
-    from coupler.run import run_scene
     from cosim.scene import load_scene
+    from coupler.run import run_scene
     run_scene(load_scene(TUBE_SCENE, ["time.end=0.5", "components.solid.record=true"]), tmp_path / "run",
               progress=False)
     whole = (tmp_path / "run" / "results.h5").read_bytes()

@@ -15,7 +15,6 @@ from cosim.results import RunResults
 from rom_component import compiled, persistence
 from rom_component.component import RomSolid
 from rom_component.estimator import SolidRom
-
 from tests.conftest import children_of
 from tests.test_flap_rom import calls  # noqa: F401  (the module's fixture)
 from tests.test_fmu import models  # noqa: F401  (the module's fixture)

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
+from cosim.errors import SceneError
 from coupler.acceleration import IQNILS, Acceleration, Aitken, ConstantRelaxation
 from coupler.convergence import make_measure, resolve_measure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import make_mapping
-from cosim.errors import SceneError
 
 
 def iterate(acceleration, H, x0, tol=1e-10, max_iterations=200):
@@ -32,7 +32,7 @@ def windows(acceleration, problems, limit=100):
     x, iterations, solutions = np.zeros(len(problems[0][1])), [], []
     for A, b in problems:
         acceleration.start_window()
-        for k in range(1, limit):
+        for k in range(1, limit):  # noqa: B007 (k, the iterations taken, is read after the loop)
             x_tilde = A @ x + b
             acceleration.observe(x, x_tilde)
             if np.linalg.norm(x_tilde - x) < 1e-10 * np.linalg.norm(x_tilde):
@@ -216,8 +216,8 @@ def test_combinators_any_of_and_all_of():
 
 
 def test_a_setting_that_does_not_belong_to_the_plugin_is_an_error():
-    from coupler.acceleration import resolve_acceleration
     from cosim.errors import SceneError
+    from coupler.acceleration import resolve_acceleration
     with pytest.raises(SceneError, match="unknown key 'coupling.acceleration.filter'"):
         resolve_acceleration({"type": "aitken", "filter": "qr2"})
     with pytest.raises(SceneError, match="known accelerations: none, constant, aitken, iqn-ils"):
@@ -263,7 +263,7 @@ def test_nearest_neighbour_mappings():
 
 def test_iqn_imvj_learns_the_jacobian_of_a_linear_problem_across_windows():
     """x = A x + b with b changing per window: after one window IMVJ has A's inverse Jacobian, IQN-ILS (reuse 0) not."""
-    from coupler.acceleration import IQNIMVJ, IQNILS
+    from coupler.acceleration import IQNILS, IQNIMVJ
     rng = np.random.default_rng(0)
     n = 20
     A = rng.standard_normal((n, n))

@@ -9,13 +9,12 @@ import sys
 import numpy as np
 import pytest
 
-from coupler.run import run_scene
 from cosim.cli import main
 from cosim.errors import DivergenceError, NonFiniteOutput
 from cosim.results import RunResults
 from cosim.rundir import read_status
 from cosim.scene import load_scene
-
+from coupler.run import run_scene
 from tests.conftest import ROOT, TUBE_SCENE, alive_with, children_of, cmdline, wait_for, windows_done
 
 
@@ -275,7 +274,8 @@ def test_ctrl_c_before_the_first_window_leaves_a_readable_run_and_exit_code_130(
         early = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out",
                                   str(tmp_path / library), "--quiet"], cwd=ROOT,
                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        wait_for(lambda: library in mapped(early.pid), f"the coupler to load {library}", poll=0.001)
+        wait_for(lambda library=library, pid=early.pid: library in mapped(pid), f"the coupler to load {library}",
+                 poll=0.001)
         early.send_signal(signal.SIGINT)
         assert early.wait(timeout=60) == 130
     assert children_of(os.getpid()) == []

@@ -16,7 +16,6 @@ from rom_component import persistence
 from rom_component.estimator import SolidRom
 from rom_component.fmu_export import export_fmu
 from solid_component.fmu import FmuSolid
-
 from tests.test_rom import smooth_data
 
 
@@ -169,8 +168,12 @@ def test_bad_fmus_get_clear_errors(models, tmp_path):
 def test_resource_uri_forms(models, tmp_path):
     """file:///path with and without a trailing slash, percent-encoded, and file://localhost/."""
     from fmpy import calloc, free
-    from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                           fmi2CallbackLoggerTYPE)
+    from fmpy.fmi2 import (
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
     _, fmu, _ = models["rbf"]
     unzipped = tmp_path / "a dir with spaces%"
     with zipfile.ZipFile(fmu) as archive:
@@ -230,6 +233,7 @@ def tampered(source, target, **changes):
 def test_a_model_with_wrong_arrays_is_refused_when_loaded_and_never_exported(models, tmp_path, capsys, change,
                                                                             message):
     import re
+
     from cosim.cli import main
     source = models["rbf"][0]
     with np.load(source) as data:
@@ -247,6 +251,7 @@ def test_a_model_with_wrong_arrays_is_refused_when_loaded_and_never_exported(mod
 def test_a_model_file_is_read_with_a_size_cap_before_anything_is_decompressed(models, tmp_path):
     import io
     import zipfile
+
     from rom_component.model_check import MAX_MODEL_BYTES
     source = models["rbf"][0]
     bomb = tmp_path / "bomb.npz"
@@ -262,6 +267,7 @@ def test_a_model_file_is_read_with_a_size_cap_before_anything_is_decompressed(mo
 
 def unpacked_folders() -> set[str]:
     import tempfile
+
     from solid_component.fmu import UNPACK_ROOT
     root = Path(tempfile.gettempdir()) / UNPACK_ROOT
     return {p.name for p in root.iterdir()} if root.is_dir() else set()

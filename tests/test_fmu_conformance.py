@@ -14,14 +14,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy import extract, read_model_description
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
 from fmpy.validation import validate_fmu
 
 from rom_component import persistence
 from rom_component.fmu_export import SOURCE, export_fmu
 from solid_component.fmu import FmuSolid
-
 from tests.test_fmu import models, train  # noqa: F401  (the module's fixture)
 
 N = 101   # the rbf model's inputs and outputs

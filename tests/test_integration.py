@@ -12,11 +12,10 @@ import time
 import numpy as np
 import pytest
 
-from coupler.run import run_scene
-from cosim.results import RunResults
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, SceneError
+from cosim.results import RunResults
 from cosim.scene import load_scene
-
+from coupler.run import run_scene
 from tests.conftest import REFERENCE, ROOT, TUBE_SCENE, alive_with, children_of, cmdline, wait_for, windows_done
 
 

@@ -7,7 +7,6 @@ import ast
 import pytest
 
 from cosim.cli import commands, parser
-
 from tests.conftest import ROOT
 
 OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component")

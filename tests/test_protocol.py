@@ -145,12 +145,13 @@ def test_an_input_that_is_not_float64_gets_an_error_reply(dtype):
 
 def test_a_launched_component_stops_only_for_the_run_that_launched_it(tmp_path):
     """Any local process reaches a served component's port; only the launcher's run token stops it."""
+    import os
+
     import zmq
 
     from cosim.launcher import Launcher
     from cosim.proxy import ComponentProxy
     from tests.conftest import children_of
-    import os
     with Launcher(tmp_path) as launcher:
         process = launcher.spawn("solid", "solid_component.tube:TubeSolid")
         endpoint = launcher.handshake(process)

@@ -3,23 +3,22 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from coupler.run import run_scene
 from cosim.errors import ComponentError, SceneError
 from cosim.results import RunResults
 from cosim.scene import load_scene
+from coupler.run import run_scene
 from rom_component import persistence
 from rom_component.estimator import SolidRom
 from rom_component.selection import holdout_table
 from rom_component.train import load_config, read_snapshots
-
 from tests.conftest import ROOT, TUBE_SCENE, children_of
 
 TRAIN_END = 6.0
@@ -242,7 +241,6 @@ def test_fmu_whose_sizes_do_not_fit_the_scene_is_refused(tmp_path):
 
 
 def persistence_save(path, estimator):
-    from rom_component import persistence
     return persistence.save(path, estimator.online_arrays(), {"regressor": "rbf", "input_variable": "pressure",
                                                               "output_variable": "section"})
 

@@ -1,8 +1,8 @@
 import pytest
 
-from coupler.plugins import resolve_plugins
 from cosim.errors import SceneError
 from cosim.scene import load_scene as load_only
+from coupler.plugins import resolve_plugins
 
 
 def load_scene(path, overrides=()):

@@ -9,10 +9,9 @@ import time
 
 import pytest
 
-from coupler.sweep import SweepRun, SweepTable, file_runs, grid_runs, run_sweep, scene_fingerprint
 from cosim.cli import main
 from cosim.errors import SceneError
-
+from coupler.sweep import SweepRun, SweepTable, file_runs, grid_runs, run_sweep, scene_fingerprint
 from tests.conftest import ROOT, TUBE_SCENE, wait_for
 
 SHORT = ["time.end=0.5"]

@@ -9,7 +9,6 @@ from cosim.errors import ComponentError, SceneError
 from fluid_component.inlet import DuffingInlet, TableInlet
 from fluid_component.tube import TubeFluid
 from solid_component.tube import TubeSolid
-
 from tests.conftest import REFERENCE
 
 
