@@ -16,8 +16,11 @@ GROUP = "cosim.commands"
 
 @dataclass(frozen=True)
 class Command:
-    """``help`` for the listing, ``arguments`` to define its options, ``run`` to carry it out (exit code)."""
+    """``help`` for the listing, ``arguments`` to define its options, ``run`` to carry it out (exit code);
+    ``description`` and ``example`` for its own ``--help``."""
 
     help: str
     arguments: Callable[[argparse.ArgumentParser], None]
     run: Callable[[argparse.Namespace], int]
+    description: str = ""
+    example: str = ""

@@ -378,6 +378,11 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
         if coupling["scheme"] == "serial-implicit" and name not in fed_back:
             raise SceneError(f"{source}: '{where}' is '{name}', but serial-implicit accelerates the data the second "
                              f"participant '{second}' sends: {', '.join(fed_back) or 'none'}")
+    kind = acceleration.get("type", "none") if isinstance(acceleration, dict) else acceleration
+    if coupling["scheme"] == "serial-explicit" and (kind != "none" or coupling["predictor"] != "none"):
+        key = "coupling.acceleration" if kind != "none" else "coupling.predictor"
+        raise SceneError(f"{source}: '{key}' is set, but serial-explicit takes one iteration a window and "
+                         "accelerates nothing; use serial-implicit or parallel-implicit, or remove it")
     if coupling["scheme"] != "serial-explicit" and not coupling["convergence"]:
         raise SceneError(f"{source}: an implicit scheme needs at least one [[coupling.convergence]] measure")
     plot = data["output"]["plot_field"]

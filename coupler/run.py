@@ -197,10 +197,9 @@ def check_precision(measures: list[dict], precision: dict[str, float]) -> None:
                       "such data", file=sys.stderr)
 
 
-def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:
-    """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
-    directory = RunDirectory(out_dir, overwrite)     # refuses an empty name before it would mean "."
-    out_dir = directory.path
+def prepare(scene: Scene) -> int:
+    """Everything a run checks before it starts a process: every plug-in's settings filled in (the resolved
+    scene), every component's parameters, the run plots, the time grid; returns the number of windows."""
     resolve_plugins(scene)
     check_parameters(scene)
     run_plot_hooks(scene)   # unknown plot names fail before anything starts
@@ -208,6 +207,15 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
     n_windows = int(math.floor((end - start) / dt + 0.5))
     if abs(start + n_windows * dt - end) > 1e-9 * max(1.0, abs(end)):
         raise SceneError(f"{scene.source}: time.end - time.start = {end - start:g} is not a multiple of time.dt = {dt:g}")
+    return n_windows
+
+
+def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:
+    """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
+    directory = RunDirectory(out_dir, overwrite)     # refuses an empty name before it would mean "."
+    out_dir = directory.path
+    n_windows = prepare(scene)
+    start, dt = scene["time"]["start"], scene["time"]["dt"]
     with directory:
         summary = _run(scene, directory, start, dt, n_windows, progress)
         # under the lock: no other run may take the directory over while its plots are drawn

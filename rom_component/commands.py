@@ -66,6 +66,20 @@ def _export_fmu(args: argparse.Namespace) -> int:
     return 0
 
 
-train = Command("train a solid ROM from the snapshots of a run", _train_arguments, _train)
-report = Command("compare ROM-FOM runs with FOM-FOM references", _report_arguments, _report)
-export_fmu = Command("export a trained ROM as an FMI 2.0 Co-Simulation FMU", _export_arguments, _export_fmu)
+train = Command(
+    "train a solid ROM from the snapshots of a run", _train_arguments, _train,
+    "Fit the solid ROM (POD of forces, POD or quadratic manifold of displacements, RBF or sparse polynomial "
+    "regression) on the calls a run recorded, print the hold-out table over the mode numbers, and save the "
+    "model (.npz, no pickle) with its training plots beside it.",
+    "cosim train runs/fom_mu1/results.h5 --config scenes/tube_rom.toml --set snapshots.t_max=18 --out runs/model.npz")
+report = Command(
+    "compare ROM-FOM runs with FOM-FOM references", _report_arguments, _report,
+    "Compare each ROM-FOM run with its FOM-FOM reference (same scene): errors of the monitored value and of the "
+    "displacement e(t), coupling iterations with their 90 % interval, solid cost and speed-up against its "
+    "bound; writes report.json, report.txt and the PNGs.",
+    "cosim report runs/rom_mu1=runs/fom_mu1 --out runs/report")
+export_fmu = Command(
+    "export a trained ROM as an FMI 2.0 Co-Simulation FMU", _export_arguments, _export_fmu,
+    "Compile the ROM's C code with the model's arrays into an FMI 2.0 Co-Simulation FMU (no Python inside); "
+    "the FMU backend then serves the solid bit for bit as the ROM backend's reproducible arithmetic.",
+    "cosim export-fmu runs/model.npz --out runs/solid_rom.fmu")

@@ -141,3 +141,32 @@ def test_train_and_report_of_a_truncated_results_file(capsys, tmp_path):
         err = one_line_error(capsys, argv)
         assert f"cannot read '{cut}': it is truncated or damaged" in err
     assert not (tmp_path / "m.npz").exists()
+
+
+def test_version_and_every_subcommand_s_help_has_a_description_an_example_and_every_option_explained(capsys):
+    from importlib.metadata import version
+
+    from cosim.cli import commands, parser
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0 and capsys.readouterr().out.strip() == f"cosim {version('cosim-rom-fsi')}"
+    sub = next(a for a in parser()._actions if a.dest == "command")
+    for name in commands():
+        command = sub.choices[name]
+        assert command.description and command.epilog.startswith("example:\n  cosim "), name
+        for action in command._actions:
+            assert action.help, f"cosim {name} {action.option_strings or action.dest} has no help"
+
+
+def test_check_validates_without_running_and_prints_the_resolved_scene(capsys, tmp_path):
+    import json
+    assert main(["check", str(TUBE_SCENE), "--set", "time.end=2"]) == 0
+    captured = capsys.readouterr()
+    resolved = json.loads(captured.out)
+    assert resolved["time"]["end"] == 2 and resolved["coupling"]["acceleration"]["type"] == "iqn-ils"
+    assert resolved["coupling"]["acceleration"]["on_map_change"] == "drop-span"   # a default the scene omits
+    assert captured.err.strip().endswith("valid; 20 windows, components fluid, solid")
+    assert main(["check", str(TUBE_SCENE), "--set", "components.solid.parameters.E_smal=1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "cosim check: error: unknown key 'components.solid.parameters.E_smal' in " + str(TUBE_SCENE)
+        + "; did you mean 'components.solid.parameters.E_small'?"]

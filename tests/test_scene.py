@@ -49,6 +49,7 @@ def test_set_overrides_values_and_records_them(tube_scene_path):
     ('exchange.0.mapping={type="nearest-neighbour", constraint="sideways"}',
      "'exchange.0.mapping.constraint' is 'sideways'; allowed: consistent, conservative"),
     ("coupling.predictor=psychic", "'coupling.predictor' is 'psychic'; allowed: none, acceleration"),
+    ("coupling.scheme=serial-explicit", "'coupling.acceleration' is set, but serial-explicit takes one iteration"),
     ("coupling.convergence.0.type=any-of", "unknown key 'coupling.convergence.0.limit'.*known keys: data, measures"),
     ('coupling.convergence.0={data="pressure", type="any-of"}', "missing key 'coupling.convergence.0.measures'"),
     ("coupling.participants=[\"fluid\", \"soild\"]", "'coupling.participants.1' is 'soild', not a component"),
@@ -82,3 +83,10 @@ def test_the_acceleration_predictor_replaces_extrapolation(tube_scene_path):
     assert load_scene(tube_scene_path, ["coupling.predictor=acceleration"])["coupling"]["predictor"] == "acceleration"
     with pytest.raises(SceneError, match="'coupling.extrapolation_order' must be 0, got 1"):
         load_scene(tube_scene_path, ["coupling.predictor=acceleration", "coupling.extrapolation_order=1"])
+
+
+def test_serial_explicit_runs_without_acceleration_or_its_predictor(tube_scene_path):
+    explicit = ["coupling.scheme=serial-explicit", 'coupling.acceleration="none"']
+    assert load_scene(tube_scene_path, explicit)["coupling"]["scheme"] == "serial-explicit"
+    with pytest.raises(SceneError, match="'coupling.predictor' is set, but serial-explicit"):
+        load_scene(tube_scene_path, [*explicit, "coupling.predictor=acceleration"])
