@@ -173,6 +173,9 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
         params["n_force_modes"], params["n_disp_modes"] = table.chosen
     elif selection["choose"] == "energy":
         params["n_force_modes"], params["n_disp_modes"] = energy_choice(F, U, selection["energy"])
+    elif table is not None:
+        echo(f"the configuration fixes r_f = {params['n_force_modes']}, r_u = {params['n_disp_modes']} "
+             "(selection.choose = \"fixed\"; \"holdout\" or \"energy\" would choose them): the table informs only")
     fit_started = time.perf_counter()
     model = SolidRom(**params).fit(F, U, windows=windows if fit_by_window else None)
     fit_seconds = time.perf_counter() - fit_started

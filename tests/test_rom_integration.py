@@ -44,6 +44,9 @@ def model(fom, tmp_path_factory):
                  "--set", "selection.force_modes=[1, 3]")
     assert done.returncode == 0, done.stderr
     assert "hold-out error eps" in done.stdout and "training time" in done.stdout and "energy criterion" in done.stdout
+    # the table's best is not what the tube's configuration fits (3 and 9, fixed): the output says so
+    assert "the configuration fixes r_f = 3, r_u = 9 (selection.choose = \"fixed\"" in done.stdout, done.stdout
+    assert "fitted r_f = 3, r_u = 9" in done.stdout
     return path
 
 
