@@ -79,7 +79,11 @@ class NonFiniteOutput(ComponentError):
 
 
 class ConvergenceError(CosimError):
-    """The coupling iterations of a time window did not converge."""
+    """The coupling iterations of a time window did not converge; ``where`` names the window, ``residuals`` holds
+    its coupling residual per iteration."""
+
+    where: str = ""
+    residuals: list[float]
 
 
 class DivergenceError(ConvergenceError):

@@ -113,6 +113,11 @@ class KratosComponent(Component):
     repeats_steps = True
     input_name = ""
     solve_label = "solve"
+    stepped: Any = None         # a SteppedStage once instantiated, None once closed
+    model: Any = None           # the Kratos Model
+    interface: Any = None       # the Kratos nodes the input goes to
+    input: np.ndarray
+    settings: dict[str, Any]
 
     def prepare(self, settings: dict[str, Any], materials: dict[str, Any]) -> tuple[Path, Path]:
         """Checks shared by the Kratos components, Kratos's logging and threads, and a private folder

@@ -104,8 +104,10 @@ class Launcher:
     def handshake(self, process: ComponentProcess) -> str:
         """Wait for the component's endpoint line; errors name the component."""
         deadline = time.monotonic() + self.startup_timeout
+        stdout = process.popen.stdout
+        assert stdout is not None      # spawned with stdout=PIPE
         selector = selectors.DefaultSelector()
-        selector.register(process.popen.stdout, selectors.EVENT_READ)
+        selector.register(stdout, selectors.EVENT_READ)
         buffer = b""
         try:
             while b"\n" not in buffer:
@@ -115,7 +117,7 @@ class Launcher:
                                                        f"(log: {process.log_path})")
                 stop.check()
                 if selector.select(min(remaining, 0.1)):
-                    chunk = os.read(process.popen.stdout.fileno(), 4096)
+                    chunk = os.read(stdout.fileno(), 4096)
                     if not chunk:
                         process.popen.wait(timeout=5)
                         raise ComponentDied(process.name, process.poll(), process.stderr_tail())
@@ -129,7 +131,7 @@ class Launcher:
         except ValueError:
             raise ComponentError(process.name, f"sent a malformed handshake {buffer[:200]!r}") from None
         process.endpoint = info["endpoint"]
-        process.popen.stdout.close()
+        stdout.close()
         return process.endpoint
 
     def stop_all(self, grace: float = 2.0) -> None:

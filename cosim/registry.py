@@ -11,34 +11,34 @@ from the validated settings.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any, TypeVar
+from typing import Any, Generic, TypeVar
 
 from cosim.errors import SceneError
 from cosim.schema import validate
 
-T = TypeVar("T", bound=type)
+P = TypeVar("P")    # the plug-in kind's base class
 
 
-class Registry:
-    """Named plug-in classes of one kind (accelerations, measures, mappings, schemes)."""
+class Registry(Generic[P]):
+    """Named plug-in classes of one kind (accelerations, measures, mappings, schemes), subclasses of ``P``."""
 
     def __init__(self, kind: str):
         self.kind = kind
-        self.classes: dict[str, type] = {}
+        self.classes: dict[str, type[P]] = {}
 
-    def register(self, name: str) -> Callable[[T], T]:
-        def decorate(cls: T) -> T:
+    def register(self, name: str) -> Callable[[type[P]], type[P]]:
+        def decorate(cls: type[P]) -> type[P]:
             if name in self.classes:
                 raise ValueError(f"{self.kind} '{name}' is registered twice")
             self.classes[name] = cls
-            cls.type_name = name
+            setattr(cls, "type_name", name)     # noqa: B010 (the name the class is chosen by)
             return cls
         return decorate
 
     def names(self) -> list[str]:
         return list(self.classes)
 
-    def lookup(self, name: Any, where: str, source: str = "") -> type:
+    def lookup(self, name: Any, where: str, source: str = "") -> type[P]:
         if name not in self.classes:
             raise SceneError(f"{_at(source)}'{where}' is {name!r}; known {self.kind}s: {', '.join(self.classes)}")
         return self.classes[name]
@@ -66,7 +66,7 @@ class Registry:
             check(settings, where, source, **(context or {}))
         return {"type": name, **settings}
 
-    def create(self, settings: Mapping[str, Any], **context: Any) -> Any:
+    def create(self, settings: Mapping[str, Any], **context: Any) -> P:
         """An instance from settings returned by ``settings`` (``type`` picks the class)."""
         options = {k: v for k, v in settings.items() if k != "type"}
         return self.classes[settings["type"]](**options, **context)

@@ -322,7 +322,7 @@ class RunResults:
                       for k, v in group.attrs.items()}
         variables = json.loads(attributes.pop("variables", "[]"))
         meshes = {k: v[:] for k, v in self.file.get(Layout.meshes(name), {}).items()}
-        return ComponentRecord(name, attributes, *timings, final, variables, meshes)
+        return ComponentRecord(name, attributes, timings[0], timings[1], final, variables, meshes)
 
     # --- snapshots --------------------------------------------------------------
     def recorded(self) -> list[str]:

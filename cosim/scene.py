@@ -112,7 +112,8 @@ class Scene:
         for key in keys:
             node, last = self._holder(key)
             value = node.get(last) if node is not None else None
-            if isinstance(value, str) and value and not Path(value).is_absolute() and not self.given(key):
+            if node is not None and isinstance(value, str) and value and not Path(value).is_absolute() \
+                    and not self.given(key):
                 node[last] = str(self.folder / value)
 
     def value(self, key: str) -> Any:

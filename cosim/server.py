@@ -82,7 +82,7 @@ def check_bind_address(address: str) -> None:
 
 def bind_socket(bind: str, max_bytes: int = protocol.MAX_MESSAGE_BYTES) -> zmq.Socket:
     """A ROUTER bound to ``bind`` that drops any frame over ``max_bytes`` before allocating it."""
-    socket = zmq.Context.instance().socket(zmq.ROUTER)
+    socket: zmq.Socket = zmq.Context.instance().socket(zmq.ROUTER)
     socket.setsockopt(zmq.LINGER, 1000)
     socket.setsockopt(zmq.MAXMSGSIZE, max_bytes)
     try:
@@ -151,7 +151,8 @@ class ComponentServer:
             message = f"missing argument {exc}" if isinstance(exc, KeyError) else \
                 exc.detail if isinstance(exc, ComponentError) else str(exc)
             return protocol.error_reply(request_id, kind, message, self.component.name), False
-        values, out_arrays = {}, {}
+        values: dict[str, Any] = {}
+        out_arrays: dict[str, np.ndarray] = {}
         if isinstance(result, dict):
             for key, value in result.items():
                 (out_arrays if isinstance(value, np.ndarray) else values)[key] = value

@@ -17,6 +17,7 @@ result ``x_tilde = H(x)`` (``observe``), and proposes the next iterate
 from __future__ import annotations
 
 from collections import deque
+from typing import Any
 
 import numpy as np
 from scipy.linalg import solve_triangular
@@ -25,10 +26,10 @@ from cosim.errors import SceneError
 from cosim.registry import Registry
 from cosim.schema import Positive, Value
 
-ACCELERATIONS = Registry("acceleration")
+ACCELERATIONS: Registry[Acceleration] = Registry("acceleration")
 FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
 MAP_CHANGES = ("drop-span", "drop-all")
-COMMON = {"data": []}   # the data items accelerated (default: the scheme's choice)
+COMMON: dict[str, Any] = {"data": []}   # the data items accelerated (default: the scheme's choice)
 RELAXATION = Value(0.5, low=0.0, high=1.0, low_open=True)
 
 
@@ -39,8 +40,8 @@ class Acceleration:
     SETTINGS: dict = {}
 
     def __init__(self, block_sizes: list[int] | None = None) -> None:
-        self.x: np.ndarray | None = None
-        self.x_tilde: np.ndarray | None = None
+        self.x = np.zeros(0)           # the window's last iterate and the fixed-point map's value there,
+        self.x_tilde = np.zeros(0)     # set by observe before any update
         self.iteration = 0
 
     def start_window(self) -> None:

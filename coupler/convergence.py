@@ -26,7 +26,7 @@ from cosim.errors import SceneError
 from cosim.registry import Registry
 from cosim.schema import Required, Value
 
-MEASURES = Registry("convergence measure")
+MEASURES: Registry[ConvergenceMeasure] = Registry("convergence measure")
 COMMON = {"data": Required(str)}
 LIMIT = Value(low=0.0, low_open=True)
 
@@ -118,7 +118,7 @@ class Combination(ConvergenceMeasure):
         ratios = [m.value / m.limit for m in self.members]
         nearest = self.members[int(np.argmin(ratios))]
         self.value, self.limit = nearest.value, nearest.limit
-        return self.combine(met)
+        return type(self).combine(met)
 
     def summary(self) -> str:
         inner = ", ".join(m.summary().removeprefix(f"{m.data} ") for m in self.members)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import deque
+from typing import cast
 
 import numpy as np
 
@@ -25,4 +26,4 @@ class Extrapolation:
     def predict(self) -> np.ndarray:
         available = len(self._history)
         coefficients = COEFFICIENTS[min(self.order, available - 1)]
-        return sum(c * v for c, v in zip(coefficients, self._history))
+        return cast(np.ndarray, sum(c * v for c, v in zip(coefficients, self._history)))

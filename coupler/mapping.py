@@ -29,7 +29,7 @@ from cosim.errors import SceneError
 from cosim.registry import Registry
 from cosim.schema import Positive
 
-MAPPINGS = Registry("mapping")
+MAPPINGS: Registry[Mapping] = Registry("mapping")
 CONSTRAINTS = ("consistent", "conservative")
 
 

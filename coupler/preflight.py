@@ -23,7 +23,7 @@ def check_parameters(scene: Scene) -> None:
         if not spec["entry"]:
             continue
         try:
-            schema = _component_class(spec["entry"], scene.folder).parameter_schema
+            schema = getattr(_component_class(spec["entry"], scene.folder), "parameter_schema", None)
         except EntryImportError:
             continue                     # its own process will say what is missing
         except CosimError as exc:

@@ -79,6 +79,7 @@ class BackendSchedule:
         self._sent.send_step(t, dt, inputs, restore)
 
     def receive_step(self) -> dict[str, np.ndarray]:
+        assert self._sent is not None and self._sent_inputs is not None, "receive_step before send_step"
         outputs = self._sent.receive_step()
         flag = outputs.get("rom_out_of_range")
         if self.fallback is not None and self._sent is not self.fallback and flag is not None and flag[0] > 0:

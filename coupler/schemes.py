@@ -31,7 +31,7 @@ from coupler.extrapolation import Extrapolation
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
 
-SCHEMES = Registry("coupling scheme")
+SCHEMES: Registry[CouplingScheme] = Registry("coupling scheme")
 
 
 def stalled(residuals: Sequence[float], last: int = 10) -> bool:
@@ -230,6 +230,7 @@ class CouplingScheme:
             measures = ", ".join(m.summary() for m in self.measures)
             first, last = (self._residuals[0], self._residuals[-1]) if self._residuals else (0.0, 0.0)
             where = f"window {self.window} (t = {self.t:g} to {t:g})"
+            error: ConvergenceError | None
             if last > self.divergence_factor * first:
                 error = DivergenceError(f"diverged: the coupling residual grew from {first:.3e} to {last:.3e} "
                                         f"in {iterations} iterations ({measures})")

@@ -99,9 +99,9 @@ class CompiledRom(OnlineRom):
         # fixed buffers, their addresses taken once; the C code writes the reduced forces where trust() reads
         self._f, self._u, self._reduced = np.empty(self.n_inputs), np.empty(self.n_outputs), np.empty(len(self.reduced))
         buffers = (handle, self._f.ctypes.data, self._u.ctypes.data, self._x_slot.ctypes.data, self._reduced.ctypes.data)
-        self._call = (self._lib.solid_rom_evaluate, *buffers)
+        self._call: tuple = (self._lib.solid_rom_evaluate, *buffers)
         self._evaluate = self._compiled
-        envelope = (0, 0, 0, 0)            # NULL pointers: no envelope, no trust
+        envelope: tuple[int, ...] = (0, 0, 0, 0)    # NULL pointers: no envelope, no trust
         self._max_distance = 1.0
         if self.envelope is not None:      # with an envelope, each call computes its trust too (one ctypes call)
             env = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in self.envelope.items()}

@@ -182,6 +182,7 @@ class RomSolid(Component):
     def _keep_converged(self) -> None:
         if self.on_out_of_range == "fallback" and self.trust_values[2] > 0:
             return   # the solid FOM took this window over: the ROM's state is not the window's
+        assert self._window_time is not None and self._last_reduced is not None   # a window has been served
         self._times.append(self._window_time + self._dt)
         self._reduced.append(self._last_reduced.copy())    # the served call's buffer is rewritten by the next
 

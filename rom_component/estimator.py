@@ -77,7 +77,7 @@ class SolidRom(RegressorMixin, BaseEstimator):
             raise ValueError(f"poly_fit {self.poly_fit!r} not in {POLY_FITS}")
         for name in ("manifold_regularization", "rbf_smoothing"):
             value = getattr(self, name)
-            if not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
+            if not isinstance(value, numbers.Real) or not np.isfinite(float(value)) or value < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
 
     def fit(self, X: np.ndarray, y: np.ndarray, windows: np.ndarray | None = None) -> SolidRom:

@@ -41,7 +41,7 @@ def save(path: str | Path, arrays: Mapping[str, np.ndarray], metadata: Mapping[s
     payload["metadata_json"] = np.frombuffer(document.encode(), dtype=np.uint8)
     partial = path.with_name(path.name + ".partial")
     with open(partial, "wb") as f:
-        np.savez(f, **payload)
+        np.savez(f, **payload)  # type: ignore[arg-type]  # numpy's stub takes allow_pickle for a keyword
     partial.replace(path)        # a model file is complete or absent, never half written
     return path
 

@@ -100,7 +100,7 @@ class ProjectedSolid(Component):
         values = self.inner.get_values(list(dict.fromkeys([*names, self.field_name])))
         shape = values[self.output_name].shape
         reduced = self.Phi_u.T @ (values[self.field_name].reshape(-1) - self.u_mean)
-        if len(self.rom_modes):
+        if len(self.rom_modes) and self.force is not None:
             self.rom(self.force.reshape(-1))
             reduced[self.rom_modes] = self.rom.reduced[self.rom_modes]
         u = self.base + self.A @ reduced

@@ -169,7 +169,7 @@ class SparseQuadraticRegression:
         if len(X) <= n_terms + 1:  # the BIC needs a noise estimate the data cannot give
             noise = max(float(np.var(Ys)) * 1e-6, 1e-12)
         coefficients = np.zeros((n_terms, Y.shape[1]))
-        self.ridge_penalty = None
+        self.ridge_penalty: float | None = None
         if self.fit_method == "ridge":
             coefficients = self._ridge(Phi, Ys, groups)
         else:
