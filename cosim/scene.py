@@ -20,6 +20,7 @@ from typing import Any
 from cosim.errors import SceneError
 from cosim.schema import (
     AnyTable,
+    Choice,
     FilePath,
     PluginChoice,
     Positive,
@@ -31,25 +32,25 @@ from cosim.schema import (
 )
 
 COMPONENT = {
-    "entry": "",            # "package.module:Class", started as a local process
-    "address": "",          # or the address of a component started by hand with `cosim serve`
-    "sections": [],         # model sections of the scene passed to instantiate
+    "entry": "",
+    "address": "",
+    "sections": [],
     "parameters": AnyTable(),
-    "record": False,        # record every call into /snapshots/<name>
-    "timeout": Positive(120.0),         # seconds per request
+    "record": False,
+    "timeout": Positive(120.0),
     "startup_timeout": Positive(60.0),
-    "threads": Positive(1),             # OpenMP/BLAS threads of the component's process
-    "cores": [],            # CPU cores the component's process may run on (Linux affinity; empty: any)
-    "environment": AnyTable(),          # extra environment variables of the component's process
-    "backend": "fom",       # "fom": the entry above; "rom" or "fmu": see the tables below
+    "threads": Positive(1),
+    "cores": [],
+    "environment": AnyTable(),
+    "backend": Choice("fom", ("fom", "rom", "fmu")),
     "rom": {                # a trained ROM (the .npz written by `cosim train`)
         "entry": "rom_component.component:RomSolid",
         "model": FilePath(),
         "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
         # "reproducible": bit-identical to the exported FMU; "compiled": the FMU's own C code in-process (the same
         # results, a few times faster; needs a C compiler); "fast": BLAS products (not bit-identical)
-        "arithmetic": "reproducible",
-        "on_out_of_range": "warn",     # a call outside the training range: "warn", "fail", or "fallback"
+        "arithmetic": Choice("reproducible", ("reproducible", "compiled", "fast")),
+        "on_out_of_range": Choice("warn", ("warn", "fail", "fallback")),
         "range_margin": Value(0.05, low=0.0),   # (the full-order solid, kept running, takes such calls)
         # a window's first transient_calls calls are out of range only beyond transient_margin
         "transient_calls": Value(0, low=0), "transient_margin": Value(0.0, low=0.0),
@@ -75,18 +76,83 @@ SCHEMA = {
         "scheme": "serial-implicit",
         "participants": Required(list),
         "max_iterations": Positive(50),
-        "on_max_iterations": "fail",
+        "on_max_iterations": Choice("fail", ("fail", "accept")),
         "divergence_factor": Value(1e3, low=1.0, low_open=True),  # residual growth in a window that is divergence
         "extrapolation_order": Value(0, low=0, high=2),
         # the first iterate of a window: "none" (the last window's values, extrapolated by extrapolation_order)
         # or "acceleration" (the acceleration's update from the last window's converged iteration)
-        "predictor": "none",
+        "predictor": Choice("none", ("none", "acceleration")),
         "acceleration": PluginChoice("none"),
     },
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
                "plots": []},   # a scene's own run plots: names of cosim.run_plots entry points
 }
 LISTS = {"exchange": EXCHANGE}
+# what each key means, for the scene reference (docs/reference/scene.md, written by python -m coupler.scene_reference;
+# tests/test_docs.py fails when a key of the schema has no meaning here or the page is not the generated one)
+MEANINGS = {
+    "name": "a name for the scene, recorded in the results",
+    "time.start": "the start of the first time window [s]",
+    "time.end": "the end of the last time window [s]; end - start must be a multiple of dt",
+    "time.dt": "the time window (coupling time step) [s]",
+    "components": "one table per component, `[components.<name>]`: the keys below",
+    "coupling.scheme": "the coupling scheme: a registered scheme's name (below)",
+    "coupling.participants": "the two components the scheme couples, in its order (serial: the first goes first)",
+    "coupling.max_iterations": "the coupling iterations a window may take",
+    "coupling.on_max_iterations": "a window that reaches max_iterations: stop the run ('fail') or take the last "
+                                  "iterate with a warning ('accept')",
+    "coupling.divergence_factor": "a window whose coupling residual grows by this factor has diverged: the run stops",
+    "coupling.extrapolation_order": "the first iterate of a window from the last windows' values: 0 repeats the last "
+                                    "value, 1 linear, 2 quadratic",
+    "coupling.predictor": "'acceleration': a window starts from the acceleration's update of the last window's "
+                          "converged iteration instead (extrapolation_order must be 0)",
+    "coupling.acceleration": "the acceleration: a registered acceleration's name or table (below), with `data`, "
+                             "the exchanged data it accelerates",
+    "coupling.convergence": "`[[coupling.convergence]]`: one convergence measure per table (below); a window has "
+                            "converged when all of them are met",
+    "output.plot_field": "the exchanged data drawn in run.png (default: the first)",
+    "output.plot_index": "the value of that field drawn",
+    "output.plot_label": "its label in run.png",
+    "output.plot_unit": "its unit in run.png",
+    "output.plots": "the scene's own run plots: names of `cosim.run_plots` entry points (the double flap: "
+                    "\"double_flap\")",
+    "exchange.data": "the exchanged variable's name (an output of `from`, an input of `to`)",
+    "exchange.from": "the component that sends it",
+    "exchange.to": "the component that receives it",
+    "exchange.mapping": "how values go from the sender's mesh to the receiver's: a registered mapping (below)",
+    "component.entry": "the component's class, \"package.module:Class\", started as a local process (a module next "
+                       "to the scene is found)",
+    "component.address": "or the address of a component started by hand with `cosim serve`",
+    "component.sections": "the scene's model sections handed to the component's instantiate (the tube: "
+                          "[\"tube\", \"inlet\"])",
+    "component.parameters": "the component's own parameters, checked against its class's parameter_schema",
+    "component.record": "record every call (every sub-iteration) into /snapshots/<name>: a ROM's training set",
+    "component.timeout": "seconds a request may take before the run stops naming the component",
+    "component.startup_timeout": "seconds the process may take to start and answer",
+    "component.threads": "OpenMP and BLAS threads of the component's process",
+    "component.cores": "CPU cores the component's process may run on (Linux affinity; empty: any)",
+    "component.environment": "extra environment variables of the component's process",
+    "component.backend": "what serves the component: its entry ('fom'), a trained ROM ('rom', table rom) or an "
+                         "FMU ('fmu', table fmu)",
+    "component.rom.entry": "the ROM component's class",
+    "component.rom.model": "the model file written by `cosim train` (.npz)",
+    "component.rom.switch_time": "the full-order entry serves until this time, the ROM after it",
+    "component.rom.arithmetic": "'reproducible': bit-identical to the exported FMU; 'compiled': the FMU's own C code "
+                                "in-process (the same results, faster; needs a C compiler); 'fast': BLAS products "
+                                "(not bit-identical)",
+    "component.rom.on_out_of_range": "a call outside the training range: 'warn', 'fail', or 'fallback' (the "
+                                     "full-order solid, kept running, takes the window)",
+    "component.rom.range_margin": "how far beyond the training range (in range widths of each reduced force) a "
+                                  "call is still in range",
+    "component.rom.transient_calls": "a window's first calls that are out of range only beyond transient_margin",
+    "component.rom.transient_margin": "the margin of those first calls",
+    "component.rom.keep_warm": "between calls, repeat the last one every keep_warm seconds (0: never) to keep the "
+                               "ROM's data in the caches; changes no result",
+    "component.fmu.entry": "the FMU component's class",
+    "component.fmu.path": "any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)",
+    "component.fmu.switch_time": "the full-order entry serves until this time, the FMU after it",
+    "component.fmu.stateful": "true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate between iterations",
+}
 
 
 @dataclass
@@ -267,7 +333,6 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
     for name, spec in components.items():
         backend = spec["backend"]
-        _one_of(backend, ("fom", "rom", "fmu"), f"components.{name}.backend", source)
         if backend != "fom" and not spec[backend][BACKEND_FILE[backend]]:
             raise SceneError(f"{source}: components.{name}.backend is '{backend}' but "
                              f"'components.{name}.{backend}.{BACKEND_FILE[backend]}' is not set")
@@ -322,11 +387,6 @@ def _cores(value: list, where: str, source: str) -> None:
                              f"{', '.join(map(str, allowed))}")
 
 
-def _one_of(value: Any, allowed: tuple, where: str, source: str) -> None:
-    if value not in allowed:
-        raise SceneError(f"{source}: '{where}' is {value!r}; allowed: {', '.join(map(str, allowed))}")
-
-
 def _check_consistency(data: dict[str, Any], source: str) -> None:
     time, coupling = data["time"], data["coupling"]
     if time["end"] <= time["start"]:
@@ -336,8 +396,6 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
         raise SceneError(f"{source}: 'time.dt' = {time['dt']:g} makes {windows:.3g} windows on "
                          f"[{time['start']:g}, {time['end']:g}]; at most {MAX_WINDOWS:,} are allowed")
     names = set(data["components"])
-    _one_of(coupling["on_max_iterations"], ("fail", "accept"), "coupling.on_max_iterations", source)
-    _one_of(coupling["predictor"], ("none", "acceleration"), "coupling.predictor", source)
     if coupling["predictor"] == "acceleration" and coupling["extrapolation_order"] > 0:
         raise SceneError(f"{source}: 'coupling.predictor' = \"acceleration\" replaces extrapolation; "
                          f"'coupling.extrapolation_order' must be 0, got {coupling['extrapolation_order']}")

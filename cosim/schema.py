@@ -10,6 +10,7 @@ finite.
 from __future__ import annotations
 
 import difflib
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -88,6 +89,18 @@ class FilePath:
 
 
 @dataclass(frozen=True)
+class Choice:
+    """One string of ``options``; ``default`` is the value when the key is absent."""
+
+    default: str
+    options: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        if self.default not in self.options:
+            raise ValueError(f"default {self.default!r} not in {self.options}")
+
+
+@dataclass(frozen=True)
 class PluginChoice:
     """A plug-in named by a string or by a table with ``type`` (validated by its registry later)."""
 
@@ -156,6 +169,11 @@ def _leaf(given: dict[str, Any], key: str, spec: Any, where: str, source: str) -
         if spec.required and key not in given:
             raise SceneError(f"missing key '{where}'")
         return check_type(given.get(key, spec.default), str, where)
+    if isinstance(spec, Choice):
+        value = check_type(given.get(key, spec.default), str, where)
+        if value not in spec.options:
+            raise SceneError(f"'{where}' is {value!r}; allowed: {', '.join(spec.options)}")
+        return value
     if isinstance(spec, PluginChoice):
         if key not in given and spec.default is _NO_DEFAULT:
             raise SceneError(f"missing key '{where}'")
@@ -175,6 +193,46 @@ def _leaf(given: dict[str, Any], key: str, spec: Any, where: str, source: str) -
         return value
     kind = list if isinstance(spec, list) else float if isinstance(spec, float) else type(spec)
     return check_type(given.get(key, spec), kind, where)
+
+
+def describe(spec: Any) -> tuple[str, str, str]:
+    """(type, default, allowed values) of a schema leaf, as a reference page states them."""
+    if isinstance(spec, Choice):
+        return "a string", _toml(spec.default), ", ".join(_toml(o) for o in spec.options)
+    if isinstance(spec, FilePath):
+        return "file path", "required" if spec.required else _toml(spec.default), ""
+    if isinstance(spec, PluginChoice):
+        default = "required" if spec.default is _NO_DEFAULT else _toml(spec.default)
+        return "plug-in: a name or a table with type", default, ""
+    if isinstance(spec, AnyTable):
+        return "table", "{}", "any keys"
+    if isinstance(spec, Required):
+        return _type_name(spec.kind), "required", ""
+    if isinstance(spec, Value):
+        default = "required" if spec.default is _NO_DEFAULT else _toml(spec.default)
+        return _type_name(spec.type), default, spec.describe()
+    kind = list if isinstance(spec, list) else float if isinstance(spec, float) else type(spec)
+    return _type_name(kind), _toml(spec), ""
+
+
+def _toml(value: Any) -> str:
+    """``value`` as a scene file writes it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str | list):
+        return json.dumps(value)
+    return repr(value)
+
+
+def leaves(schema: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+    """(dotted key, leaf) of every leaf of ``schema``, in its order."""
+    found: list[tuple[str, Any]] = []
+    for key, spec in schema.items():
+        if isinstance(spec, Mapping):
+            found += leaves(spec, f"{prefix}{key}.")
+        else:
+            found.append((f"{prefix}{key}", spec))
+    return found
 
 
 def file_paths(schema: Mapping[str, Any], prefix: str = "") -> list[str]:

@@ -22,9 +22,8 @@ from typing import Any
 import numpy as np
 from scipy.linalg import solve_triangular
 
-from cosim.errors import SceneError
 from cosim.registry import Registry
-from cosim.schema import Positive, Value
+from cosim.schema import Choice, Positive, Value
 
 ACCELERATIONS: Registry[Acceleration] = Registry("acceleration")
 FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
@@ -38,6 +37,7 @@ class Acceleration:
     """Plain fixed-point iteration (no acceleration); base class."""
 
     SETTINGS: dict = {}
+    HELP: dict[str, str] = {}
 
     def __init__(self, block_sizes: list[int] | None = None) -> None:
         self.x = np.zeros(0)           # the window's last iterate and the fixed-point map's value there,
@@ -65,7 +65,10 @@ class Acceleration:
 
 @ACCELERATIONS.register("constant")
 class ConstantRelaxation(Acceleration):
+    """Constant under-relaxation: x <- x + omega (x~ - x)."""
+
     SETTINGS = {"relaxation": RELAXATION}
+    HELP = {"relaxation": "the relaxation factor omega: x <- x + omega (x~ - x)"}
 
     def __init__(self, relaxation: float, block_sizes: list[int] | None = None) -> None:
         super().__init__()
@@ -77,7 +80,10 @@ class ConstantRelaxation(Acceleration):
 
 @ACCELERATIONS.register("aitken")
 class Aitken(Acceleration):
+    """Aitken's dynamic relaxation: omega from the last two residuals, restarted every window."""
+
     SETTINGS = {"initial_relaxation": RELAXATION}
+    HELP = {"initial_relaxation": "the relaxation factor of a window's first update, whence Aitken adapts it"}
 
     def __init__(self, initial_relaxation: float, block_sizes: list[int] | None = None) -> None:
         super().__init__()
@@ -127,25 +133,23 @@ class IQNILS(Acceleration):
     ROUNDOFF = 1e3 * np.finfo(float).eps
 
     SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50),
-                "reused_time_windows": Value(0, low=0), "filter": "qr2",
+                "reused_time_windows": Value(0, low=0), "filter": Choice("qr2", FILTERS),
                 "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
-                # reused columns go stale (the map changed): they are dropped when a window's first update,
-                # built on them, is longer than this many residuals, or when an update makes the residual
-                # worse (0: never)
                 "stale_step_ratio": Value(2.0, low=0.0),
-                # a participant's backend changed (ROM and solid FOM): "drop-span" drops the difference that
-                # spans the change, "drop-all" every column too (a relaxation step follows: it diverges where
-                # plain Gauss-Seidel does, as on the double flap)
-                "on_map_change": "drop-span"}
-
-    @staticmethod
-    def check_settings(settings: dict, where: str, source: str) -> None:
-        prefix = f"{source + ': ' if source else ''}'{where}"
-        if settings["filter"] not in FILTERS:
-            raise SceneError(f"{prefix}.filter' is {settings['filter']!r}; allowed: {', '.join(FILTERS)}")
-        if settings["on_map_change"] not in MAP_CHANGES:
-            raise SceneError(f"{prefix}.on_map_change' is {settings['on_map_change']!r}; "
-                             f"allowed: {', '.join(MAP_CHANGES)}")
+                "on_map_change": Choice("drop-span", MAP_CHANGES)}
+    HELP = {
+        "initial_relaxation": "the relaxation of a window's first update, before any column exists",
+        "max_used_iterations": "the most columns (differences of iterates) the least squares keeps",
+        "reused_time_windows": "the earlier windows whose columns are reused",
+        "filter": "how columns that make the least squares ill-conditioned are dropped: QR1 (relative), QR1 "
+                  "(absolute), QR2, or none",
+        "filter_limit": "the filter's limit",
+        "stale_step_ratio": "reused columns go stale (the map changed): they are dropped when a window's first "
+                            "update, built on them, is longer than this many residuals, or when an update makes "
+                            "the residual worse (0: never)",
+        "on_map_change": "a participant's backend changed (ROM and solid FOM): 'drop-span' drops the difference "
+                         "that spans the change, 'drop-all' every column too",
+    }
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
@@ -336,9 +340,15 @@ class IQNIMVJ(IQNILS):
     restart), for maps that drift.
     """
 
-    SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50), "filter": "qr2",
+    SETTINGS = {"initial_relaxation": RELAXATION, "max_used_iterations": Positive(50),
+                "filter": Choice("qr2", FILTERS),
                 "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
-                "restart_windows": Value(0, low=0), "on_map_change": "drop-span"}   # drop-all: the Jacobian too
+                "restart_windows": Value(0, low=0), "on_map_change": Choice("drop-span", MAP_CHANGES)}
+    HELP = {**IQNILS.HELP,
+            "max_used_iterations": "the most columns of the current window the Jacobian's update takes",
+            "restart_windows": "start the Jacobian afresh every this many windows (0: never; preCICE's RS-ZERO)",
+            "on_map_change": "a participant's backend changed: 'drop-span' drops the difference that spans the "
+                             "change, 'drop-all' the Jacobian too"}
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, filter: str = "qr2",
                  filter_limit: float = 1e-3, restart_windows: int = 0, on_map_change: str = "drop-span",

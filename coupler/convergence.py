@@ -35,6 +35,7 @@ class ConvergenceMeasure:
     """One measure on one data item; ``value`` is its last value."""
 
     SETTINGS: dict[str, Any] = {"limit": LIMIT}
+    HELP = {"limit": "the measure is met below this value"}
     type_name = ""
 
     def __init__(self, data: str, limit: float = math.inf):
@@ -59,18 +60,24 @@ class ConvergenceMeasure:
 
 @MEASURES.register("absolute")
 class Absolute(ConvergenceMeasure):
+    """The 2-norm of the change between two iterates."""
+
     def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
         return difference
 
 
 @MEASURES.register("absolute-rms")
 class AbsoluteRms(ConvergenceMeasure):
+    """The root mean square of the change between two iterates (the 2-norm over the square root of the size)."""
+
     def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
         return difference / math.sqrt(max(new.size, 1))
 
 
 @MEASURES.register("relative")
 class Relative(ConvergenceMeasure):
+    """The change between two iterates over the new iterate's 2-norm."""
+
     def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
         scale = float(np.linalg.norm(new))
         return difference / scale if scale > 0 else (0.0 if difference == 0 else math.inf)
@@ -78,6 +85,8 @@ class Relative(ConvergenceMeasure):
 
 @MEASURES.register("residual-relative")
 class ResidualRelative(ConvergenceMeasure):
+    """The change between two iterates over the window's first change."""
+
     def __init__(self, data: str, limit: float = math.inf):
         super().__init__(data, limit)
         self._first = 0.0
@@ -95,6 +104,7 @@ class Combination(ConvergenceMeasure):
     """Met when ``combine`` of the member measures' results holds; ``value`` is the member value nearest its limit."""
 
     SETTINGS = {"measures": Required(list)}
+    HELP = {"measures": "the member measures, tables with type and limit (their data is the combination's)"}
     combine = all
 
     def __init__(self, data: str, measures: list[dict[str, Any]]):
@@ -127,11 +137,15 @@ class Combination(ConvergenceMeasure):
 
 @MEASURES.register("any-of")
 class AnyOf(Combination):
+    """Met when any of its member measures is met."""
+
     combine = any
 
 
 @MEASURES.register("all-of")
 class AllOf(Combination):
+    """Met when all of its member measures are met."""
+
     combine = all
 
 

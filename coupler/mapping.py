@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 
 from cosim.errors import SceneError
 from cosim.registry import Registry
-from cosim.schema import Positive
+from cosim.schema import Choice, Positive
 
 MAPPINGS: Registry[Mapping] = Registry("mapping")
 CONSTRAINTS = ("consistent", "conservative")
@@ -37,6 +37,7 @@ class Mapping:
     """A linear map from source nodes to target nodes (``matrix``: n_target x n_source)."""
 
     SETTINGS: dict[str, Any] = {}
+    HELP: dict[str, str] = {}
     needs_meshes = True
 
     def __init__(self, source: np.ndarray, target: np.ndarray, **settings: Any):
@@ -48,16 +49,12 @@ class Mapping:
     def __call__(self, values: np.ndarray) -> np.ndarray:
         return self.matrix @ values
 
-    @staticmethod
-    def check_settings(settings: dict, where: str, source: str) -> None:
-        constraint = settings.get("constraint")
-        if constraint is not None and constraint not in CONSTRAINTS:
-            raise SceneError(f"{source + ': ' if source else ''}'{where}.constraint' is {constraint!r}; "
-                             f"allowed: {', '.join(CONSTRAINTS)}")
 
 
 @MAPPINGS.register("identity")
 class IdentityMapping(Mapping):
+    """The values as they are: both variables on the same nodes, in the same order."""
+
     needs_meshes = False
 
     def __init__(self, source: np.ndarray | None = None, target: np.ndarray | None = None):
@@ -69,7 +66,10 @@ class IdentityMapping(Mapping):
 
 @MAPPINGS.register("nearest-neighbour")
 class NearestNeighbour(Mapping):
-    SETTINGS = {"constraint": "consistent"}
+    """Each target node takes its nearest source node's value (consistent), or each source node adds its value to its nearest target node (conservative)."""
+
+    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS)}
+    HELP = {"constraint": "'consistent' keeps values (a displacement), 'conservative' keeps sums (a force)"}
 
     def build(self, source: np.ndarray, target: np.ndarray, constraint: str = "consistent") -> sp.csr_matrix:
         if constraint == "consistent":
@@ -83,7 +83,10 @@ class NearestNeighbour(Mapping):
 
 @MAPPINGS.register("rbf")
 class RadialBasisFunctions(Mapping):
-    SETTINGS = {"constraint": "consistent", "support_radius": Positive()}
+    """Radial basis functions with compact support and a linear polynomial, as a sparse operator."""
+
+    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS), "support_radius": Positive()}
+    HELP = {**NearestNeighbour.HELP, "support_radius": "the compact Wendland C2 kernel's support radius"}
 
     def build(self, source: np.ndarray, target: np.ndarray, constraint: str = "consistent",
               support_radius: float = 1.0) -> Any:
