@@ -1,15 +1,15 @@
 # `make demo` runs the paper's tube protocol end to end (FOM-FOM, train, ROM-FOM, report: runs/demo/);
-# `make test` runs the tests.
+# `make test` runs lint, types, the docs build and the tests.
 # Both create .venv and install the project into it on first use, with the versions of constraints.txt
 # (the lock: the versions the README's figures were made with). `make lock` upgrades the lock to the
 # newest versions the registry serves; `make test-latest` runs the tests against them without touching it.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-EXTRAS := .[test,rom,fmu,kratos,sweep]
+EXTRAS := .[test,lint,docs,rom,fmu,kratos,sweep]
 LOCK := constraints.txt
 
-.PHONY: demo demo-flap campaign test test-latest lock bench figures clean
+.PHONY: demo demo-flap campaign test lint docs test-latest lock bench figures clean
 
 $(BIN)/cosim: pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
@@ -27,8 +27,17 @@ demo-flap: $(BIN)/cosim
 campaign: $(BIN)/cosim
 	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
 
-test: $(BIN)/cosim
+test: lint docs
 	$(BIN)/python -m pytest -q --durations=15
+
+# ruff and mypy (configured in pyproject.toml): no findings
+lint: $(BIN)/cosim
+	$(BIN)/ruff check .
+	$(BIN)/mypy
+
+# the documentation site (build/site/); a broken link or a page outside the nav fails it
+docs: $(BIN)/cosim
+	$(BIN)/mkdocs build --strict --quiet
 
 # the suite against the newest versions (a scratch .venv-latest, the lock untouched): drift shows here first
 test-latest:
