@@ -68,7 +68,7 @@ BACKEND_FILE = {"rom": "model", "fmu": "path"}
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity")}
 MAX_WINDOWS = 10_000_000
 MAX_FILE_BYTES = 16 << 20
-SCHEMA = {
+SCHEMA: dict[str, Any] = {
     "name": "",
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
     "components": AnyTable(),

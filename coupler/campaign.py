@@ -95,7 +95,7 @@ def load_plan(path: str | Path, out: Path) -> Plan:
         if unknown:
             raise SceneError(f"{path}: models.{name}.runs names '{unknown[0]}', which is not in [fom]")
         models[name] = {**spec, "path": (out / "models" / f"{name}.npz").resolve()}
-    predictions = []
+    predictions: list[Prediction] = []
     for i, spec in enumerate(plan["predictions"]):
         spec = validate(spec, PREDICTION, source=f"{path}: predictions.{i}")
         if spec["model"] not in models:

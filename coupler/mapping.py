@@ -71,7 +71,8 @@ class NearestNeighbour(Mapping):
     SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS)}
     HELP = {"constraint": "'consistent' keeps values (a displacement), 'conservative' keeps sums (a force)"}
 
-    def build(self, source: np.ndarray, target: np.ndarray, constraint: str = "consistent") -> sp.csr_matrix:
+    def build(self, source: np.ndarray, target: np.ndarray,  # type: ignore[override]  # a mapping's own settings
+              constraint: str = "consistent") -> sp.csr_matrix:
         if constraint == "consistent":
             _, nearest = cKDTree(source).query(target)
             rows, cols = np.arange(len(target)), nearest
@@ -88,8 +89,8 @@ class RadialBasisFunctions(Mapping):
     SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS), "support_radius": Positive()}
     HELP = {**NearestNeighbour.HELP, "support_radius": "the compact Wendland C2 kernel's support radius"}
 
-    def build(self, source: np.ndarray, target: np.ndarray, constraint: str = "consistent",
-              support_radius: float = 1.0) -> Any:
+    def build(self, source: np.ndarray, target: np.ndarray,  # type: ignore[override]  # a mapping's own settings
+              constraint: str = "consistent", support_radius: float = 1.0) -> Any:
         if constraint == "consistent":
             return _RbfOperator(source, target, support_radius, transpose=False)
         return _RbfOperator(target, source, support_radius, transpose=True)
@@ -143,7 +144,7 @@ def make_mapping(settings: dict[str, Any], source_nodes: np.ndarray, target_node
         if tuple(source_shape) != tuple(target_shape):
             raise SceneError(f"{where}: identity mapping needs equal shapes, got {tuple(source_shape)} "
                              f"and {tuple(target_shape)}")
-        return cls()
+        return cls(source_nodes, target_nodes)     # the identity keeps no mesh
     if len(source_nodes) == 0 or len(target_nodes) == 0:
         raise SceneError(f"{where}: {settings['type']} mapping needs the meshes of both variables")
     if source_shape[1:] != target_shape[1:]:

@@ -33,7 +33,7 @@ from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
-from coupler.schemes import SCHEMES, CouplingScheme, Exchange
+from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant
 
 
 @dataclass
@@ -60,7 +60,14 @@ class Backend:
     address: str
     parameters: dict
     start_time: float
-    proxy: ComponentProxy | None = None
+    proxy: ComponentProxy | None = None     # once started
+
+    @property
+    def client(self) -> ComponentProxy:
+        """The started backend's proxy."""
+        if self.proxy is None:
+            raise RuntimeError(f"backend '{self.name}' has not been started")
+        return self.proxy
 
 
 def plan_backends(scene: Scene) -> list[Backend]:
@@ -101,7 +108,7 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) ->
             endpoint = backend.address
         backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"])
         if process is None:
-            backend.proxy.pid = int(backend.proxy.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
+            backend.client.pid = int(backend.client.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
 
 
 def placement(backend: Backend) -> dict[str, list[int]]:
@@ -109,7 +116,7 @@ def placement(backend: Backend) -> dict[str, list[int]]:
     if not backend.entry or not hasattr(os, "sched_getaffinity"):
         return {}
     try:
-        return {"cores": sorted(os.sched_getaffinity(backend.proxy.pid))}
+        return {"cores": sorted(os.sched_getaffinity(backend.client.pid or 0))}
     except ProcessLookupError:
         return {}
 
@@ -118,7 +125,7 @@ def recorded_shapes(backends: list[Backend]) -> dict[str, dict[str, tuple[int, .
     """Shapes of every input and output (locals included) any backend of one participant declares."""
     shapes: dict[str, dict[str, tuple[int, ...]]] = {"inputs": {}, "outputs": {}}
     for backend in backends:
-        for variable in backend.proxy.variables.values():
+        for variable in backend.client.variables.values():
             if variable.causality in ("input", "output", "local"):
                 shapes["inputs" if variable.causality == "input" else "outputs"].setdefault(variable.name, variable.shape)
     return shapes
@@ -132,23 +139,23 @@ def component_environment(spec: dict) -> dict[str, str]:
     return environment
 
 
-def participants_of(backends: list[Backend]) -> dict[str, ComponentProxy | BackendSchedule]:
+def participants_of(backends: list[Backend]) -> dict[str, Participant]:
     """Each scene component as the scheme sees it: a proxy, or a schedule of backends."""
     grouped: dict[str, list[Backend]] = {}
     for backend in backends:
         grouped.setdefault(backend.participant, []).append(backend)
-    participants = {}
+    participants: dict[str, Participant] = {}
     for name, group in grouped.items():
         if len(group) == 1:
-            participants[name] = group[0].proxy
+            participants[name] = group[0].client
             continue
-        fallback = next((b.proxy for b in group if b.kind == "fom"), None) \
+        fallback = next((b.client for b in group if b.kind == "fom"), None) \
             if any(b.parameters.get("on_out_of_range") == "fallback" for b in group) else None
-        participants[name] = BackendSchedule(name, [(b.start_time, b.proxy) for b in group], fallback)
+        participants[name] = BackendSchedule(name, [(b.start_time, b.client) for b in group], fallback)
     return participants
 
 
-def build_scheme(scene: Scene, proxies: dict[str, ComponentProxy | BackendSchedule],
+def build_scheme(scene: Scene, proxies: dict[str, Participant],
                  recorders: dict[str, CallRecorder]) -> CouplingScheme:
     """The scene's coupling scheme over described components; checks every exchanged variable."""
     coupling = scene["coupling"]
@@ -274,14 +281,14 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 start_backends(scene, backends, launcher)
                 for b in backends:
                     host = b.address or socket.gethostname()
-                    store.add_component(b.name, b.proxy.pid, host, b.entry or b.address, b.proxy.endpoint,
+                    store.add_component(b.name, b.client.pid, host, b.entry or b.address, b.client.endpoint,
                                         participant=b.participant, kind=b.kind, start_time=b.start_time,
                                         **placement(b))
-                    b.proxy.instantiate(b.parameters)
-                    store.write_description(b.name, [asdict(v) for v in b.proxy.variables.values()],
-                                            b.proxy.meshes)
-                    b.proxy.enter_initialization_mode(start, start + n_windows * dt)
-                    b.proxy.exit_initialization_mode()
+                    b.client.instantiate(b.parameters)
+                    store.write_description(b.name, [asdict(v) for v in b.client.variables.values()],
+                                            b.client.meshes)
+                    b.client.enter_initialization_mode(start, start + n_windows * dt)
+                    b.client.exit_initialization_mode()
                 recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
                              for n, s in scene["components"].items() if s["record"]}
                 participants = participants_of(backends)
@@ -297,17 +304,17 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         result = scheme.advance(t, dt)
                         store.append_window(
                             result.time, result.iterations, result.converged, time.perf_counter() - window_start,
-                            scheme.values, {b.name: _take_timings(b.proxy) for b in backends},
+                            scheme.values, {b.name: _take_timings(b.client) for b in backends},
                             {n: r.take() for n, r in recorders.items()}, result.residuals)
                         windows += 1
                         iterations += result.iterations
                         for b in backends:
-                            warned += len(b.proxy.warnings)
-                            for message, count in Counter(b.proxy.warnings).items():
+                            warned += len(b.client.warnings)
+                            for message, count in Counter(b.client.warnings).items():
                                 calls = f" ({count} calls)" if count > 1 else ""
                                 _warn(f"warning: component '{b.name}' in window {windows} (t = {result.time - dt:g} "
                                       f"to {result.time:g}): {message}{calls}", bar)
-                            b.proxy.warnings.clear()
+                            b.client.warnings.clear()
                         if not result.converged and result.message:
                             unconverged += 1
                             _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar)
@@ -322,13 +329,13 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         bar.close()
                 phase = "terminate"
                 for b in backends:
-                    final = b.proxy.terminate()
+                    final = b.client.terminate()
                     if final:
                         store.write_final(b.name, final)
                 state = "finished"
             except CosimError as exc:
                 if not exc.where:
-                    exc.where = phase or scheme.position()
+                    exc.where = phase or (scheme.position() if scheme is not None else "")
                 directory.status("failed", force=True, windows_total=n_windows, windows_completed=windows,
                                  error=str(exc))
                 raise

@@ -30,6 +30,10 @@ from coupler.convergence import ConvergenceMeasure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
+from coupler.schedule import BackendSchedule
+
+# a scene component as a scheme sees it: one process, or a schedule of backends (full order, then a ROM)
+Participant = ComponentProxy | BackendSchedule
 
 SCHEMES: Registry[CouplingScheme] = Registry("coupling scheme")
 
@@ -47,8 +51,8 @@ class Exchange:
     """One data item sent from ``source`` to ``target`` through ``mapping``."""
 
     data: str
-    source: ComponentProxy
-    target: ComponentProxy
+    source: Participant
+    target: Participant
     mapping: InterfaceMapping
 
 
@@ -67,7 +71,7 @@ class CouplingScheme:
 
     implicit = True
 
-    def __init__(self, participants: Sequence[ComponentProxy], exchanges: Sequence[Exchange],
+    def __init__(self, participants: Sequence[Participant], exchanges: Sequence[Exchange],
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
                  accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
                  extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None,
@@ -134,11 +138,11 @@ class CouplingScheme:
         if converged and self.predictor == "acceleration" and self.accelerated:
             self._next_start = self._next_iterate(self.accelerated)
 
-    def _stateful(self, proxy: ComponentProxy) -> bool:
-        return proxy.can_get_and_set_state
+    def _stateful(self, proxy: Participant) -> bool:
+        return isinstance(proxy, ComponentProxy) and proxy.can_get_and_set_state
 
     # --- helpers ------------------------------------------------------------
-    def inputs_for(self, target: ComponentProxy, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def inputs_for(self, target: Participant, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         return {e.data: e.mapping(values[e.data]) for e in self.exchanges if e.target is target}
 
     def block_sizes(self, names: Sequence[str]) -> list[int]:
@@ -159,7 +163,7 @@ class CouplingScheme:
             start += size
         return out
 
-    def _record(self, proxy: ComponentProxy, iteration: int, inputs: Mapping[str, np.ndarray],
+    def _record(self, proxy: Participant, iteration: int, inputs: Mapping[str, np.ndarray],
                 outputs: Mapping[str, np.ndarray]) -> None:
         recorder = self.recorders.get(proxy.name)
         if recorder is not None:
@@ -167,16 +171,16 @@ class CouplingScheme:
 
     def _save_states(self) -> None:
         for proxy in (self.first, self.second):
-            if self._stateful(proxy):
+            if isinstance(proxy, ComponentProxy) and proxy.can_get_and_set_state:
                 self._state[proxy.name] = proxy.get_state()
 
     def _free_states(self) -> None:
         for proxy in (self.first, self.second):
             handle = self._state.pop(proxy.name, None)
-            if handle is not None:
+            if handle is not None and isinstance(proxy, ComponentProxy):
                 proxy.free_state(handle)
 
-    def _restore(self, proxy: ComponentProxy, iteration: int) -> int | None:
+    def _restore(self, proxy: Participant, iteration: int) -> int | None:
         return self._state.get(proxy.name) if iteration > 1 else None
 
     def position(self) -> str:

@@ -15,6 +15,7 @@ c_MK^2 = E_t / (2 rho r0) (``tube_eigenvalue``); Gauss-Seidel diverges when kapp
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -130,7 +131,7 @@ MATRIX_SETTINGS = ['coupling.convergence=[{data="section", type="relative", limi
 
 
 def matrix_runs(factors: list[float], dts: list[float], methods: list[str], windows: int, wall_law: str,
-                common: list[str] = ()) -> list:
+                common: Sequence[str] = ()) -> list:
     """The sweep of the stability matrix: every (method, stiffness factor, dt), ``windows`` windows each."""
     from coupler.sweep import SweepRun
     runs = []
@@ -144,7 +145,7 @@ def matrix_runs(factors: list[float], dts: list[float], methods: list[str], wind
 
 
 def spectral_table(scene_path: str, factors: list[float], dts: list[float], wall_law: str,
-                   common: list[str] = ()) -> list[dict[str, float]]:
+                   common: Sequence[str] = ()) -> list[dict[str, float]]:
     """Computed and theoretical Gauss-Seidel spectral radius at every (stiffness factor, dt)."""
     from cosim.scene import load_scene
     from coupler.plugins import resolve_plugins

@@ -27,7 +27,7 @@ import json
 import os
 import shlex
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -73,7 +73,7 @@ class SweepRun:
         return dict(item.split("=", 1) for item in self.overrides)
 
 
-def grid_runs(grids: list[str], common: list[str] = ()) -> list[SweepRun]:
+def grid_runs(grids: list[str], common: Sequence[str] = ()) -> list[SweepRun]:
     """The Cartesian product of ``key=v1,v2,...`` grids, each run with the ``common`` overrides first."""
     axes = []
     for text in grids:
@@ -105,7 +105,7 @@ def _split_values(values: str) -> list[str]:
     return [p for p in (p.strip() for p in parts) if p]
 
 
-def file_runs(path: str | Path, common: list[str] = ()) -> list[SweepRun]:
+def file_runs(path: str | Path, common: Sequence[str] = ()) -> list[SweepRun]:
     """One run per non-empty, non-comment line of ``path``: ``key=value`` items separated by spaces."""
     try:
         lines = Path(path).read_text().splitlines()
@@ -173,7 +173,7 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
     from coupler.run import run_scene
 
     started = time.perf_counter()
-    failure, message, failed_residuals = "", "", []
+    failure, message, failed_residuals = "", "", []   # type: str, str, list[float]
     try:
         run_scene(load_scene(scene_path, overrides), out_dir, progress=False, overwrite=True)
     except NonFiniteOutput as exc:
@@ -205,7 +205,7 @@ def finished_row(out_dir: str | Path) -> dict[str, Any] | None:
 
 def _row(out_dir: str | Path, failure: str, message: str, failed_residuals: list, wall_seconds: float) -> dict:
     from cosim.results import RunResults
-    row = {"windows_converged": 0, "windows_total": 0, "mean_iterations": float("nan"), "max_iterations": 0,
+    row: dict[str, Any] = {"windows_converged": 0, "windows_total": 0, "mean_iterations": float("nan"), "max_iterations": 0,
            "contraction": contraction([failed_residuals])}
     results = Path(out_dir) / "results.h5"
     if results.is_file():

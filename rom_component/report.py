@@ -241,7 +241,7 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
         per_window = np.linalg.norm(mine - theirs, axis=1) / np.linalg.norm(theirs, axis=1)
         result["field_errors"][name] = {"mean": float(per_window[predicted].mean()), "max": float(per_window[predicted].max())}
     participant = run.participant
-    if participant:
+    if participant and run.rom_backend:
         field = run.model.get("field_variable", "")     # the whole field the ROM learnt, if it learnt one
         U_ref = reference.displacement_field(participant, field)
         U_run = run.displacement_field(participant, field)

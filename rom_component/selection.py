@@ -99,7 +99,7 @@ def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence
                                                                                           **fit_params)
             errors[i, j] = np.linalg.norm(U_test - model.predict(F_test), axis=1).mean()
     scale = np.linalg.norm(U_test - U_train.mean(axis=0), axis=1).mean()
-    i, j = np.unravel_index(np.nanargmin(errors), errors.shape)
+    best_i, best_j = (int(k) for k in np.unravel_index(np.nanargmin(errors), errors.shape))
     return SelectionTable(list(force_modes), list(disp_modes), errors, errors / scale,
-                          (force_modes[int(j)], disp_modes[int(i)]), energy_choice(F_train, U_train, energy),
+                          (force_modes[best_j], disp_modes[best_i]), energy_choice(F_train, U_train, energy),
                           len(F_train), len(F_test), "snapshots" if groups is None else "windows", tolerance)

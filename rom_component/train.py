@@ -53,7 +53,7 @@ CONFIG = {
 }
 
 
-def load_config(path: str | Path | None, overrides: list[str] = ()) -> dict[str, Any]:
+def load_config(path: str | Path | None, overrides: Sequence[str] = ()) -> dict[str, Any]:
     raw: dict[str, Any] = {}
     source = "ROM config"
     if path:
@@ -170,6 +170,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
         table = tables[selection["split"]]
     cv_seconds = time.perf_counter() - started
     if selection["choose"] == "holdout":
+        assert table is not None       # choose = "holdout" makes the table
         params["n_force_modes"], params["n_disp_modes"] = table.chosen
     elif selection["choose"] == "energy":
         params["n_force_modes"], params["n_disp_modes"] = energy_choice(F, U, selection["energy"])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -23,13 +24,13 @@ def stress_strain(run, reference, out: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
     predicted = run.predicted()
     strains = []
-    for source, mask, style, label in ((reference, ~predicted, dict(s=2, c="0.6"), f"FOM-FOM '{reference.label}', "
-                                        "before the switch"),
-                                       (run, predicted, dict(s=1, c="tab:blue"), f"ROM-FOM '{run.label}', ROM windows")):
+    for source, mask, size, colour, label in (
+            (reference, ~predicted, 2.0, "0.6", f"FOM-FOM '{reference.label}', before the switch"),
+            (run, predicted, 1.0, "tab:blue", f"ROM-FOM '{run.label}', ROM windows")):
         r = np.sqrt(source.fields["section"][mask] / math.pi)
         strains.append(((r - r0) / r0).ravel())
-        ax.scatter(strains[-1], (source.fields["pressure"][mask] * r).ravel(), label=label, **style)
-    law = {k: v.default if hasattr(v, "default") else v for k, v in SOLID_SCHEMA.items() if k != "tube"}
+        ax.scatter(strains[-1], (source.fields["pressure"][mask] * r).ravel(), s=size, c=colour, label=label)
+    law: dict[str, Any] = {k: v.default if hasattr(v, "default") else v for k, v in SOLID_SCHEMA.items() if k != "tube"}
     law.update(run.scene.get("components", {}).get("solid", {}).get("parameters", {}))
     E1, E2, s0, e0 = law["E_small"], law["E_large"], law["s0"], law["eps0"]
     extent = 1.2 * max(float(np.abs(np.concatenate(strains)).max()), 2 * e0)
