@@ -337,6 +337,12 @@ def _table(rows: list[dict[str, Any]]) -> str:
     lines.append("monitor err: ||m_rom - m_fom|| / ||m_fom|| of the monitored value over t > T_switch; "
                  "e(t) = ||U - U_rom|| / mean_t ||U - U_rest||; iter ratio: accumulated coupling iterations vs the reference; "
                  "sigma: solid FOM compute per call / ROM compute per call (rt: round trips)")
+    lines.append("speed-up: the reference's wall time / the run's wall time, as measured (the iterations each took, "
+                 "the coupler's overhead and the machine's load all count); bound: the speed-up the ROM's cost per "
+                 "call alone allows, (T_f + T_s) / (T_f + T_s,FOM + T_s,ROM / sigma) from the reference's compute "
+                 "times (T_f fluid, T_s solid; T_s,FOM before the switch, T_s,ROM after it) at the reference's "
+                 "iterations; below 1 when a ROM call costs more than a solid call. A speed-up above its bound "
+                 "comes from what the bound leaves out: fewer iterations, less overhead, or a lighter load")
     return "\n".join(lines)
 
 

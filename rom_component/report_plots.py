@@ -80,27 +80,44 @@ def error_and_iterations(pairs, rows, out: Path) -> list[Path]:
         by_reference[reference.label].append((run, reference, row))
     paths = []
     for label, items in by_reference.items():
-        fig, (ax_e, ax_i) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, constrained_layout=True)
-        for run, reference, row in items:
-            mask = run.predicted()
-            if "_e" in row:
-                ax_e.semilogy(run.time[mask], np.maximum(row["_e"][mask], 1e-16), lw=0.8, label=run.label)
-            ax_i.plot(run.time, 100 * (np.cumsum(run.iterations) / np.cumsum(reference.iterations) - 1), lw=1.0,
-                      label=run.label)
-        _mark_switch(ax_e, items[0][0])
-        ax_e.set_ylabel("e(t) = ||U - U_rom|| / mean ||U - U_rest||\n[dimensionless]")
-        ax_i.set_ylabel("accumulated coupling iterations,\nROM-FOM over FOM-FOM [%]")
-        ax_i.set_xlabel("time [s]")
-        ax_i.axhline(0, color="k", lw=0.5)
-        for ax in (ax_e, ax_i):
-            ax.legend(fontsize=8)
-            ax.grid(alpha=0.3)
-        ax_e.set_title(f"ROM-FOM runs against the FOM-FOM reference '{label}'")
+        fig = iterations_figure(plt, label, items)
         path = out / f"error_and_iterations_{label}.png"
         fig.savefig(path, dpi=110)
         plt.close(fig)
         paths.append(path)
     return paths
+
+
+def noted_labels(curves: list[tuple[str, np.ndarray]]) -> list[str]:
+    """Each curve's legend label; a curve equal to an earlier one, bit for bit, says under which it is hidden."""
+    labels = []
+    for k, (label, values) in enumerate(curves):
+        twin = next((other for other, earlier in curves[:k] if np.array_equal(earlier, values)), None)
+        labels.append(label if twin is None else f"{label} (identical to {twin}: hidden under it)")
+    return labels
+
+
+def iterations_figure(plt, label: str, items: list):
+    """e(t) of every run against the reference ``label``, and its accumulated iterations over the reference's."""
+    fig, (ax_e, ax_i) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, constrained_layout=True)
+    errors = [(run.label, run.time[run.predicted()], np.maximum(row["_e"][run.predicted()], 1e-16))
+              for run, _, row in items if "_e" in row]
+    for (_, time, e), text in zip(errors, noted_labels([(name, e) for name, _, e in errors])):
+        ax_e.semilogy(time, e, lw=0.8, label=text)
+    ratios = [(run.label, run.time, 100 * (np.cumsum(run.iterations) / np.cumsum(reference.iterations) - 1))
+              for run, reference, _ in items]
+    for (_, time, ratio), text in zip(ratios, noted_labels([(name, r) for name, _, r in ratios])):
+        ax_i.plot(time, ratio, lw=1.0, label=text)
+    _mark_switch(ax_e, items[0][0])
+    ax_e.set_ylabel("e(t) = ||U - U_rom|| / mean ||U - U_rest||\n[dimensionless]")
+    ax_i.set_ylabel("accumulated coupling iterations,\nROM-FOM over FOM-FOM [%]")
+    ax_i.set_xlabel("time [s]")
+    ax_i.axhline(0, color="k", lw=0.5)
+    for ax in (ax_e, ax_i):
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    ax_e.set_title(f"ROM-FOM runs against the FOM-FOM reference '{label}'")
+    return fig
 
 
 def solid_cost(row: dict[str, Any]) -> float | None:
@@ -169,19 +186,37 @@ def error_vs_trust(run, row: dict[str, Any], out: Path) -> Path | None:
     if run.trust is None or "_e" not in row:
         return None
     plt = _pyplot()
-    served = np.isfinite(run.trust)
-    fig, ax = plt.subplots(figsize=(6, 4.5), constrained_layout=True)
-    ax.scatter(np.maximum(run.trust[served], 1e-4), np.maximum(row["_e"][served], 1e-16), s=8)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("ROM input beyond its training range [range widths] (1e-4 = inside)")
-    ax.set_ylabel("displacement error e(t) [-]")
-    ax.set_title(f"{run.label}: error against trust ({row.get('rom_fallback_windows', 0)} windows fell back)")
-    ax.grid(alpha=0.3, which="both")
+    fig = trust_figure(plt, run, row)
     path = out / f"error_vs_trust_{run.label}.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def trust_figure(plt, run, row: dict[str, Any]):
+    """The error of each served window against how far beyond its training range the ROM's input lay; windows
+    inside the range at a true 0, on an axis that is linear there."""
+    served = np.isfinite(run.trust)
+    excess, error = run.trust[served], np.maximum(row["_e"][served], 1e-16)
+    inside = excess <= 0
+    fig, ax = plt.subplots(figsize=(6, 4.5), constrained_layout=True)
+    ax.scatter(np.zeros(int(inside.sum())), error[inside], s=8, color="tab:blue",
+               label=f"{int(inside.sum())} windows inside the range (at 0)")
+    if (~inside).any():
+        ax.scatter(excess[~inside], error[~inside], s=8, color="tab:orange",
+                   label=f"{int((~inside).sum())} windows beyond it")
+        # linear near 0, where the windows inside the range sit, logarithmic beyond the smallest excess
+        ax.set_xscale("symlog", linthresh=float(excess[~inside].min()))
+        title = f"{run.label}: error against trust ({row.get('rom_fallback_windows', 0)} windows fell back)"
+    else:
+        title = f"{run.label}: the ROM never left its training range"
+    ax.set_yscale("log")
+    ax.set_xlabel("ROM input beyond its training range [range widths] (0: inside)")
+    ax.set_ylabel("displacement error e(t) [-]")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    return fig
 
 
 def write_plots(pairs, rows, out: Path) -> list[Path]:

@@ -33,6 +33,26 @@ def _finish(plt, fig, ax, xlabel: str, ylabel: str, title: str, path: Path) -> P
     return path
 
 
+def holdout_figure(plt, tables: dict):
+    """The hold-out error against r_f: one colour per r_u (a sequential colour map, as many as there are), one line
+    style per split, the legend beside the axes, not over the curves."""
+    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    styles = {"windows": "-", "snapshots": "--"}
+    for split, table in tables.items():
+        colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.9, len(table.disp_modes)))
+        for i, r in enumerate(table.disp_modes):
+            ax.semilogy(table.force_modes, 100 * table.relative[i], marker="o", ms=3, ls=styles.get(split, ":"),
+                        color=colours[i], label=f"r_u = {r}, split by {split}")
+    bests = "; ".join(f"split by {split}: best r_f = {t.best[0]}" + (f", chosen {t.chosen[0]}" if t.chosen != t.best
+                                                                      else "") for split, t in tables.items())
+    ax.set_xlabel("force modes r_f [count]")
+    ax.set_ylabel("hold-out error, mean ||U - ROM(F)|| / mean ||U - mean|| [%]")
+    ax.set_title(f"Hold-out cross-validation of the number of force modes\n{bests}", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    ax.grid(alpha=0.3, which="both")
+    return fig
+
+
 def write_training_plots(model_path: str | Path, estimator, tables: dict) -> list[Path]:
     """Every PNG for a fitted ``SolidRom`` and its hold-out tables (by split name)."""
     plt = _pyplot()
@@ -50,15 +70,10 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
                          "Singular values of the training snapshots (centred)", Path(f"{stem}_singular_values.png")))
 
     if tables:
-        fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
-        for split, table in tables.items():
-            for i, r in enumerate(table.disp_modes):
-                ax.semilogy(table.force_modes, 100 * table.relative[i], "o-",
-                            label=f"split by {split}, r_u = {r} (best r_f = {table.best[0]}"
-                                  + (f", chosen {table.chosen[0]})" if table.chosen != table.best else ")"))
-        paths.append(_finish(plt, fig, ax, "force modes r_f [count]",
-                             "hold-out error, mean ||U - ROM(F)|| / mean ||U - mean|| [%]",
-                             "Hold-out cross-validation of the number of force modes", Path(f"{stem}_holdout.png")))
+        fig = holdout_figure(plt, tables)
+        fig.savefig(Path(f"{stem}_holdout.png"), dpi=110)
+        plt.close(fig)
+        paths.append(Path(f"{stem}_holdout.png"))
 
     coefficients = getattr(estimator.regression_, "coefficients", None)
     if coefficients is not None:

@@ -281,3 +281,73 @@ def test_the_chosen_modes_are_the_fewest_within_the_tolerance_of_the_best():
     assert table.chosen == (20, 5) and "chosen (fewest modes within 100% of the best): r_f = 20, r_u = 5" in table.format()
     table.tolerance = 0.25                                           # 5.1e-4: r_f = 30 at r_u = 5
     assert table.chosen == (30, 5)
+
+
+def test_the_holdout_plot_gives_each_curve_its_own_colour_and_keeps_the_legend_off_the_curves():
+    """The tube's table: 7 r_u for 2 splits, 14 curves, more than matplotlib's 10 default colours."""
+    from rom_component.selection import SelectionTable
+    from rom_component.training_plots import _pyplot, holdout_figure
+    plt = _pyplot()
+    errors = np.linspace(1e-3, 1e-1, 7 * 6).reshape(7, 6)
+    tables = {split: SelectionTable([1, 2, 3, 4, 5, 6], [1, 3, 5, 7, 9, 11, 13], errors, errors, (3, 9), (2, 5),
+                                    100, 20, split) for split in ("windows", "snapshots")}
+    fig = holdout_figure(plt, tables)
+    ax = fig.axes[0]
+    lines = ax.get_lines()
+    assert len(lines) == 14
+    for split, style in (("windows", "-"), ("snapshots", "--")):
+        mine = [line for line in lines if line.get_label().endswith(split)]
+        assert len(mine) == 7 and {line.get_linestyle() for line in mine} == {style}
+        assert len({tuple(line.get_color()) for line in mine}) == 7          # one colour per r_u
+    fig.canvas.draw()
+    legend = ax.get_legend().get_window_extent()
+    assert legend.x0 >= ax.get_window_extent().x1                           # beside the axes, not over them
+    assert "best r_f = 3" in ax.get_title()
+    plt.close(fig)
+
+
+def test_the_trust_plot_puts_windows_inside_the_range_at_zero_and_says_when_none_left_it():
+    from types import SimpleNamespace
+
+    from rom_component.report_plots import _pyplot, trust_figure
+    plt = _pyplot()
+    e = np.linspace(1e-3, 2e-3, 6)
+    inside = SimpleNamespace(label="in", trust=np.array([np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]))
+    fig = trust_figure(plt, inside, {"_e": e})
+    ax = fig.axes[0]
+    points = np.vstack([c.get_offsets() for c in ax.collections])
+    assert len(points) == 5 and np.all(points[:, 0] == 0.0) and np.allclose(points[:, 1], e[1:])
+    assert ax.get_title() == "in: the ROM never left its training range"
+    plt.close(fig)
+    beyond = SimpleNamespace(label="out", trust=np.array([0.0, 0.0, 0.3, 2.0, 0.0, 12.0]))
+    fig = trust_figure(plt, beyond, {"_e": e, "rom_fallback_windows": 2})
+    ax = fig.axes[0]
+    inside_points, beyond_points = (c.get_offsets() for c in ax.collections)
+    assert np.all(inside_points[:, 0] == 0.0) and len(inside_points) == 3
+    assert np.allclose(beyond_points[:, 0], [0.3, 2.0, 12.0])
+    assert ax.get_xscale() == "symlog" and "2 windows fell back" in ax.get_title()
+    plt.close(fig)
+
+
+def test_a_curve_hidden_under_a_bit_identical_one_says_so_in_the_legend():
+    from types import SimpleNamespace
+
+    from rom_component.report_plots import _pyplot, iterations_figure, noted_labels
+    assert noted_labels([("a", np.ones(3)), ("b", np.ones(3)), ("c", np.ones(3) + 1e-12)]) == \
+        ["a", "b (identical to a: hidden under it)", "c"]
+    plt = _pyplot()
+    time = np.linspace(0.1, 1.0, 10)
+
+    def run(label, iterations):
+        return SimpleNamespace(label=label, time=time, iterations=np.asarray(iterations),
+                               predicted=lambda: time > 0.5, switch_time=0.5)
+    reference = SimpleNamespace(label="fom", time=time, iterations=np.full(10, 3))
+    e = np.linspace(1e-3, 2e-3, 10)
+    items = [(run("rom", np.full(10, 3)), reference, {"_e": e}),
+             (run("fmu", np.full(10, 3)), reference, {"_e": e.copy()}),
+             (run("rom_rf10", np.full(10, 4)), reference, {"_e": 2 * e})]
+    fig = iterations_figure(plt, "fom", items)
+    for ax in fig.axes:
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert labels == ["rom", "fmu (identical to rom: hidden under it)", "rom_rf10"]
+    plt.close(fig)

@@ -118,6 +118,10 @@ def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
     for png in ("monitor_rom.png", f"error_and_iterations_{fom.name}.png", "error_vs_cost.png",
                 "stress_strain_rom.png"):   # the last from the tube's own hook (solid_component.tube_report)
         assert (tmp_path / "report" / png).stat().st_size > 10_000, png
+    text = (tmp_path / "report/report.txt").read_text()     # the table's columns are defined beneath it
+    for column in ("speed-up: the reference's wall time / the run's wall time", "bound: the speed-up the ROM's cost",
+                   "sigma: solid FOM compute per call", "e(t) = ||U - U_rom||"):
+        assert column in text, column
 
 
 def test_the_iterations_interval_has_the_spread_of_the_windows_and_widens_with_their_correlation():
@@ -145,6 +149,22 @@ def test_scene_plot_hooks_are_registered_and_keep_to_their_scene(tmp_path):
     class Other:
         scene, fields, label = {"flap": {}}, {"force": np.zeros((2, 3))}, "other"
     assert stress_strain(Other(), Other(), tmp_path) == []
+
+
+def test_the_stress_strain_plot_draws_the_law_of_the_run_s_own_solid():
+    """The wall's law as the scene's solid computes it: its stiffness factor and wall law count, and a solid that
+    is not the tube's own gets no law drawn."""
+    from cosim.scene import load_scene
+    from solid_component.tube_report import wall_law
+    eps = np.array([-0.01, -1e-3, 0.0, 1e-3, 0.01])
+    default = wall_law(load_scene(TUBE_SCENE).data)
+    np.testing.assert_allclose(default(eps), [-2500 * 0.01 - 20, -12.5, 0.0, 12.5, 2500 * 0.01 + 20])
+    stiff = wall_law(load_scene(TUBE_SCENE, ["tube.stiffness_factor=3", "tube.wall_law=linear"]).data)
+    np.testing.assert_allclose(stiff(eps), 3 * 12500 * eps)
+    softer = wall_law(load_scene(TUBE_SCENE, ["components.solid.parameters.E_small=7500.0",
+                                              "components.solid.parameters.s0=10.0"]).data)
+    np.testing.assert_allclose(softer(eps[[1, 3]]), [-7.5, 7.5])
+    assert wall_law(load_scene(ROOT / "examples/spring_wall/scene.toml").data) is None
 
 
 def test_how_a_change_of_backend_is_treated_may_differ_only_from_a_reference_that_never_changed_backend(
