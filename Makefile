@@ -62,11 +62,11 @@ lock:
 	rm -rf .venv-lock
 
 figures: $(BIN)/cosim
-	$(BIN)/python scripts/figures.py
+	$(BIN)/python -m scripts.figures
 
 bench: $(BIN)/cosim
-	$(BIN)/python benchmarks/tube_run.py
-	$(BIN)/python benchmarks/rom_call.py
+	$(BIN)/python -m benchmarks.tube_run
+	$(BIN)/python -m benchmarks.rom_call
 
 clean:
 	rm -rf $(VENV) .venv-latest .venv-lock runs

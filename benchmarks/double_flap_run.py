@@ -9,7 +9,7 @@ and solid compute per call, coupler overhead per iteration (wall minus solver co
 trip minus compute), wall time per window, and both flap tips' x-displacement at the last
 window with the largest difference over all windows relative to the peer's tip amplitude.
 
-Usage: python benchmarks/double_flap_run.py N [--linear-solver sparse_lu|sparse_qr] [--small] [--readme]
+Usage: python -m benchmarks.double_flap_run N [--linear-solver sparse_lu|sparse_qr] [--small] [--readme]
 (--small: 3 windows, for the tests; --readme: also rewrite the README's double-flap table)
 """
 
@@ -24,14 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import Timing, fresh_directory, machine, rewrite_readme
+from benchmarks.kratos_peer import TIPS
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from coupler.run import run_scene
 
-from benchmarks.common import Timing, fresh_directory, machine, rewrite_readme  # noqa: E402
-from benchmarks.kratos_peer import TIPS  # noqa: E402
-from cosim.results import RunResults  # noqa: E402
-from cosim.scene import load_scene  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 SCENE = ROOT / "scenes" / "double_flap.toml"
 DT = 0.008
@@ -60,9 +59,9 @@ def ours(windows: int, linear_solver: str, out: Path, overrides: tuple[str, ...]
 def peer(windows: int, linear_solver: str, out: Path) -> dict:
     path = out / "peer.json"
     with open(out / "peer.log", "wb") as log:
-        subprocess.run([sys.executable, str(ROOT / "benchmarks" / "kratos_peer.py"), str(windows), str(path),
+        subprocess.run([sys.executable, "-m", "benchmarks.kratos_peer", str(windows), str(Path(path).resolve()),
                         "--linear-solver", linear_solver], check=True, stdout=log, stderr=subprocess.STDOUT,
-                       env={**os.environ, "OMP_NUM_THREADS": "1"})
+                       env={**os.environ, "OMP_NUM_THREADS": "1"}, cwd=ROOT)
     return json.loads(path.read_text())
 
 
@@ -124,7 +123,7 @@ def main(argv: list[str] | None = None) -> dict:
     (out / "table.txt").write_text("\n".join(lines) + "\n")
     (out / "ours.json").write_text(json.dumps(runs))
     if args.readme:
-        command = f"python benchmarks/double_flap_run.py {windows} --linear-solver {args.linear_solver} --readme"
+        command = f"python -m benchmarks.double_flap_run {windows} --linear-solver {args.linear_solver} --readme"
         rewrite_readme("double-flap", lines, command)
     return {"ours": mine, "runs": runs, "peer": theirs, "out": str(out)}
 

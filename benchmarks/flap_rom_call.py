@@ -15,9 +15,9 @@ Prints per-call times (median and interquartile range of repeated timings, micro
 and the solid speed-up sigma = FOM / ROM for each. The ROM has r_f = 45, r_u = 9, as in the paper.
 
 Usage:
-  python benchmarks/flap_rom_call.py --results A.h5 [B.h5 ...] [--t-max 3.0] [--coupled 25]
+  python -m benchmarks.flap_rom_call --results A.h5 [B.h5 ...] [--t-max 3.0] [--coupled 25]
                                                   train on recorded double-flap runs
-  python benchmarks/flap_rom_call.py --small      synthetic snapshots of the flap's sizes, 3 FOM calls (tests)
+  python -m benchmarks.flap_rom_call --small      synthetic snapshots of the flap's sizes, 3 FOM calls (tests)
 """
 
 from __future__ import annotations
@@ -25,17 +25,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from benchmarks.common import (  # noqa: E402
+from benchmarks.common import (
     CORE_PER_SOLVER,
     Timing,
     cold_call,
@@ -45,15 +41,17 @@ from benchmarks.common import (  # noqa: E402
     per_call,
     rewrite_readme,
 )
-from cosim.component import MESH_PREFIX  # noqa: E402
-from rom_component import persistence  # noqa: E402
-from rom_component.compiled import CompiledRom  # noqa: E402
-from rom_component.component import RomSolid  # noqa: E402
-from rom_component.estimator import SolidRom  # noqa: E402
-from rom_component.fmu_export import export_fmu  # noqa: E402
-from rom_component.online import OnlineRom  # noqa: E402
-from rom_component.train import interface_index, load_config, read_interface, read_training_set  # noqa: E402
-from solid_component.fmu import FmuSolid  # noqa: E402
+from cosim.component import MESH_PREFIX
+from rom_component import persistence
+from rom_component.compiled import CompiledRom
+from rom_component.component import RomSolid
+from rom_component.estimator import SolidRom
+from rom_component.fmu_export import export_fmu
+from rom_component.online import OnlineRom
+from rom_component.train import interface_index, load_config, read_interface, read_training_set
+from solid_component.fmu import FmuSolid
+
+ROOT = Path(__file__).resolve().parent.parent
 
 PAPER = {"rom_call_us": 2800.0, "fom_call_us": 724_000.0}
 MESHES = ROOT / "scenes" / "double_flap"
@@ -256,7 +254,7 @@ def main(argv: list[str] | None = None) -> dict:
     medians = {label: timing.median * 1e-6 for label, timing in rows + fom_rows}
     (out / "calls.json").write_text(json.dumps({"median_seconds": medians, "machine": machine()}, indent=1))
     if args.readme:
-        rewrite_readme("flap-rom-call", lines, "python benchmarks/flap_rom_call.py --results ... --readme")
+        rewrite_readme("flap-rom-call", lines, "python -m benchmarks.flap_rom_call --results ... --readme")
     return {"machine": machine(), "calls": dict(rows + fom_rows), "fit_seconds": fit_seconds, "flops": flops,
             "out": str(out)}
 

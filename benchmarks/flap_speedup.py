@@ -14,12 +14,12 @@ prices in the run's own (the fluid's compute scaled by ROM-FOM over FOM-FOM iter
 the cost of extra iterations from the coupler's and the machine's.
 
 Usage:
-  python benchmarks/flap_speedup.py --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
+  python -m benchmarks.flap_speedup --model runs/campaign/models/rom4.npz --reynolds 192.30769230769232 \\
       --switch-time 0.8 [--end 6.0] [--rom-first | --side-by-side [--swap-cores]] [--pin] [--set KEY=VALUE ...]
       [--readme [--block NAME]]          --set: scene overrides of the ROM-FOM run (e.g. the ROM's transient calls)
                                          --pin: one after the other, each solver on a core of its own
-  python benchmarks/flap_speedup.py --small     8 windows, a ROM trained on the first 4 (for the tests)
-  python benchmarks/flap_speedup.py --report runs/bench/flap_speedup-... [...]  the tables of earlier runs again
+  python -m benchmarks.flap_speedup --small     8 windows, a ROM trained on the first 4 (for the tests)
+  python -m benchmarks.flap_speedup --report runs/bench/flap_speedup-... [...]  the tables of earlier runs again
       (of several pairs also their geometric means, per model)
 """
 
@@ -35,14 +35,13 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import CORE_PER_SOLVER, fresh_directory, machine, rewrite_readme
+from cosim.scene import load_scene
+from coupler.run import run_scene
+from rom_component.report import Run, call_windows, compare
+from rom_component.train import load_config, train
 
-from benchmarks.common import CORE_PER_SOLVER, fresh_directory, machine, rewrite_readme  # noqa: E402
-from cosim.scene import load_scene  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
-from rom_component.report import Run, call_windows, compare  # noqa: E402
-from rom_component.train import load_config, train  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 SCENE = ROOT / "scenes" / "double_flap.toml"
 ROM_CONFIG = ROOT / "scenes" / "double_flap_rom.toml"
@@ -74,9 +73,11 @@ def side_by_side(out: Path, reynolds: float, end: float, rom: tuple[str, float],
     if len(os.sched_getaffinity(0)) < 2:
         raise SystemExit("--side-by-side needs two cores")
     cores = {"reference": 1, "rom": 0} if swap else {"reference": 0, "rom": 1}
-    common = [sys.executable, __file__, "--reynolds", repr(reynolds), "--end", repr(end), "--model", rom[0],
-              "--switch-time", repr(rom[1]), "--out", str(out), *(f"--set={s}" for s in rom_settings)]
-    children = {kind: subprocess.Popen([*common, "--one", kind, "--core", str(core)]) for kind, core in cores.items()}
+    common = [sys.executable, "-m", "benchmarks.flap_speedup", "--reynolds", repr(reynolds), "--end", repr(end),
+              "--model", str(Path(rom[0]).resolve()), "--switch-time", repr(rom[1]), "--out", str(Path(out).resolve()),
+              *(f"--set={s}" for s in rom_settings)]
+    children = {kind: subprocess.Popen([*common, "--one", kind, "--core", str(core)], cwd=ROOT)
+                for kind, core in cores.items()}
     try:
         while True:
             codes = {kind: child.poll() for kind, child in children.items()}
@@ -187,7 +188,7 @@ def publish(lines: list[str], block: str | None, result: dict) -> dict:
     print("\n".join(lines))
     if block:
         named = "" if block == "flap-speedup" else f" --block {block}"
-        command = f"python benchmarks/flap_speedup.py --model ... --readme{named}, or --report DIR... --readme{named}"
+        command = f"python -m benchmarks.flap_speedup --model ... --readme{named}, or --report DIR... --readme{named}"
         rewrite_readme(block, lines, command)
     return result
 

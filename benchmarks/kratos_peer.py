@@ -6,7 +6,7 @@ fluid, IQN-ILS on the fluid's load (alpha 0.5, time-step horizon 3, iteration ho
 relative_norm_previous_residual 5e-3 on load and displacement, nearest-neighbour mapping
 (transpose for the load, as our conservative mapping), at most 50 iterations. Run as
 
-    python benchmarks/kratos_peer.py WINDOWS OUT.json [--linear-solver sparse_lu] [--reynolds 250]
+    python -m benchmarks.kratos_peer WINDOWS OUT.json [--linear-solver sparse_lu] [--reynolds 250]
 
 in its own process (one thread), it writes per-window iterations, per-call compute times of
 both solvers, wall time per window and the tips' x-displacement.
@@ -23,12 +23,11 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
+from fluid_component.kratos import KratosFluid
+from solid_component.kratos import LINEAR_SOLVERS, KratosSolid
 
-from fluid_component.kratos import KratosFluid  # noqa: E402
-from solid_component.kratos import LINEAR_SOLVERS, KratosSolid  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 TIPS = {"left": (1.2, 0.28), "right": (1.52, 0.28)}
 

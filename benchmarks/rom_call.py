@@ -12,36 +12,34 @@ Prints per-call times (median and interquartile range of repeated timings, micro
 plus the training and cross-validation times, and the coupler round trips of ROM-FOM runs
 with the rom and the fmu backends.
 
-Usage: python benchmarks/rom_call.py [--results FOM_RESULTS.h5] [--small]   (--small: a 0-6 s training run)
+Usage: python -m benchmarks.rom_call [--results FOM_RESULTS.h5] [--small]   (--small: a 0-6 s training run)
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import Timing, fresh_directory, machine, per_call
+from cosim.component import MESH_PREFIX
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from coupler.run import run_scene
+from rom_component import persistence
+from rom_component.component import RomSolid
+from rom_component.estimator import SolidRom
+from rom_component.fmu_export import export_fmu
+from rom_component.online import OnlineRom
+from rom_component.selection import holdout_table
+from rom_component.train import load_config, read_interface, read_snapshots
+from solid_component.fmu import FmuSolid
+from solid_component.tube import TubeSolid
 
-from benchmarks.common import Timing, fresh_directory, machine, per_call  # noqa: E402
-from cosim.component import MESH_PREFIX  # noqa: E402
-from cosim.results import RunResults  # noqa: E402
-from cosim.scene import load_scene  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
-from rom_component import persistence  # noqa: E402
-from rom_component.component import RomSolid  # noqa: E402
-from rom_component.estimator import SolidRom  # noqa: E402
-from rom_component.fmu_export import export_fmu  # noqa: E402
-from rom_component.online import OnlineRom  # noqa: E402
-from rom_component.selection import holdout_table  # noqa: E402
-from rom_component.train import load_config, read_interface, read_snapshots  # noqa: E402
-from solid_component.fmu import FmuSolid  # noqa: E402
-from solid_component.tube import TubeSolid  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 PAPER_ROM_CALL_US = 2800.0
 

@@ -6,7 +6,7 @@ machine and the baselines measured in the same run:
 - coupling iterations against the paper's preCICE IQN-ILS run, like for like: the paper's own
   inlet tables replayed (4054 iterations in 1200 windows for mu1, 3.21 per window for mu2).
 
-Usage: python benchmarks/tube_run.py [--small]   (--small: 6 s of simulated time, for the tests)
+Usage: python -m benchmarks.tube_run [--small]   (--small: 6 s of simulated time, for the tests)
 """
 
 from __future__ import annotations
@@ -19,13 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import Timing, fresh_directory, machine
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from coupler.run import run_scene
 
-from benchmarks.common import Timing, fresh_directory, machine  # noqa: E402
-from cosim.results import RunResults  # noqa: E402
-from cosim.scene import load_scene  # noqa: E402
-from coupler.run import run_scene  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 SCENE = ROOT / "scenes" / "tube_fom.toml"
 PAPER_PRECICE = {"mu1": 4054 / 1200, "mu2": 3.21}   # coupling iterations per window, the paper's preCICE runs

@@ -5,7 +5,7 @@ With ``--calls`` (the ``calls.json`` that ``benchmarks/flap_rom_call.py`` writes
 speed-up against the authors' linear solver (sparse_qr) and the total speed-up bound it would give:
 the reference's solid calls priced at the benchmark's sparse_qr median per call, the fluid as measured.
 
-Usage: python scripts/campaign_readme.py runs/campaign [--calls runs/bench/flap_rom_call-.../calls.json]
+Usage: python -m scripts.campaign_readme runs/campaign [--calls runs/bench/flap_rom_call-.../calls.json]
        [--readme MARKER]
 """
 
@@ -16,13 +16,11 @@ import csv
 import json
 import math
 import re
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import rewrite_readme
 
-from benchmarks.common import rewrite_readme  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 PAPER = {"e_time": "< 4 %", "e_re300": "< 10 %", "iterations": "+7 %", "speedup": 1.81, "sigma": 260,
          "fit_s": 53, "cv_s": 1349}
@@ -188,7 +186,7 @@ def main() -> None:
     lines = summary(args.campaign.resolve(), args.calls)
     print("\n".join(lines))
     if args.readme:
-        command = f"python scripts/campaign_readme.py {args.campaign}" + (" --calls ..." if args.calls else "")
+        command = f"python -m scripts.campaign_readme {args.campaign}" + (" --calls ..." if args.calls else "")
         rewrite_readme(args.readme, lines, command + f" --readme {args.readme}")
 
 

@@ -3,7 +3,7 @@
 Runs the tube demo (scripts/tube_demo.sh: FOM-FOM, training, ROM-FOM, FMU, report), the
 tube benchmark (accelerations, the paper's inlet tables replayed against its preCICE run,
 per-call costs against the ZeroMQ floor) and the ROM-call benchmark, then rewrites the
-README between its figure markers. Usage: python scripts/figures.py [--no-readme]   (make figures)
+README between its figure markers. Usage: python -m scripts.figures [--no-readme]   (make figures)
 """
 
 from __future__ import annotations
@@ -15,11 +15,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from benchmarks import rom_call, tube_run
+from benchmarks.common import machine
 
-from benchmarks import rom_call, tube_run  # noqa: E402
-from benchmarks.common import machine  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 BEGIN, END = "<!-- figures:begin (scripts/figures.py writes this part) -->", "<!-- figures:end -->"
 PAPER_TUBE_ROM_ITERATIONS = "+12 %"   # the paper's tube ROM-FOM over FOM-FOM, accumulated iterations
@@ -73,7 +72,7 @@ def table(demo: dict, tube: dict, rom: dict) -> str:
          f"raw ZeroMQ ping-pong, same run: {tube['floor'].median:.0f}"),
     ]
     lines = [f"Machine: {machine()}. Medians; commands: `make figures` (this table), "
-             "`python benchmarks/tube_run.py`, `python benchmarks/rom_call.py`, `make demo`.", "",
+             "`python -m benchmarks.tube_run`, `python -m benchmarks.rom_call`, `make demo`.", "",
              "| what | ours | baseline |", "| --- | --- | --- |"]
     lines += [f"| {what} | {ours} | {baseline} |" for what, ours, baseline in rows]
     return "\n".join(lines)

@@ -9,7 +9,7 @@ Over the windows that end after ``--after`` (the ROM's served windows) and that 
   ``rom_excess``, in range widths): as the ROM-FOM run recorded it, and for the FOM-FOM run's own calls
   put through the same ROM's encoder (the ROM model named in the ROM-FOM run's scene).
 
-Usage: python scripts/flap_iterations.py ROM_RUN FOM_RUN [--after 3.0] [--last WINDOW]
+Usage: python -m scripts.flap_iterations ROM_RUN FOM_RUN [--after 3.0] [--last WINDOW]
   ROM_RUN, FOM_RUN: run directories (or their results.h5); --last: only windows up to this one
 """
 
@@ -21,12 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from cosim.results import RunResults
+from rom_component import persistence
+from rom_component.envelope import range_excess
 
-from cosim.results import RunResults  # noqa: E402
-from rom_component import persistence  # noqa: E402
-from rom_component.envelope import range_excess  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def window_residuals(run: RunResults) -> dict[int, np.ndarray]:

@@ -9,7 +9,7 @@ With ``--steps``: instead, along each step between the window's sub-iterations (
 coupling actually moves the force in), the relative error of the ROM's directional response against the
 solid's, ||J_rom d - J_fom d|| / ||J_fom d||.
 
-Usage: python scripts/flap_rom_response.py MODEL RESULTS [--window N] [--steps]
+Usage: python -m scripts.flap_rom_response MODEL RESULTS [--window N] [--steps]
   MODEL: a trained double-flap model (.npz); RESULTS: a double-flap run's results.h5 (f0: the last call
   of window N, default the middle window)
 """
@@ -17,16 +17,14 @@ Usage: python scripts/flap_rom_response.py MODEL RESULTS [--window N] [--steps]
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from cosim.results import RunResults
+from rom_component import persistence
 
-from cosim.results import RunResults  # noqa: E402
-from rom_component import persistence  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def responses(model: Path, results: Path, window: int | None,

@@ -8,7 +8,7 @@ iterations are decided), the relative error of the ROM's change against the soli
 model's displacement modes) and ||du_rom - du_solid|| / ||du_solid|| on the interface; medians over
 the steps, and the levels' errors next to them.
 
-Usage: python scripts/flap_step_error.py RESULTS MODEL [MODEL ...] [--windows 381-619] [--from-iteration 3]
+Usage: python -m scripts.flap_step_error RESULTS MODEL [MODEL ...] [--windows 381-619] [--from-iteration 3]
   RESULTS: a double-flap run's results.h5 (or its directory) with the solid's calls recorded
   MODEL: trained double-flap models (.npz), each reported on one line
 """
@@ -16,16 +16,14 @@ Usage: python scripts/flap_step_error.py RESULTS MODEL [MODEL ...] [--windows 38
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from cosim.results import RunResults
+from rom_component import persistence
 
-from cosim.results import RunResults  # noqa: E402
-from rom_component import persistence  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def step_errors(results: Path, model: Path, windows: tuple[int, int], first: int = 3) -> dict[str, np.ndarray]:

@@ -6,22 +6,20 @@ stores the forces (530 values) in their leading 60 POD modes and the displacemen
 in their leading 30 (mean, modes and coefficients in float32; the energy left out is printed), with
 each call's window and the interface index K of the 530 interface values in the field.
 
-Usage: python scripts/flap_test_data.py runs/campaign/fom/runs/run-d3cece0ee6/results.h5 (Re = 178.6) [--every 2] [--t-max 3.0]
+Usage: python -m scripts.flap_test_data runs/campaign/fom/runs/run-d3cece0ee6/results.h5 (Re = 178.6) [--every 2] [--t-max 3.0]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from rom_component.pod import centred_pod
+from rom_component.train import interface_index, load_config, read_snapshots
 
-from rom_component.pod import centred_pod  # noqa: E402
-from rom_component.train import interface_index, load_config, read_snapshots  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def compress(X: np.ndarray, rank: int) -> tuple[dict[str, np.ndarray], float]:

@@ -93,7 +93,7 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     # each ROM-FOM run is named by its prediction, also in the README summary
     names = json.loads((out / "rom/predictions.json").read_text())
     assert sorted(names[row["name"]] for row in rom) == sorted(p.name for p in load_plan(plan, out).predictions)
-    summary = subprocess.run([sys.executable, str(ROOT / "scripts/campaign_readme.py"), str(out)],
+    summary = subprocess.run([sys.executable, "-m", "scripts.campaign_readme", str(out)], cwd=ROOT,
                              capture_output=True, text=True, check=True).stdout
     assert "ROM-FOM a-mu1-fmu against mu1 from 6 s: 70 windows converged" in summary
     # the FMU of model a served the solid in the third run, bit for bit as the Python ROM in the first

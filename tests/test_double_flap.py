@@ -235,9 +235,7 @@ def test_the_step_error_script_replays_every_late_step_through_the_rom(three_win
     the ROM's RBF interpolates the calls it was trained on, so the reduced displacements it answers are the solid's
     fields projected as the script projects them, and only the decoder's truncation (r_u = 3) is left on the
     interface."""
-    import sys
-    sys.path.insert(0, str(ROOT / "scripts"))
-    from flap_step_error import step_errors
+    from scripts.flap_step_error import step_errors
     out, model = three_windows[0], three_window_rom[0]
     with RunResults(out) as run:
         iterations = run.windows.iterations

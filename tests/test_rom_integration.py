@@ -310,8 +310,7 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
     assert rows["fallback"]["displacement_error"]["mean"] < 0.01 < rows["warn"]["displacement_error"]["mean"]
     assert (tmp_path / "report" / "error_vs_trust_warn.png").stat().st_size > 10_000
     # scripts/flap_iterations.py counts the same windows and iterations as the runs' own records
-    sys.path.insert(0, str(ROOT / "scripts"))
-    from flap_iterations import compare
+    from scripts.flap_iterations import compare
     lines = compare(tmp_path / "fallback", tmp_path / "fom_x4", 0.1)
     with RunResults(tmp_path / "fom_x4") as reference, RunResults(tmp_path / "fallback") as fell_back:
         after = reference.windows.time > 0.1 + 1e-9
