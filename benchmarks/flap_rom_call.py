@@ -28,6 +28,7 @@ import os
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +56,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 PAPER = {"rom_call_us": 2800.0, "fom_call_us": 724_000.0}
 MESHES = ROOT / "scenes" / "double_flap"
-PARAMS = {"n_force_modes": 45, "n_disp_modes": 9, "decoder": "quadratic", "regressor": "poly", "input_scaling": "global"}
+PARAMS: dict[str, Any] = {"n_force_modes": 45, "n_disp_modes": 9, "decoder": "quadratic", "regressor": "poly", "input_scaling": "global"}
 
 
 KEEP_WARM = 0.001      # seconds between the idle repeats of the ROM's last call (components.solid.rom.keep_warm)

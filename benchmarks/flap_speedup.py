@@ -117,9 +117,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--reynolds", type=float, help="Reynolds number of both runs")
     parser.add_argument("--switch-time", type=float, help="the ROM takes the solid's place from this time (s)")
     parser.add_argument("--end", type=float, default=6.0, help="end time of both runs (s)")
-    order = parser.add_mutually_exclusive_group()
-    order.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
-    order.add_argument("--side-by-side", action="store_true",
+    placement = parser.add_mutually_exclusive_group()
+    placement.add_argument("--rom-first", action="store_true", help="run the ROM-FOM run before the reference")
+    placement.add_argument("--side-by-side", action="store_true",
                        help="run both at the same time, each pinned to a core of its own")
     parser.add_argument("--calls", type=Path, help="calls.json of benchmarks/flap_rom_call.py: the table adds sigma "
                                                    "against its solid call with the authors' sparse_qr")
@@ -278,7 +278,7 @@ def tabulate(out: Path, machine_line: str, timings: dict, qr_seconds: float | No
               f"{served['speedup'] / served_bound_iterations:>8.1%}",
               f"e(t) on the full field over the served windows: mean {row['displacement_error']['mean']:.2%}, "
               f"max {row['displacement_error']['max']:.2%}; {row['rom_fallback_windows']} windows fell back to the solid FOM"]
-    warm = runs["rom"].components[runs["rom"].rom_backend]["final"]
+    warm = runs["rom"].components[str(runs["rom"].rom_backend)]["final"]
     if "keep_warm_seconds" in warm:      # the ROM's idle repeats share the ROM-FOM run's core: part of its wall
         seconds = float(warm["keep_warm_seconds"][0])
         lines.append(f"keep_warm repeats: {int(warm['keep_warm_calls'][0])} calls, {seconds:.1f} s of compute "

@@ -95,8 +95,8 @@ def run_peer(windows: int, linear_solver: str = "sparse_lu", reynolds: float = 2
                  "linear_solver": linear_solver, "tolerance": 1e-6, "max_iterations": 25,
                  "clamped": "DISPLACEMENT_BCDisp"}
     assert linear_solver in LINEAR_SOLVERS
-    with tempfile.TemporaryDirectory(prefix="cosim-peer-") as tmp:
-        tmp = Path(tmp)
+    with tempfile.TemporaryDirectory(prefix="cosim-peer-") as folder:
+        tmp = Path(folder)
         (tmp / "fluid_materials.json").write_text(json.dumps(KratosFluid._materials(flow)))
         (tmp / "solid_materials.json").write_text(json.dumps(KratosSolid._materials(solid_prm)))
         fluid_file, solid_file = tmp / "fluid.json", tmp / "solid.json"
@@ -106,7 +106,7 @@ def run_peer(windows: int, linear_solver: str = "sparse_lu", reynolds: float = 2
                                                               tmp / "solid_materials.json")))
         analysis = CoSimulationAnalysis(KM.Parameters(json.dumps(cosim_parameters(end, fluid_file, solid_file))))
         coupled = analysis._GetSolver()
-        compute = {"fluid": [], "structure": []}
+        compute: dict[str, list[float]] = {"fluid": [], "structure": []}
         for name, log in compute.items():
             wrapper = coupled.solver_wrappers[name]
             wrapper.SolveSolutionStep = timed(wrapper.SolveSolutionStep, log)
@@ -114,7 +114,7 @@ def run_peer(windows: int, linear_solver: str = "sparse_lu", reynolds: float = 2
         structure = coupled.solver_wrappers["structure"]._analysis_stage.model["Structure"]
         nodes = {side: min(structure.Nodes, key=lambda n: (n.X0 - x) ** 2 + (n.Y0 - y) ** 2)
                  for side, (x, y) in TIPS.items()}
-        rows = {"iterations": [], "wall_seconds": [], "tip_left": [], "tip_right": []}
+        rows: dict[str, list[float]] = {"iterations": [], "wall_seconds": [], "tip_left": [], "tip_right": []}
         while analysis.KeepAdvancingSolutionLoop():
             started = time.perf_counter()
             calls_before = len(compute["fluid"])

@@ -144,9 +144,9 @@ def main(argv: list[str] | None = None) -> dict:
                                                            f"components.solid.{backend}.{key}={value}",
                                                            f"components.solid.{backend}.switch_time={train_end:g}"])
         run_scene(scene, run_dir, progress=False)
-        with RunResults(run_dir) as results:
+        with RunResults(run_dir) as run_results:
             for name in ("solid", f"solid_{backend}", "fluid"):
-                record = results.component(name)
+                record = run_results.component(name)
                 c, r = Timing.of(record.compute_seconds), Timing.of(record.roundtrip_seconds)
                 coupled[(backend, name)] = (c, r)
                 print(f"  {name:<12}{str(c):>24}{str(r):>24}   {backend} backend")

@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -46,8 +47,9 @@ def zmq_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
     import zmq
     server = subprocess.Popen([sys.executable, "-c", PING_SERVER], stdout=subprocess.PIPE, text=True)
     try:
+        assert server.stdout is not None       # a pipe
         endpoint = server.stdout.readline().strip()
-        socket = zmq.Context.instance().socket(zmq.DEALER)
+        socket: zmq.Socket = zmq.Context.instance().socket(zmq.DEALER)
         socket.connect(endpoint)
         message = [b"h", b"x" * payload]
         times = np.empty(n)
@@ -72,7 +74,7 @@ def run(out: Path, overrides: list[str]) -> dict:
     summary = run_scene(load_scene(SCENE, overrides), out, progress=False)
     with RunResults(out) as results:
         windows = results.windows
-        stats = {"wall": summary.wall_seconds, "windows": summary.windows, "iterations": summary.iterations,
+        stats: dict[str, Any] = {"wall": summary.wall_seconds, "windows": summary.windows, "iterations": summary.iterations,
                  "max_iterations": int(windows.iterations.max()), "converged": bool(windows.converged.all()),
                  "window_seconds": float(windows.wall_seconds.sum())}
         for name in ("fluid", "solid"):

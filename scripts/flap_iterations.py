@@ -44,6 +44,8 @@ def call_excess(run: RunResults, model: str | Path, component: str = "solid") ->
     rom = persistence.load(model)
     calls = run.calls(component)
     inputs = calls.inputs[rom.metadata.get("input_variable", "pressure")].reshape(len(calls.window), -1)
+    if rom.envelope is None:
+        raise SystemExit(f"{model}: the model has no training envelope")
     return calls.window, calls.iteration, range_excess(inputs @ rom.E.T - rom.e, rom.envelope)
 
 
@@ -104,12 +106,12 @@ def compare(rom_path: Path, fom_path: Path, after: float, last: int | None = Non
             lines.append(f"iterations over the {label} windows: ROM-FOM {a}, FOM-FOM {b} ({100 * (a / b - 1):+.2f} %)")
     first = [fell_back[w] for w in served if w in fell_back]
     if first:
-        values, counts = np.unique(first, return_counts=True)
+        first_at, count = np.unique(first, return_counts=True)
         lines.append("windows with a call out of range, by the iteration of the first such call: "
-                     + ", ".join(f"{v}: {c}" for v, c in zip(values.tolist(), counts.tolist())))
-    values, counts = np.unique(rom_its[clean] - fom_its[clean], return_counts=True)
+                     + ", ".join(f"{v}: {c}" for v, c in zip(first_at.tolist(), count.tolist())))
+    difference, count = np.unique(rom_its[clean] - fom_its[clean], return_counts=True)
     lines.append("per clean window, ROM-FOM minus FOM-FOM iterations: "
-                 + ", ".join(f"{v:+d}: {c}" for v, c in zip(values.tolist(), counts.tolist())))
+                 + ", ".join(f"{v:+d}: {c}" for v, c in zip(difference.tolist(), count.tolist())))
     model = solid.get("rom", {}).get("model")
     if model and Path(model).is_file():
         with RunResults(rom_path) as rom, RunResults(fom_path) as fom:

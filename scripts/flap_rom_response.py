@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,7 +29,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def responses(model: Path, results: Path, window: int | None,
-              steps: bool = False) -> list[tuple[int, float, float]] | list[float]:
+              steps: bool = False) -> list[Any]:
     """Per force mode: (mode index, size ratio ROM / solid, cosine); with ``steps``: per sub-iteration step of
     the window, the relative error of the ROM's response along it."""
     from solid_component.kratos import standalone_solid
@@ -50,7 +51,7 @@ def responses(model: Path, results: Path, window: int | None,
             return np.ravel(solid.step(0.0, 0.008, {"force": f.reshape(-1, 2)})["displacement"]).copy()
 
         h = 1e-3 * np.linalg.norm(f0)
-        rows = []
+        rows: list = []
         for k, d in enumerate(directions):
             j_fom = (fom(f0 + h * d) - fom(f0 - h * d)) / (2 * h)
             j_rom = (rom(f0 + h * d) - rom(f0 - h * d)) / (2 * h)

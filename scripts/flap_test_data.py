@@ -43,9 +43,10 @@ def main() -> None:
     F, U, windows = F[keep], U[keep], windows[keep]
     force, force_left = compress(F, 60)
     field, field_left = compress(U, 30)
-    np.savez_compressed(args.out, **{f"force_{k}": v for k, v in force.items()},
-                        **{f"field_{k}": v for k, v in field.items()}, window=windows.astype(np.int32),
-                        interface_index=interface_index(args.results, config["snapshots"]).astype(np.int32))
+    arrays = {**{f"force_{k}": v for k, v in force.items()}, **{f"field_{k}": v for k, v in field.items()},
+              "window": windows.astype(np.int32),
+              "interface_index": interface_index(args.results, config["snapshots"]).astype(np.int32)}
+    np.savez_compressed(args.out, **arrays)  # type: ignore[arg-type]  # numpy's stub takes allow_pickle for a keyword
     print(f"{len(F)} calls (t <= {times.max():g} s, every {args.every}); energy left out: forces {force_left:.1e}, "
           f"fields {field_left:.1e}; wrote {args.out} ({Path(args.out).stat().st_size / 1e6:.2f} MB)")
 
