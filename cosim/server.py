@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import hmac
 import importlib
+import importlib.util
 import ipaddress
 import json
 import os
 import sys
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -35,16 +38,39 @@ class EntryImportError(CosimError):
     """An entry's module cannot be imported (here: its own process may still find it)."""
 
 
-def load_entry(entry: str) -> type:
-    """The class named by ``"package.module:Class"``."""
+def _module_in(name: str, folders: Sequence[Path]) -> ModuleType | None:
+    """The module ``name`` loaded from the first of ``folders`` that has its file, or None."""
+    for folder in folders:
+        path = Path(folder, *name.split(".")).with_suffix(".py")
+        if path.is_file():
+            spec = importlib.util.spec_from_file_location(name, path)
+            if spec is None or spec.loader is None:
+                return None
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module            # as an import would (dataclasses look their module up there)
+            try:
+                spec.loader.exec_module(module)
+            except ImportError:                   # it imports what only its own process finds
+                del sys.modules[name]
+                return None
+            return module
+    return None
+
+
+def load_entry(entry: str, folders: Sequence[Path] = ()) -> type:
+    """The class named by ``"package.module:Class"``; a module that is not importable is looked for as a file in
+    ``folders`` (a module next to the scene), which is then loaded from there, not from the path."""
     module_name, sep, class_name = entry.partition(":")
     if not sep or not module_name or not class_name:
         raise CosimError(f"entry '{entry}' is not of the form 'package.module:Class'")
+    module: ModuleType | None
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise EntryImportError(f"entry '{entry}': cannot import module '{module_name}': {exc} (a module of your own goes "
-                         "next to the scene file, or on PYTHONPATH)") from None
+        module = _module_in(module_name, folders)
+        if module is None:
+            raise EntryImportError(f"entry '{entry}': cannot import module '{module_name}': {exc} (a module of your "
+                                   "own goes next to the scene file, or on PYTHONPATH)") from None
     cls = getattr(module, class_name, None)
     if cls is None:
         raise CosimError(f"entry '{entry}': module '{module_name}' has no '{class_name}'")

@@ -34,16 +34,7 @@ def check_parameters(scene: Scene) -> None:
 
 def _component_class(entry: str, folder: Path) -> type:
     """The class of ``entry``, found as its process finds it: the scene's folder is searched last."""
-    import sys
-
-    added = str(folder) not in sys.path
-    if added:
-        sys.path.append(str(folder))
-    try:
-        return load_entry(entry)
-    finally:
-        if added:
-            sys.path.remove(str(folder))
+    return load_entry(entry, [folder])
 
 
 def _check(scene: Scene, name: str, schema: dict) -> None:
