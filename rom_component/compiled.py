@@ -22,8 +22,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from cosim.errors import CosimError
-from rom_component.fmu_export import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
 from rom_component.model_check import check_arrays
+from rom_component.native import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
 from rom_component.online import OnlineRom
 
 

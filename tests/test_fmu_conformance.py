@@ -24,7 +24,8 @@ from fmpy.fmi2 import (
 from fmpy.validation import validate_fmu
 
 from rom_component import persistence
-from rom_component.fmu_export import SOURCE, export_fmu
+from rom_component.fmu_export import export_fmu
+from rom_component.native import SOURCE
 from solid_component.fmu import FmuSolid
 from tests.test_fmu import models, train  # noqa: F401  (the module's fixture)
 
