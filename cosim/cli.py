@@ -32,7 +32,7 @@ def commands() -> dict[str, Command]:
         "serve one component over ZeroMQ", _serve_arguments, _serve,
         "Serve one component (a class of the component contract) over ZeroMQ, as the coupler launches each "
         "component; by hand, to couple a component the scene names by address. Binds to loopback only.",
-        "cosim serve solid_component.tube:TubeSolid --bind tcp://127.0.0.1:5555")}
+        "cosim serve my_solid:MySolid --bind tcp://127.0.0.1:5555")}
     for point in sorted(entry_points(group=GROUP), key=lambda p: p.name):
         found.setdefault(point.name, point.load())
     return found

@@ -44,7 +44,7 @@ COMPONENT = {
     "environment": AnyTable(),
     "backend": Choice("fom", ("fom", "rom", "fmu")),
     "rom": {                # a trained ROM (the .npz written by `cosim train`)
-        "entry": "rom_component.component:RomSolid",
+        "entry": "",        # default: the installed "rom" backend (entry point group cosim.backends)
         "model": FilePath(),
         "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
         # "reproducible": bit-identical to the exported FMU; "compiled": the FMU's own C code in-process (the same
@@ -58,13 +58,14 @@ COMPONENT = {
         "keep_warm": Value(0.0, low=0.0),
     },
     "fmu": {                # any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)
-        "entry": "solid_component.fmu:FmuSolid",
+        "entry": "",        # default: the installed "fmu" backend
         "path": FilePath(),
         "switch_time": 0.0,
         "stateful": False,   # true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate
     },
 }
 BACKEND_FILE = {"rom": "model", "fmu": "path"}
+BACKENDS = "cosim.backends"     # entry points: a backend kind's component class, registered by its package
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity")}
 MAX_WINDOWS = 10_000_000
 MAX_FILE_BYTES = 16 << 20
@@ -88,7 +89,7 @@ SCHEMA: dict[str, Any] = {
                "plots": []},   # a scene's own run plots: names of cosim.run_plots entry points
 }
 LISTS = {"exchange": EXCHANGE}
-# what each key means, for the scene reference (docs/reference/scene.md, written by python -m coupler.scene_reference;
+# what each key means, for the scene reference (docs/reference/scene.md, written by the scene reference generator;
 # tests/test_docs.py fails when a key of the schema has no meaning here or the page is not the generated one)
 MEANINGS = {
     "name": "a name for the scene, recorded in the results",
@@ -134,7 +135,8 @@ MEANINGS = {
     "component.environment": "extra environment variables of the component's process",
     "component.backend": "what serves the component: its entry ('fom'), a trained ROM ('rom', table rom) or an "
                          "FMU ('fmu', table fmu)",
-    "component.rom.entry": "the ROM component's class",
+    "component.rom.entry": "the ROM component's class (empty: the installed `rom` backend, an entry point of the "
+                           "group `cosim.backends`)",
     "component.rom.model": "the model file written by `cosim train` (.npz)",
     "component.rom.switch_time": "the full-order entry serves until this time, the ROM after it",
     "component.rom.arithmetic": "'reproducible': bit-identical to the exported FMU; 'compiled': the FMU's own C code "
@@ -148,7 +150,7 @@ MEANINGS = {
     "component.rom.transient_margin": "the margin of those first calls",
     "component.rom.keep_warm": "between calls, repeat the last one every keep_warm seconds (0: never) to keep the "
                                "ROM's data in the caches; changes no result",
-    "component.fmu.entry": "the FMU component's class",
+    "component.fmu.entry": "the FMU component's class (empty: the installed `fmu` backend)",
     "component.fmu.path": "any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)",
     "component.fmu.switch_time": "the full-order entry serves until this time, the FMU after it",
     "component.fmu.stateful": "true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate between iterations",
@@ -248,6 +250,16 @@ def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
             raise SceneError(f"--set {'.'.join(path)}: '{'.'.join(path[:depth])}' is {node!r}, not a table")
 
 
+def backend_entry(kind: str, where: str, source: str) -> str:
+    """The ``package.module:Class`` registered for the backend ``kind`` (its entry point, not imported here)."""
+    from importlib.metadata import entry_points
+    found = {point.name: point.value for point in entry_points(group=BACKENDS)}
+    if kind not in found:
+        raise SceneError(f"{source}: '{where}' is not set and no '{kind}' backend is installed (entry points "
+                         f"{BACKENDS}: {', '.join(found) or 'none'})")
+    return found[kind]
+
+
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     """Read, override and validate a scene file."""
     path = Path(path)
@@ -323,6 +335,8 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
     components = {name: validate(spec, COMPONENT, f"components.{name}.", source)
                   for name, spec in components_raw.items()}
     for name, spec in components.items():
+        for kind in BACKEND_FILE:
+            spec[kind]["entry"] = spec[kind]["entry"] or backend_entry(kind, f"components.{name}.{kind}.entry", source)
         _string_list(spec["sections"], f"components.{name}.sections", source)
         _cores(spec["cores"], f"components.{name}.cores", source)
     # in the order the components name them: the resolved scene (and results.h5) is the same on every run

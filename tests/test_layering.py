@@ -131,3 +131,14 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 def test_no_import_cycle_between_our_modules():
     assert cycles(module_graph((*OURS, "benchmarks", "scripts"))) == []
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]   # the check sees one
+
+
+def test_cosim_names_no_module_of_an_upper_package():
+    """The bottom layer names no class or module above it, not even in a string: backends, commands and plots
+    reach it as entry points."""
+    import re
+    upper = re.compile(r"\b(coupler|rom_component|solid_component|fluid_component|benchmarks|scripts)\.[a-z_]")
+    named = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
+             for path in sorted((ROOT / "cosim").rglob("*.py"))
+             for number, line in enumerate(path.read_text().splitlines(), 1) if upper.search(line)]
+    assert named == []
