@@ -320,7 +320,7 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
     assert f"iterations over the all windows: ROM-FOM {totals[0]}, FOM-FOM {totals[1]} " in "\n".join(lines)
     assert lines[2].split()[:2] == ["1", "1.00e+00"]
     # its excess beyond the training range, recomputed from a run's recorded inputs, is the ROM's own trust value
-    from flap_iterations import call_excess
+    from scripts.flap_iterations import call_excess
     assert any(line.startswith("inputs beyond the ROM's training range") for line in lines)
     with RunResults(tmp_path / "fallback") as fell_back:
         window, iteration, excess = call_excess(fell_back, model)
