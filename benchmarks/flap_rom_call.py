@@ -86,7 +86,7 @@ def recorded_snapshots(results: list[str], t_max: float):
 
 def kratos_call_times(force: np.ndarray, calls: int) -> dict[str, np.ndarray]:
     """Compute seconds of ``calls`` solves of one window by the Kratos solid, for each linear solver."""
-    from solid_component.kratos import KratosSolid
+    from kratos_solvers.solid import KratosSolid
     times = {}
     for solver in ("sparse_qr", "sparse_lu"):
         solid = KratosSolid()

@@ -24,8 +24,8 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from fluid_component.kratos import KratosFluid
-from solid_component.kratos import LINEAR_SOLVERS, KratosSolid
+from kratos_solvers.fluid import KratosFluid
+from kratos_solvers.solid import LINEAR_SOLVERS, KratosSolid
 
 ROOT = Path(__file__).resolve().parent.parent
 

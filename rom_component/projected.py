@@ -41,7 +41,7 @@ class ProjectedSolid(Component):
             raise ComponentError(self.name, "parameter 'model' (path of a trained ROM's .npz) is not set")
         try:
             self.rom = load(own["model"], "reproducible")
-            self.inner: Component = load_entry(own.get("solid", "solid_component.kratos:KratosSolid"))()
+            self.inner: Component = load_entry(own.get("solid", "kratos_solvers.solid:KratosSolid"))()
         except CosimError as exc:
             raise ComponentError(self.name, str(exc)) from None
         a, meta = self.rom.arrays, self.rom.metadata

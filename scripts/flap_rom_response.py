@@ -32,7 +32,7 @@ def responses(model: Path, results: Path, window: int | None,
               steps: bool = False) -> list[Any]:
     """Per force mode: (mode index, size ratio ROM / solid, cosine); with ``steps``: per sub-iteration step of
     the window, the relative error of the ROM's response along it."""
-    from solid_component.kratos import standalone_solid
+    from kratos_solvers.solid import standalone_solid
     rom = persistence.load(model, "reproducible")
     arrays, _ = persistence.load_arrays(model)
     with RunResults(results) as run:

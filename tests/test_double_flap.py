@@ -81,7 +81,7 @@ def test_rbf_consistent_mapping_reproduces_linear_fields_on_the_real_interfaces(
 
 @pytest.fixture
 def solid():
-    from solid_component.kratos import KratosSolid
+    from kratos_solvers.solid import KratosSolid
     component = KratosSolid()
     component.instantiate({"time": {"start": 0.0, "end": 1.0, "dt": DT}, "mesh": str(MESHES / "solid.mdpa")})
     yield component
@@ -110,7 +110,7 @@ def test_kratos_solid_at_rest_and_in_equilibrium(solid):
 def test_the_static_solid_jumps_to_a_later_window_with_the_same_solution(solid):
     """The solid FOM kept beside a ROM takes a fallback window now and then: a static solve does not depend on
     the windows in between, only on the load."""
-    from solid_component.kratos import KratosSolid
+    from kratos_solvers.solid import KratosSolid
     loads = np.zeros((265, 2))
     loads[:, 0], loads[:, 1] = 2.0, -0.5
     stepped = [solid.step(k * DT, DT, {"force": loads * (1 + 0.1 * k)}) for k in range(6)][-1]
@@ -131,8 +131,8 @@ def test_the_static_solid_jumps_to_a_later_window_with_the_same_solution(solid):
 
 def test_fluid_and_solid_coupled_in_process_for_two_windows():
     """Gauss-Seidel with IQN-ILS on the fluid's force, driven directly (no processes)."""
-    from fluid_component.kratos import KratosFluid
-    from solid_component.kratos import KratosSolid
+    from kratos_solvers.fluid import KratosFluid
+    from kratos_solvers.solid import KratosSolid
     time = {"start": 0.0, "end": 1.0, "dt": DT}
     fluid, solid = KratosFluid(), KratosSolid()
     try:

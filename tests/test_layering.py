@@ -9,9 +9,9 @@ import pytest
 from cosim.cli import commands, parser
 from tests.conftest import ROOT
 
-OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component")
+OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component", "kratos_solvers")
 ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "solid_component": {"cosim"},
-           "rom_component": {"cosim"}}
+           "rom_component": {"cosim"}, "kratos_solvers": {"cosim"}}
 
 
 def imported_packages(path) -> set[tuple[str, int]]:

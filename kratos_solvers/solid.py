@@ -19,8 +19,8 @@ import numpy as np
 
 from cosim.component import Variable
 from cosim.errors import ComponentError
-from cosim.kratos_stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 from cosim.schema import FilePath, Positive, Required, Value, validate
+from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 
 LINEAR_SOLVERS = {
     "sparse_qr": "LinearSolversApplication.sparse_qr",     # the authors' (slow)

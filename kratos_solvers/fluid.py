@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from cosim.component import Variable
-from cosim.kratos_stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 from cosim.schema import FilePath, Positive, Required, validate
+from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 
 FLUID_SCHEMA = {
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
