@@ -71,6 +71,7 @@ MAX_WINDOWS = 10_000_000
 MAX_FILE_BYTES = 16 << 20
 SCHEMA: dict[str, Any] = {
     "name": "",
+    "case": "",
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
     "components": AnyTable(),
     "coupling": {
@@ -93,6 +94,8 @@ LISTS = {"exchange": EXCHANGE}
 # tests/test_docs.py fails when a key of the schema has no meaning here or the page is not the generated one)
 MEANINGS = {
     "name": "a name for the scene, recorded in the results",
+    "case": "the case the scene belongs to: `cosim report` adds the report plots and figures its case package "
+            "registers under that name (`tube`, `double_flap`)",
     "time.start": "the start of the first time window [s]",
     "time.end": "the end of the last time window [s]; end - start must be a multiple of dt",
     "time.dt": "the time window (coupling time step) [s]",

@@ -295,12 +295,14 @@ def call_windows(run: Run) -> np.ndarray:
 
 
 def scene_metrics(run: Run, reference: Run) -> dict[str, Any]:
-    """Figures a scene's component package adds (entry points ``cosim.report_metrics``: ``f(run, reference)``
-    returns a dict, empty for a scene that is not its own)."""
+    """Figures the run's case adds (the entry point of ``cosim.report_metrics`` named by the scene's ``case``:
+    ``f(run, reference)`` returns a dict)."""
     from importlib.metadata import entry_points
+    case = run.scene.get("case", "")
     found: dict[str, Any] = {}
-    for point in sorted(entry_points(group="cosim.report_metrics"), key=lambda p: p.name):
-        found.update(point.load()(run, reference))
+    for point in entry_points(group="cosim.report_metrics"):
+        if case and point.name == case:
+            found.update(point.load()(run, reference))
     return found
 
 

@@ -174,11 +174,10 @@ def error_vs_cost(pairs, rows, out: Path) -> Path:
 
 
 def scene_plots(run, reference, out: Path) -> list[Path]:
-    """The plots a scene's component packages register for this pair."""
-    paths = []
-    for point in sorted(entry_points(group=HOOKS), key=lambda p: p.name):
-        paths += point.load()(run, reference, out)
-    return paths
+    """The plots the run's case registers (the entry point of ``HOOKS`` named by the scene's ``case``)."""
+    case = run.scene.get("case", "")
+    return [path for point in entry_points(group=HOOKS) if case and point.name == case
+            for path in point.load()(run, reference, out)]
 
 
 def error_vs_trust(run, row: dict[str, Any], out: Path) -> Path | None:

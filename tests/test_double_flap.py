@@ -231,11 +231,11 @@ def test_a_rom_learns_the_full_field_and_serves_its_interface_part(three_windows
 
 
 def test_the_step_error_script_replays_every_late_step_through_the_rom(three_windows, three_window_rom):
-    """scripts/flap_step_error.py: one step per pair of consecutive calls of a window from the given iteration on;
+    """cases/double_flap/step_error.py: one step per pair of consecutive calls of a window from the given iteration on;
     the ROM's RBF interpolates the calls it was trained on, so the reduced displacements it answers are the solid's
     fields projected as the script projects them, and only the decoder's truncation (r_u = 3) is left on the
     interface."""
-    from scripts.flap_step_error import step_errors
+    from cases.double_flap.step_error import step_errors
     out, model = three_windows[0], three_window_rom[0]
     with RunResults(out) as run:
         iterations = run.windows.iterations

@@ -9,9 +9,11 @@ import pytest
 from cosim.cli import commands, parser
 from tests.conftest import ROOT
 
-OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component", "kratos_solvers")
+OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component", "kratos_solvers", "cases")
 ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "solid_component": {"cosim"},
-           "rom_component": {"cosim"}, "kratos_solvers": {"cosim"}}
+           "rom_component": {"cosim"}, "kratos_solvers": {"cosim"},
+           # a case sits on everything it names: the coupler, the ROM, its solvers
+           "cases": {"cosim", "coupler", "rom_component", "fluid_component", "solid_component", "kratos_solvers"}}
 
 
 def imported_packages(path) -> set[tuple[str, int]]:

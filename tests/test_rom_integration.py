@@ -116,7 +116,7 @@ def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
     assert row["model"]["n_disp_modes"] == 9 and row["model"]["n_force_modes"] == 3
     assert row["fom_solid_calls"] + row["rom_solid_calls"] == row["iterations"]
     for png in ("monitor_rom.png", f"error_and_iterations_{fom.name}.png", "error_vs_cost.png",
-                "stress_strain_rom.png"):   # the last from the tube's own hook (solid_component.tube_report)
+                "stress_strain_rom.png"):   # the last from the tube's own hook (cases.tube.report_plots)
         assert (tmp_path / "report" / png).stat().st_size > 10_000, png
     text = (tmp_path / "report/report.txt").read_text()     # the table's columns are defined beneath it
     for column in ("speed-up: the reference's wall time / the run's wall time", "bound: the speed-up the ROM's cost",
@@ -143,7 +143,7 @@ def test_the_iterations_interval_has_the_spread_of_the_windows_and_widens_with_t
 def test_scene_plot_hooks_are_registered_and_keep_to_their_scene(tmp_path):
     from importlib.metadata import entry_points
 
-    from solid_component.tube_report import stress_strain
+    from cases.tube.report_plots import stress_strain
     assert {p.name for p in entry_points(group="cosim.report_plots")} >= {"tube"}
 
     class Other:
@@ -154,8 +154,8 @@ def test_scene_plot_hooks_are_registered_and_keep_to_their_scene(tmp_path):
 def test_the_stress_strain_plot_draws_the_law_of_the_run_s_own_solid():
     """The wall's law as the scene's solid computes it: its stiffness factor and wall law count, and a solid that
     is not the tube's own gets no law drawn."""
+    from cases.tube.report_plots import wall_law
     from cosim.scene import load_scene
-    from solid_component.tube_report import wall_law
     eps = np.array([-0.01, -1e-3, 0.0, 1e-3, 0.01])
     default = wall_law(load_scene(TUBE_SCENE).data)
     np.testing.assert_allclose(default(eps), [-2500 * 0.01 - 20, -12.5, 0.0, 12.5, 2500 * 0.01 + 20])
@@ -309,8 +309,8 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
     assert rows["fallback"]["rom_fallback_windows"] > 0 and rows["warn"]["rom_fallback_windows"] == 0
     assert rows["fallback"]["displacement_error"]["mean"] < 0.01 < rows["warn"]["displacement_error"]["mean"]
     assert (tmp_path / "report" / "error_vs_trust_warn.png").stat().st_size > 10_000
-    # scripts/flap_iterations.py counts the same windows and iterations as the runs' own records
-    from scripts.flap_iterations import compare
+    # cases/double_flap/iterations.py counts the same windows and iterations as the runs' own records
+    from cases.double_flap.iterations import compare
     lines = compare(tmp_path / "fallback", tmp_path / "fom_x4", 0.1)
     with RunResults(tmp_path / "fom_x4") as reference, RunResults(tmp_path / "fallback") as fell_back:
         after = reference.windows.time > 0.1 + 1e-9
@@ -320,7 +320,7 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
     assert f"iterations over the all windows: ROM-FOM {totals[0]}, FOM-FOM {totals[1]} " in "\n".join(lines)
     assert lines[2].split()[:2] == ["1", "1.00e+00"]
     # its excess beyond the training range, recomputed from a run's recorded inputs, is the ROM's own trust value
-    from scripts.flap_iterations import call_excess
+    from cases.double_flap.iterations import call_excess
     assert any(line.startswith("inputs beyond the ROM's training range") for line in lines)
     with RunResults(tmp_path / "fallback") as fell_back:
         window, iteration, excess = call_excess(fell_back, model)

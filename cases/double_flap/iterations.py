@@ -9,7 +9,7 @@ Over the windows that end after ``--after`` (the ROM's served windows) and that 
   ``rom_excess``, in range widths): as the ROM-FOM run recorded it, and for the FOM-FOM run's own calls
   put through the same ROM's encoder (the ROM model named in the ROM-FOM run's scene).
 
-Usage: python -m scripts.flap_iterations ROM_RUN FOM_RUN [--after 3.0] [--last WINDOW]
+Usage: python -m cases.double_flap.iterations ROM_RUN FOM_RUN [--after 3.0] [--last WINDOW]
   ROM_RUN, FOM_RUN: run directories (or their results.h5); --last: only windows up to this one
 """
 

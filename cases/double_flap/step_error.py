@@ -8,7 +8,7 @@ iterations are decided), the relative error of the ROM's change against the soli
 model's displacement modes) and ||du_rom - du_solid|| / ||du_solid|| on the interface; medians over
 the steps, and the levels' errors next to them.
 
-Usage: python -m scripts.flap_step_error RESULTS MODEL [MODEL ...] [--windows 381-619] [--from-iteration 3]
+Usage: python -m cases.double_flap.step_error RESULTS MODEL [MODEL ...] [--windows 381-619] [--from-iteration 3]
   RESULTS: a double-flap run's results.h5 (or its directory) with the solid's calls recorded
   MODEL: trained double-flap models (.npz), each reported on one line
 """

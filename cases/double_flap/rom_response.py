@@ -9,7 +9,7 @@ With ``--steps``: instead, along each step between the window's sub-iterations (
 coupling actually moves the force in), the relative error of the ROM's directional response against the
 solid's, ||J_rom d - J_fom d|| / ||J_fom d||.
 
-Usage: python -m scripts.flap_rom_response MODEL RESULTS [--window N] [--steps]
+Usage: python -m cases.double_flap.rom_response MODEL RESULTS [--window N] [--steps]
   MODEL: a trained double-flap model (.npz); RESULTS: a double-flap run's results.h5 (f0: the last call
   of window N, default the middle window)
 """

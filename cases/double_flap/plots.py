@@ -88,9 +88,7 @@ def _tips_of(run) -> dict[str, np.ndarray]:
 def report_plots(run, reference, out: Path) -> list[Path]:
     """Report hook (``cosim.report_plots``): ``tips_<run>.png``, the left and right tip x-displacement of
     ROM-FOM against FOM-FOM with their difference, and ``phase_<run>.png``, the phase space (u_L, u_R)
-    over the predicted windows; nothing for other scenes."""
-    if run.scene.get("components", {}).get("fluid", {}).get("entry") != "kratos_solvers.fluid:KratosFluid":
-        return []
+    over the predicted windows."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -140,9 +138,7 @@ def report_plots(run, reference, out: Path) -> list[Path]:
 
 def report_metrics(run, reference) -> dict:
     """Report hook (``cosim.report_metrics``): per flap tip, the largest |ROM-FOM - FOM-FOM| x-displacement over
-    the predicted windows, in mm and over the FOM-FOM amplitude there; nothing for other scenes."""
-    if run.scene.get("components", {}).get("fluid", {}).get("entry") != "kratos_solvers.fluid:KratosFluid":
-        return {}
+    the predicted windows, in mm and over the FOM-FOM amplitude there."""
     ours, theirs = _tips_of(run), _tips_of(reference)
     predicted = run.predicted()
     tips = {}
