@@ -3,7 +3,10 @@
 A campaign file names a scene, a ROM configuration and three tables:
 
 - ``[fom]``: name -> the ``--set`` overrides of one FOM-FOM run;
-- ``[models.<name>]``: the FOM runs it trains on (``runs``) and overrides of the ROM configuration (``set``);
+- ``[recipes]`` (optional): name -> a list of overrides that models and predictions name by ``recipe`` instead of
+  repeating them; a recipe's overrides go before the table's own ``set``;
+- ``[models.<name>]``: the FOM runs it trains on (``runs``) and overrides of the ROM configuration (``recipe``,
+  ``set``);
 - ``[[predictions]]``: a ROM-FOM run: ``model``, ``reference`` (the FOM run whose scene it repeats and
   against which it is reported) and ``switch_time``; with ``fmu = true`` the model is exported as an FMU
   (``DIR/models/<model>.fmu``, through ``cosim export-fmu``) and the FMU serves the solid, and a prediction
@@ -40,7 +43,7 @@ import numpy as np
 
 from cosim.errors import CosimError, SceneError
 from cosim.scene import read_toml
-from cosim.schema import Required, validate
+from cosim.schema import AnyTable, Required, validate
 from coupler.sweep import (
     TABLE,
     SweepRun,
@@ -52,10 +55,11 @@ from coupler.sweep import (
     setting_keys,
 )
 
-PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "models": Required(dict),
-        "predictions": Required(list)}
-MODEL = {"runs": Required(list), "set": []}
-PREDICTION = {"model": Required(str), "reference": Required(str), "switch_time": Required(float), "set": [],
+PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "recipes": AnyTable(),
+        "models": Required(dict), "predictions": Required(list)}
+MODEL = {"runs": Required(list), "recipe": "", "set": []}
+PREDICTION = {"model": Required(str), "reference": Required(str), "switch_time": Required(float), "recipe": "",
+              "set": [],
               "fmu": False,   # true: the model exported as an FMU serves the solid (checked against its ROM twin)
               "label": "",    # the run's name in the report (default <model>-<reference>[-fmu])
               "twin": ""}     # fmu: the prediction it must repeat (default: same model, reference, switch time)
@@ -88,16 +92,28 @@ def load_plan(path: str | Path, out: Path) -> Plan:
     plan = validate(raw, PLAN, source=str(path))
     base = path.parent
     fom = {name: SweepRun(tuple(overrides)) for name, overrides in plan["fom"].items()}
+    recipes = plan["recipes"]
+    for name, overrides in recipes.items():
+        if not isinstance(overrides, list) or not all(isinstance(item, str) for item in overrides):
+            raise SceneError(f"{path}: recipes.{name} must be a list of KEY=VALUE strings, got {overrides!r}")
+
+    def expand(spec: dict[str, Any], where: str) -> dict[str, Any]:
+        """``spec`` with its recipe's overrides put before its own ``set``."""
+        if spec["recipe"] and spec["recipe"] not in recipes:
+            raise SceneError(f"{path}: {where}.recipe is '{spec['recipe']}', which is not in [recipes] "
+                             f"({', '.join(recipes) or 'none'})")
+        return {**spec, "set": [*recipes.get(spec["recipe"], []), *spec["set"]]}
+
     models = {}
     for name, spec in plan["models"].items():
-        spec = validate(spec, MODEL, source=f"{path}: models.{name}")
+        spec = expand(validate(spec, MODEL, source=f"{path}: models.{name}"), f"models.{name}")
         unknown = [run for run in spec["runs"] if run not in fom]
         if unknown:
             raise SceneError(f"{path}: models.{name}.runs names '{unknown[0]}', which is not in [fom]")
         models[name] = {**spec, "path": (out / "models" / f"{name}.npz").resolve()}
     predictions: list[Prediction] = []
     for i, spec in enumerate(plan["predictions"]):
-        spec = validate(spec, PREDICTION, source=f"{path}: predictions.{i}")
+        spec = expand(validate(spec, PREDICTION, source=f"{path}: predictions.{i}"), f"predictions.{i}")
         if spec["model"] not in models:
             raise SceneError(f"{path}: predictions.{i}.model is '{spec['model']}', which is not in [models]")
         if spec["reference"] not in fom:

@@ -163,12 +163,27 @@ def test_a_campaign_trains_on_its_fom_runs_predicts_reports_and_resumes(tmp_path
     ('scene = "x.toml"\nrom_config = "y.toml"\n[fom]\na = []\n[models]\nm = { runs = ["a"] }\n'
      '[[predictions]]\nmodel = "m"\nreference = "a"\nswitch_time = 1.0\n'
      '[[predictions]]\nmodel = "m"\nreference = "a"\nswitch_time = 2.0', "predictions.1 is named 'm-a' like an earlier one"),
+    ('scene = "x.toml"\nrom_config = "y.toml"\npredictions = []\n[fom]\na = []\n[models]\nm = { runs = ["a"], recipe = "r" }',
+     "models.m.recipe is 'r', which is not in [recipes]"),
+    ('scene = "x.toml"\nrom_config = "y.toml"\npredictions = []\n[recipes]\nr = "a=1"\n[fom]\na = []\n[models]',
+     "recipes.r must be a list of KEY=VALUE strings"),
 ])
 def test_a_campaign_file_naming_unknown_runs_or_models_is_refused(tmp_path, text, message):
     plan = tmp_path / "c.toml"
     plan.write_text(text)
     with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]")):
         load_plan(plan, tmp_path)
+
+
+def test_recipes_expand_to_the_overrides_they_name_before_a_table_s_own(tmp_path):
+    """The paper's campaign file names its recipes once: ROM 1's model overrides are the cubic recipe's, then its own."""
+    plan = load_plan(ROOT / "scenes/double_flap_campaign.toml", tmp_path)
+    assert plan.models["rom1"]["set"] == ["snapshots.t_max=3.0", "model.poly_fit='ridge'", "model.cross_modes=5",
+                                          "model.cubic_modes=3", "selection.compare_splits=true"]
+    assert plan.models["rom2_lasso"]["set"] == ["snapshots.t_max=3.0"]
+    rom4 = next(p for p in plan.predictions if p.name == "rom4-re192")
+    assert rom4.run.overrides[-2:] == ("components.solid.rom.transient_calls=2",
+                                      "components.solid.rom.transient_margin=3.0")
 
 
 def test_retry_failed_reruns_a_failed_prediction_and_keeps_the_failed_run_beside(tmp_path):
