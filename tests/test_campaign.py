@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from cosim.errors import SceneError
-from coupler.campaign import load_plan
+from workflow.campaign import load_plan
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -209,7 +209,7 @@ set = ["components.solid.rom.on_out_of_range='fail'", "components.solid.rom.rang
 
 
 def test_a_model_may_train_on_a_failed_run_only_up_to_its_training_end(tmp_path):
-    from coupler.campaign import _end_time, _training_end
+    from workflow.campaign import _end_time, _training_end
     config = tmp_path / "rom.toml"
     config.write_text("[snapshots]\nt_max = 1.0\n")
     assert _training_end(config, []) == 1.0
@@ -256,7 +256,7 @@ switch_time = 2.0
     assert lines[2].split() == ["model", "a", "trained"]
     assert lines[3].startswith("ROM-FOM a-reference") and "stopped midway at 12/30 windows" in lines[3]
     # the report while runs are still going: only pairs whose run and reference have both finished
-    from coupler.campaign import write_campaign_report
+    from workflow.campaign import write_campaign_report
     loaded = load_plan(plan, out)
     fom_dir = {name: out / "fom/runs" / run.name for name, run in loaded.fom.items()}
     rom_dir = {p.name: out / "rom/runs" / p.run.name for p in loaded.predictions}
@@ -305,7 +305,7 @@ label = "later"
 @pytest.mark.parametrize("state, kept_as", [("finished", "stale"), ("failed", "stale"), ("running", "stopped"),
                                             (None, "stopped")])
 def test_a_run_that_runs_again_is_kept_beside_named_by_why(tmp_path, state, kept_as):
-    from coupler.campaign import _set_aside, _why_again
+    from workflow.campaign import _set_aside, _why_again
     run = tmp_path / "run-1"
     run.mkdir()
     if state:

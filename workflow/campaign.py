@@ -23,8 +23,8 @@ was stopped midway starts again from its beginning. A run directory that is run 
 ``<run>.failed-<time>`` (``--retry-failed``), ``<run>.stale-<time>`` (it ended, and its model changed since) or
 ``<run>.stopped-<time>``. The report of every prediction goes to
 ``DIR/report/``, the training logs (hold-out tables, timings) to ``DIR/models/<name>.log``.
-Training and the report are the ``cosim train`` and ``cosim report`` subcommands, found through
-the command registry like any other, so the coupler imports no ROM code.
+Training, the FMU export and the report are the ROM's own functions (``rom_component.train``, ``.fmu_export``,
+``.report``), called directly: the campaign is a workflow above the coupler and the ROM.
 """
 
 from __future__ import annotations
@@ -54,6 +54,9 @@ from coupler.sweep import (
     scene_fingerprint,
     setting_keys,
 )
+from rom_component.fmu_export import export_fmu
+from rom_component.report import Run, write_report
+from rom_component.train import load_config, train
 
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "recipes": AnyTable(),
         "models": Required(dict), "predictions": Required(list)}
@@ -132,26 +135,6 @@ def load_plan(path: str | Path, out: Path) -> Plan:
     return Plan((base / plan["scene"]).resolve(), (base / plan["rom_config"]).resolve(), fom, models, predictions)
 
 
-def _command(argv: list[str]) -> list[str]:
-    """Run a ``cosim`` subcommand in this process; its output lines (an error if it fails)."""
-    import contextlib
-    import io
-
-    from cosim.cli import main
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    if code != 0:
-        raise SceneError(err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else f"exit code {code}")
-    return out.getvalue().splitlines()
-
-
-def _model_metadata(path: Path) -> dict[str, Any]:
-    """The JSON metadata a model file carries (array ``metadata_json``; read without the ROM package)."""
-    with np.load(path, allow_pickle=False) as data:
-        return json.loads(data["metadata_json"].tobytes().decode())
-
-
 def _end_time(run_dir: Path) -> float:
     """The end of the last window a run recorded (0 without results)."""
     from cosim.results import RunResults
@@ -176,12 +159,11 @@ def train_model(sources: list[str], config_path: str, overrides: list[str], out:
     configuration it was trained with."""
     out_path = Path(out)
     started = time.perf_counter()
-    lines = _command(["train", *sources, "--config", config_path, "--out", out,
-                      *[arg for item in overrides for arg in ("--set", item)]])
+    lines: list[str] = []
+    metadata = train(sources, out, load_config(config_path, overrides), echo=lines.append)
     lines.append(f"training with cross-validation: {time.perf_counter() - started:.1f} s")
     out_path.with_suffix(".log").write_text("\n".join(lines) + "\n")
     _stamp(out_path).write_text(json.dumps(_model_key(sources, config_path, overrides)))
-    metadata = _model_metadata(out_path)
     return {"seconds": time.perf_counter() - started, "cv_seconds": metadata.get("cv_seconds"),
             "fit_seconds": metadata["fit_seconds"], "modes": metadata["params"]["n_force_modes"]}
 
@@ -299,7 +281,7 @@ def _run_campaign(plan: Plan, out: Path, workers: int, scheduler: str | None, ec
                     model = plan.models[p.model]["path"]
                     _set_aside(rom_dir[p.name], _why_again(rom_dir[p.name]))
                     if p.fmu and (not p.fmu.is_file() or p.fmu.stat().st_mtime_ns < model.stat().st_mtime_ns):
-                        echo(_command(["export-fmu", str(model), "--out", str(p.fmu)])[-1])
+                        echo(f"wrote {export_fmu(model, p.fmu)}")
                     submit("rom", p.name, run_one, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
                            priority=1, order=plan.predictions.index(p))   # in the campaign file's order
 
@@ -445,7 +427,8 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
     """``cosim report`` over every ROM prediction whose run and reference finished (the failed ones are listed
     in ``report/failed.txt``), and the FMU runs checked against their twins (``report/fmu_check.txt``);
     ``finished``: the names of the runs (FOM and prediction) that have finished, if not all have."""
-    pairs, labels, notes = [], [], []
+    pairs: list[tuple[Run, Run]] = []
+    notes: list[str] = []
     for p in plan.predictions:
         if p.fmu:
             continue   # checked against its twin below (fmu_check.txt), which the report carries
@@ -458,8 +441,9 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
         if notes and notes[-1].startswith(f"{p.name}:"):
             continue
         if run.is_file() and reference.is_file():
-            pairs.append(f"{rom_dir[p.name]}={fom_dir[p.reference]}")
-            labels += ["--label", f"{rom_dir[p.name]}={p.name}", "--label", f"{fom_dir[p.reference]}={p.reference}"]
+            pair = (Run.read(rom_dir[p.name]), Run.read(fom_dir[p.reference]))
+            pair[0].label, pair[1].label = p.name, p.reference
+            pairs.append(pair)
         else:
             notes.append(f"{p.name}: left out ({'its run' if not run.is_file() else 'its reference'} has no results)")
     # written whole into a fresh directory, which then replaces the last report: no figure of a run that is no
@@ -479,8 +463,7 @@ def write_campaign_report(plan: Plan, out: Path, fom_dir: dict[str, Path], rom_d
         echo(line)
     (report / "fmu_check.txt").write_text("".join(f"{line}\n" for line in checks))
     if pairs:
-        for line in _command(["report", *pairs, "--out", str(report), *labels]):
-            echo(line)
+        write_report(pairs, report, echo=echo)
     final = out / "report"
     if final.is_dir():
         shutil.rmtree(final)
