@@ -303,7 +303,7 @@ def _run_campaign(plan: Plan, out: Path, workers: int, scheduler: str | None, ec
                 try:   # a side product: the runs go on whatever it says
                     write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table),
                                           lambda line: None, done)
-                except CosimError as exc:
+                except (CosimError, OSError) as exc:    # the file system's no included, as the command line had it
                     echo(f"warning: the interim report failed (the runs go on): {exc}")
 
             if any(p.run.name in rom_table.done for p in plan.predictions):
