@@ -20,7 +20,7 @@ $(BIN)/cosim: pyproject.toml $(LOCK)
 demo: $(BIN)/cosim
 	COSIM=$(BIN)/cosim bash scripts/tube_demo.sh
 
-# the short double-flap ROM protocol (about ten minutes) and the paper's whole campaign (hours; rerun to resume)
+# the short double-flap ROM protocol (about 15 minutes) and the paper's whole campaign (hours; rerun to resume)
 demo-flap: $(BIN)/cosim
 	$(BIN)/cosim campaign scenes/double_flap_short.toml --out runs/flap_demo
 
