@@ -172,7 +172,8 @@ def summary(campaign: Path, calls: Path | None) -> list[str]:
     if failed.is_file() and failed.read_text().strip():
         lines += ["failed:"] + ["  " + _first_words(line) for line in failed.read_text().splitlines()]
     pngs = sorted(p.name for p in (campaign / "report").glob("*.png"))
-    lines.append(f"PNGs in {campaign.relative_to(ROOT) if campaign.is_relative_to(ROOT) else campaign}/report: "
+    where = campaign.absolute()      # as given (a link under runs/ stays the link), relative to the checkout if inside
+    lines.append(f"PNGs in {where.relative_to(ROOT) if where.is_relative_to(ROOT) else where}/report: "
                  + ", ".join(pngs))
     return lines
 
@@ -183,7 +184,7 @@ def main() -> None:
     parser.add_argument("--calls", type=Path, help="calls.json of benchmarks/flap_rom_call.py")
     parser.add_argument("--readme", metavar="MARKER", help="rewrite this README block")
     args = parser.parse_args()
-    lines = summary(args.campaign.resolve(), args.calls)
+    lines = summary(args.campaign, args.calls)
     print("\n".join(lines))
     if args.readme:
         command = f"python -m scripts.campaign_readme {args.campaign}" + (" --calls ..." if args.calls else "")
