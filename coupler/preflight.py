@@ -23,18 +23,14 @@ def check_parameters(scene: Scene) -> None:
         if not spec["entry"]:
             continue
         try:
-            schema = getattr(_component_class(spec["entry"], scene.folder), "parameter_schema", None)
+            # found as its process finds it: a module next to the scene is loaded from its file
+            schema = getattr(load_entry(spec["entry"], [scene.folder]), "parameter_schema", None)
         except EntryImportError:
             continue                     # its own process will say what is missing
         except CosimError as exc:
             raise SceneError(f"{scene.source}: 'components.{name}.entry': {exc}") from None
         if schema is not None:
             _check(scene, name, schema)
-
-
-def _component_class(entry: str, folder: Path) -> type:
-    """The class of ``entry``, found as its process finds it: the scene's folder is searched last."""
-    return load_entry(entry, [folder])
 
 
 def _check(scene: Scene, name: str, schema: dict) -> None:

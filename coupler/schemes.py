@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TypeGuard
 
 import numpy as np
 
@@ -20,7 +21,6 @@ from cosim.errors import (
     ComponentTimeout,
     ConvergenceError,
     DivergenceError,
-    SceneError,
     StalledError,
 )
 from cosim.proxy import ComponentProxy
@@ -109,11 +109,6 @@ class CouplingScheme:
             self.accelerated = self.default_accelerated()
         if self.accelerated:
             self._extrapolation.store(self._stack(self.values, self.accelerated))
-        if self.implicit:
-            for proxy in (self.first, self.second):
-                if self._stateful(proxy) and not proxy.can_get_and_set_state:
-                    raise SceneError(f"component '{proxy.name}' cannot get and set its state, which the "
-                                     f"implicit scheme needs to repeat a window; use serial-explicit")
 
     def default_accelerated(self) -> list[str]:
         """Data the acceleration works on when the scene names none."""
@@ -138,7 +133,9 @@ class CouplingScheme:
         if converged and self.predictor == "acceleration" and self.accelerated:
             self._next_start = self._next_iterate(self.accelerated)
 
-    def _stateful(self, proxy: Participant) -> bool:
+    @staticmethod
+    def _stateful(proxy: Participant) -> TypeGuard[ComponentProxy]:
+        """A process whose state the scheme saves and restores (a schedule of backends never is one)."""
         return isinstance(proxy, ComponentProxy) and proxy.can_get_and_set_state
 
     # --- helpers ------------------------------------------------------------
@@ -171,13 +168,13 @@ class CouplingScheme:
 
     def _save_states(self) -> None:
         for proxy in (self.first, self.second):
-            if isinstance(proxy, ComponentProxy) and proxy.can_get_and_set_state:
+            if self._stateful(proxy):
                 self._state[proxy.name] = proxy.get_state()
 
     def _free_states(self) -> None:
         for proxy in (self.first, self.second):
             handle = self._state.pop(proxy.name, None)
-            if handle is not None and isinstance(proxy, ComponentProxy):
+            if handle is not None and self._stateful(proxy):
                 proxy.free_state(handle)
 
     def _restore(self, proxy: Participant, iteration: int) -> int | None:
