@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from sklearn.base import clone
 
 from benchmarks.common import (
     CORE_PER_SOLVER,
@@ -46,7 +47,7 @@ from cosim.component import MESH_PREFIX
 from rom_component import persistence
 from rom_component.compiled import CompiledRom
 from rom_component.component import RomSolid
-from rom_component.estimator import SolidRom
+from rom_component.estimator import SolidRom, resolve_parts
 from rom_component.fmu_export import export_fmu
 from rom_component.online import OnlineRom
 from rom_component.train import interface_index, load_config, read_interface, read_training_set
@@ -56,7 +57,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 PAPER = {"rom_call_us": 2800.0, "fom_call_us": 724_000.0}
 MESHES = ROOT / "scenes" / "double_flap"
-PARAMS: dict[str, Any] = {"n_force_modes": 45, "n_disp_modes": 9, "decoder": "quadratic", "regressor": "poly", "input_scaling": "global"}
+# the paper's ROM 1 and 4: 45 force modes, the sparse polynomial, the quadratic manifold of 9 modes
+PARAMS: dict[str, Any] = {"encoder": {"type": "pod", "modes": 45, "scaling": "global"},
+                          "regressor": {"type": "poly"}, "decoder": {"type": "quadratic", "modes": 9}}
 
 
 KEEP_WARM = 0.001      # seconds between the idle repeats of the ROM's last call (components.solid.rom.keep_warm)
@@ -138,17 +141,17 @@ def main(argv: list[str] | None = None) -> dict:
     repeat, fom_calls = (5, 3) if args.small else (15, 15)
     F, U, K, meshes, variables = synthetic_snapshots() if args.small else recorded_snapshots(args.results, args.t_max)
     started = time.perf_counter()
-    estimator = SolidRom(**PARAMS).fit(F, U)
+    estimator = SolidRom.from_settings(resolve_parts(PARAMS)).fit(F, U)
     fit_seconds = time.perf_counter() - started
     model_path = persistence.save(out / "model.npz",
                                   {**estimator.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}},
-                                  {"regressor": "poly", "params": PARAMS, "variables": variables,
+                                  {"regressor": "poly", "params": estimator.settings(), "variables": variables,
                                    "input_variable": "force", "output_variable": "displacement"})
     online = persistence.load(model_path)
     fast = OnlineRom(*persistence.load_arrays(model_path), arithmetic="fast")
     fmu_path = export_fmu(model_path, out / "solid_rom.fmu", 2)
     fmu = FmuSolid()
-    fmu.instantiate({"fmu": str(fmu_path)})
+    fmu.instantiate({"path": str(fmu_path)})
     fmu.enter_initialization_mode(0.0, 1.0)
     fmu.exit_initialization_mode()
     slave = fmu.slave
@@ -204,8 +207,8 @@ def main(argv: list[str] | None = None) -> dict:
     ]
     fmu.terminate()
     # the double flap's configuration (scenes/double_flap_rom.toml): products of the q leading reduced forces only
-    q = int(load_config(ROOT / "scenes" / "double_flap_rom.toml")["model"]["quadratic_modes"])
-    leading = SolidRom(**{**PARAMS, "quadratic_modes": q}).fit(F, U)
+    q = int(load_config(ROOT / "scenes" / "double_flap_rom.toml")["model"]["regressor"]["quadratic_modes"])
+    leading = clone(estimator).set_params(regressor__quadratic_modes=q).fit(F, U)
     leading_arrays = {**leading.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}}
     leading_fast = OnlineRom(leading_arrays, {"regressor": "poly"}, arithmetic="fast")
     leading_online = OnlineRom(leading_arrays, {"regressor": "poly"})
@@ -215,7 +218,7 @@ def main(argv: list[str] | None = None) -> dict:
               per_call(lambda: leading_online(f), repeat))]
     if args.coupled and not args.small:
         leading_path = persistence.save(out / "model_leading.npz", leading_arrays,
-                                        {"regressor": "poly", "params": {**PARAMS, "quadratic_modes": q},
+                                        {"regressor": "poly", "params": leading.settings(),
                                          "variables": variables, "input_variable": "force",
                                          "output_variable": "displacement"})
         seconds, _ = coupled_step_times(leading_path, out / "coupled", args.coupled)

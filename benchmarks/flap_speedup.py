@@ -48,8 +48,8 @@ ROM_CONFIG = ROOT / "scenes" / "double_flap_rom.toml"
 DT = 0.008
 ROM_SETTINGS = ("arithmetic", "on_out_of_range", "transient_calls", "transient_margin", "keep_warm")   # shown in the table
 SMALL = {"windows": 8, "train_windows": 4, "reynolds": 250.0}
-SMALL_MODEL = ["selection.choose='fixed'", "selection.table=false", "model.n_force_modes=4", "model.n_disp_modes=3",
-               "model.quadratic_modes=0"]
+SMALL_MODEL = ["selection.choose='fixed'", "selection.table=false", "model.encoder.modes=4", "model.decoder.modes=3",
+               "model.regressor.quadratic_modes=0"]
 
 
 def run_once(out: Path, reynolds: float, end: float, rom: tuple[str, float] | None = None,

@@ -71,26 +71,25 @@ def main(argv: list[str] | None = None) -> dict:
         results = out / "fom_train" / "results.h5"
     config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={train_end:g}"])
     F, U, _, _ = read_snapshots(results, config["snapshots"])
-    params = config["model"]
-
     started = time.perf_counter()
-    estimator = SolidRom(**params).fit(F, U)
+    estimator = SolidRom.from_settings(config["model"]).fit(F, U)
     fit_seconds = time.perf_counter() - started
     selection = config["selection"]
     force_modes, disp_modes = ([1, 3], [1, 5, 9]) if args.small else (selection["force_modes"], selection["disp_modes"])
     started = time.perf_counter()
-    holdout_table(SolidRom(**params), F, U, force_modes, disp_modes, selection["test_fraction"], selection["seed"])
+    holdout_table(SolidRom.from_settings(config["model"]), F, U, force_modes, disp_modes, selection["test_fraction"], selection["seed"])
     cv_seconds = time.perf_counter() - started
     variables, meshes = read_interface(results, config["snapshots"])   # the meshes the solid declared
     model_path = persistence.save(out / "model.npz",
                                   {**estimator.online_arrays(), **{MESH_PREFIX + k: v for k, v in meshes.items()}},
-                                  {"regressor": params["regressor"], "params": params, "variables": variables,
+                                  {"regressor": estimator.regressor_.type_name, "params": estimator.settings(),
+                                   "variables": variables,
                                    "input_variable": "pressure", "output_variable": "section"})
     online = persistence.load(model_path)
     fast = OnlineRom(*persistence.load_arrays(model_path), arithmetic="fast")
     fmu_path = export_fmu(model_path, out / "solid_rom.fmu")
     fmu = FmuSolid()
-    fmu.instantiate({"fmu": str(fmu_path)})
+    fmu.instantiate({"path": str(fmu_path)})
     fmu.enter_initialization_mode(0.0, 1.0)
     fmu.exit_initialization_mode()
     slave, refs_in, refs_out = fmu.slave, list(fmu.inputs["pressure"][0]), list(fmu.outputs["section"][0])
@@ -123,8 +122,8 @@ def main(argv: list[str] | None = None) -> dict:
     m = len(online.arrays["centres"]) if online.regressor == "rbf" else len(online.qi)
     r_f, r_u, n = online.E.shape[0], online.A.shape[1], online.n_inputs
     flops = 2 * r_f * n + 3 * m * r_f + 30 * m + 2 * r_u * (m + r_f + 1) + 2 * n * r_u
-    print(f"\nTube solid ROM: {len(F)} snapshots, r_f = {r_f}, r_u = {r_u}, {params['regressor']} "
-          f"({m} centres), {params['decoder']} decoder; online path about {flops} flops")
+    print(f"\nTube solid ROM: {len(F)} snapshots, r_f = {r_f}, r_u = {r_u}, {config['model']['regressor']['type']} "
+          f"({m} centres), {config['model']['decoder']['type']} decoder; online path about {flops} flops")
     print(f"  training (fit): {fit_seconds * 1e3:.1f} ms; hold-out cross-validation over "
           f"{len(force_modes) * len(disp_modes)} (r_f, r_u) pairs: {cv_seconds:.2f} s")
     print(f"  {'per call, in-process, us: median [IQR]':<66}{'':>24}{'vs fast ROM':>13}")

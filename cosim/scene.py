@@ -21,7 +21,7 @@ from cosim.errors import SceneError
 from cosim.schema import (
     AnyTable,
     Choice,
-    FilePath,
+    OpenTable,
     PluginChoice,
     Positive,
     Required,
@@ -31,6 +31,7 @@ from cosim.schema import (
     validate,
 )
 
+BACKEND = {"entry": "", "switch_time": 0.0}
 COMPONENT = {
     "entry": "",
     "address": "",
@@ -43,28 +44,11 @@ COMPONENT = {
     "cores": [],
     "environment": AnyTable(),
     "backend": Choice("fom", ("fom", "rom", "fmu")),
-    "rom": {                # a trained ROM (the .npz written by `cosim train`)
-        "entry": "",        # default: the installed "rom" backend (entry point group cosim.backends)
-        "model": FilePath(),
-        "switch_time": 0.0,  # the full-order entry serves until this time, the ROM after it
-        # "reproducible": bit-identical to the exported FMU; "compiled": the FMU's own C code in-process (the same
-        # results, a few times faster; needs a C compiler); "fast": BLAS products (not bit-identical)
-        "arithmetic": Choice("reproducible", ("reproducible", "compiled", "fast")),
-        "on_out_of_range": Choice("warn", ("warn", "fail", "fallback")),
-        "range_margin": Value(0.05, low=0.0),   # (the full-order solid, kept running, takes such calls)
-        # a window's first transient_calls calls are out of range only beyond transient_margin
-        "transient_calls": Value(0, low=0), "transient_margin": Value(0.0, low=0.0),
-        # between calls, repeat the last one every keep_warm seconds (0: never) to keep the ROM's data in the caches
-        "keep_warm": Value(0.0, low=0.0),
-    },
-    "fmu": {                # any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)
-        "entry": "",        # default: the installed "fmu" backend
-        "path": FilePath(),
-        "switch_time": 0.0,
-        "stateful": False,   # true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate
-    },
+    # a backend's table: its class (default: the installed backend of that kind), when it takes over, and the
+    # class's own parameters (checked against its parameter_schema before a run starts)
+    "rom": OpenTable(BACKEND),
+    "fmu": OpenTable(BACKEND),
 }
-BACKEND_FILE = {"rom": "model", "fmu": "path"}
 BACKENDS = "cosim.backends"     # entry points: a backend kind's component class, registered by its package
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity")}
 MAX_WINDOWS = 10_000_000
@@ -139,24 +123,11 @@ MEANINGS = {
     "component.backend": "what serves the component: its entry ('fom'), a trained ROM ('rom', table rom) or an "
                          "FMU ('fmu', table fmu)",
     "component.rom.entry": "the ROM component's class (empty: the installed `rom` backend, an entry point of the "
-                           "group `cosim.backends`)",
-    "component.rom.model": "the model file written by `cosim train` (.npz)",
+                           "group `cosim.backends`); the table's other keys are that class's parameters (below)",
     "component.rom.switch_time": "the full-order entry serves until this time, the ROM after it",
-    "component.rom.arithmetic": "'reproducible': bit-identical to the exported FMU; 'compiled': the FMU's own C code "
-                                "in-process (the same results, faster; needs a C compiler); 'fast': BLAS products "
-                                "(not bit-identical)",
-    "component.rom.on_out_of_range": "a call outside the training range: 'warn', 'fail', or 'fallback' (the "
-                                     "full-order solid, kept running, takes the window)",
-    "component.rom.range_margin": "how far beyond the training range (in range widths of each reduced force) a "
-                                  "call is still in range",
-    "component.rom.transient_calls": "a window's first calls that are out of range only beyond transient_margin",
-    "component.rom.transient_margin": "the margin of those first calls",
-    "component.rom.keep_warm": "between calls, repeat the last one every keep_warm seconds (0: never) to keep the "
-                               "ROM's data in the caches; changes no result",
-    "component.fmu.entry": "the FMU component's class (empty: the installed `fmu` backend)",
-    "component.fmu.path": "any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)",
+    "component.fmu.entry": "the FMU component's class (empty: the installed `fmu` backend); the table's other keys "
+                           "are that class's parameters (below)",
     "component.fmu.switch_time": "the full-order entry serves until this time, the FMU after it",
-    "component.fmu.stateful": "true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate between iterations",
 }
 
 
@@ -338,7 +309,7 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
     components = {name: validate(spec, COMPONENT, f"components.{name}.", source)
                   for name, spec in components_raw.items()}
     for name, spec in components.items():
-        for kind in BACKEND_FILE:
+        for kind in ("rom", "fmu"):
             spec[kind]["entry"] = spec[kind]["entry"] or backend_entry(kind, f"components.{name}.{kind}.entry", source)
         _string_list(spec["sections"], f"components.{name}.sections", source)
         _cores(spec["cores"], f"components.{name}.cores", source)
@@ -349,10 +320,6 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
         if key not in known:
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
     for name, spec in components.items():
-        backend = spec["backend"]
-        if backend != "fom" and not spec[backend][BACKEND_FILE[backend]]:
-            raise SceneError(f"{source}: components.{name}.backend is '{backend}' but "
-                             f"'components.{name}.{backend}.{BACKEND_FILE[backend]}' is not set")
         if bool(spec["entry"]) == bool(spec["address"]):
             raise SceneError(f"{source}: components.{name} needs exactly one of 'entry' or 'address'")
         if spec["address"]:

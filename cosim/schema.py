@@ -80,6 +80,14 @@ class AnyTable:
 
 
 @dataclass(frozen=True)
+class OpenTable:
+    """A table whose ``fixed`` keys are validated here and whose other keys pass through unchanged (another
+    schema, known only to whoever consumes the table, checks them later)."""
+
+    fixed: Mapping[str, Any]
+
+
+@dataclass(frozen=True)
 class FilePath:
     """A file's path, a string ("" for none). In a scene file a relative path is the scene folder's; given
     by ``--set`` it is the working directory's (see ``cosim.scene.Scene.resolve_paths``)."""
@@ -165,6 +173,10 @@ def _leaf(given: dict[str, Any], key: str, spec: Any, where: str, source: str) -
     """The validated value of one key."""
     if isinstance(spec, AnyTable):
         return dict(check_type(given.get(key, {}), dict, where))
+    if isinstance(spec, OpenTable):
+        table = dict(check_type(given.get(key, {}), dict, where))
+        fixed = validate({k: v for k, v in table.items() if k in spec.fixed}, spec.fixed, where + ".", source)
+        return {**fixed, **{k: v for k, v in table.items() if k not in spec.fixed}}
     if isinstance(spec, FilePath):
         if spec.required and key not in given:
             raise SceneError(f"missing key '{where}'")
@@ -230,6 +242,8 @@ def leaves(schema: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]
     for key, spec in schema.items():
         if isinstance(spec, Mapping):
             found += leaves(spec, f"{prefix}{key}.")
+        elif isinstance(spec, OpenTable):
+            found += leaves(spec.fixed, f"{prefix}{key}.")
         else:
             found.append((f"{prefix}{key}", spec))
     return found

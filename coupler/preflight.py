@@ -4,7 +4,9 @@ A component class that declares ``parameter_schema`` has its scene parameters ch
 coupler's process, so that a bad key fails at once (in a sweep: before any run starts) and the
 error names the scene key: ``tube.a0`` for a model section, ``components.solid.parameters.E``
 for the component's own table. A component whose module cannot be imported here is checked by
-its own process at ``instantiate`` instead.
+its own process at ``instantiate`` instead. A backend's table (``components.<name>.rom``, ``.fmu``) is
+checked the same way against its class's ``parameter_schema``: the scene layer knows only its ``entry`` and
+``switch_time``.
 """
 
 from __future__ import annotations
@@ -12,13 +14,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from cosim.errors import CosimError, SceneError
-from cosim.scene import Scene
+from cosim.scene import BACKEND, Scene
 from cosim.schema import file_paths, unknown_key_message, validate
 from cosim.server import EntryImportError, load_entry
 
 
 def check_parameters(scene: Scene) -> None:
-    """Every component's parameters against its declared schema; raises ``SceneError`` naming the key."""
+    """Every component's parameters, and its backends' tables, against their declared schemas; raises
+    ``SceneError`` naming the key."""
     for name, spec in scene["components"].items():
         if not spec["entry"]:
             continue
@@ -31,6 +34,38 @@ def check_parameters(scene: Scene) -> None:
             raise SceneError(f"{scene.source}: 'components.{name}.entry': {exc}") from None
         if schema is not None:
             _check(scene, name, schema)
+    check_backends(scene)
+
+
+def check_backends(scene: Scene) -> None:
+    """Every backend table the scene selects or fills, against its class's ``parameter_schema``: unknown keys and
+    bad values are named, defaults filled in, relative file paths resolved; a selected backend's files must be
+    set (not yet exist: a campaign checks its ROM-FOM runs before it trains their models)."""
+    for name, spec in scene["components"].items():
+        for kind in ("rom", "fmu"):
+            table = spec[kind]
+            given = {k: v for k, v in table.items() if k not in BACKEND}
+            if spec["backend"] != kind and not given:
+                continue
+            where = f"components.{name}.{kind}"
+            try:
+                schema = getattr(load_entry(table["entry"], [scene.folder]), "parameter_schema", None)
+            except EntryImportError:
+                continue                     # its own process will say what is missing
+            except CosimError as exc:
+                raise SceneError(f"{scene.source}: '{where}.entry': {exc}") from None
+            if schema is None:
+                continue
+            for key in given:
+                if key not in schema:
+                    raise SceneError(unknown_key_message(key, f"{where}.", list(schema), scene.source))
+            table.update(validate(given, schema, f"{where}.", scene.source))
+            keys = [f"{where}.{p}" for p in file_paths(schema)]
+            scene.resolve_paths(keys)
+            for dotted in keys if spec["backend"] == kind else ():
+                if not scene.value(dotted):
+                    raise SceneError(f"{scene.source}: components.{name}.backend is '{kind}' but '{dotted}' is "
+                                     "not set")
 
 
 def _check(scene: Scene, name: str, schema: dict) -> None:

@@ -25,7 +25,7 @@ from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
 from cosim.results import ResultsStore
 from cosim.rundir import RunDirectory
-from cosim.scene import Scene
+from cosim.scene import BACKEND, Scene
 from coupler.acceleration import make_acceleration
 from coupler.convergence import make_measure
 from coupler.mapping import make_mapping
@@ -84,9 +84,7 @@ def plan_backends(scene: Scene) -> list[Backend]:
         fallback = table.get("on_out_of_range") == "fallback"
         if switch > start + 1e-9 * max(1.0, abs(start)) or fallback:
             backends.append(fom)
-        parameters = {k: v for k, v in table.items() if k not in ("entry", "switch_time")}
-        if spec["backend"] == "fmu":
-            parameters = {"fmu": parameters.pop("path"), **parameters}
+        parameters = {k: v for k, v in table.items() if k not in BACKEND}
         backends.append(Backend(name, f"{name}_{spec['backend']}", spec["backend"], table["entry"], "",
                                 parameters, max(switch, start)))
     return backends

@@ -8,13 +8,10 @@ meaning, and every registered plug-in with its settings.
 
 from __future__ import annotations
 
-import inspect
-from collections.abc import Iterator
 from typing import Any
 
-from cosim.registry import Registry
-from cosim.scene import COMPONENT, EXCHANGE, MEANINGS, SCHEMA
-from cosim.schema import describe, leaves
+from cosim.reference import plugins, table
+from cosim.scene import BACKENDS, COMPONENT, EXCHANGE, MEANINGS, SCHEMA
 from coupler.acceleration import ACCELERATIONS
 from coupler.convergence import MEASURES
 from coupler.mapping import MAPPINGS
@@ -34,47 +31,22 @@ flap's `[flow]`) are each component's own parameters: the component class's `par
 """
 
 
-class MissingMeaning(KeyError):
-    """A key of the schema, or a plug-in's setting, that the reference cannot explain."""
-
-
-def _rows(schema: dict[str, Any], prefix: str, meaning_prefix: str) -> Iterator[str]:
-    for key, spec in leaves(schema):
-        meaning = MEANINGS.get(meaning_prefix + key)
-        if meaning is None:
-            raise MissingMeaning(f"no meaning for scene key '{meaning_prefix + key}' (cosim.scene.MEANINGS)")
-        yield _row(f"`{prefix}{key}`", spec, meaning)
-
-
-def _row(key: str, spec: Any, meaning: str) -> str:
-    kind, default, allowed = describe(spec)
-    default = default if default == "required" else f"`{default}`"
-    return f"| {key} | {kind} | {default} | {allowed} | {meaning} |"
-
-
 def _table(schema: dict[str, Any], prefix: str, meaning_prefix: str = "") -> list[str]:
-    return ["| key | type | default | allowed | meaning |", "| --- | --- | --- | --- | --- |",
-            *_rows(schema, prefix, meaning_prefix)]
+    return table(schema, MEANINGS, prefix, meaning_prefix, "cosim.scene.MEANINGS")
 
 
-def _plugins(registry: Registry[Any], title: str, where: str) -> list[str]:
-    lines = [f"## {title}", "", f"`{where}`: a name, or a table with `type` and the plug-in's settings.", ""]
-    for name, cls in registry.classes.items():
-        if not cls.__doc__:
-            raise MissingMeaning(f"the {registry.kind} '{name}' ({cls.__name__}) has no docstring")
-        doc = inspect.cleandoc(cls.__doc__).split("\n\n")[0].replace("\n", " ")
-        lines += [f"### `{name}`", "", doc, ""]
-        settings = getattr(cls, "SETTINGS", {})
-        if not settings:
-            lines += ["No settings.", ""]
-            continue
-        help_ = getattr(cls, "HELP", {})
-        lines += ["| setting | type | default | allowed | meaning |", "| --- | --- | --- | --- | --- |"]
-        for key, spec in leaves(settings):
-            if key not in help_:
-                raise MissingMeaning(f"no meaning for the {registry.kind} '{name}' setting '{key}' ({cls.__name__}.HELP)")
-            lines.append(_row(f"`{key}`", spec, help_[key]))
-        lines.append("")
+def _backends() -> list[str]:
+    """Each installed backend's table: the settings its class declares (``parameter_schema``, ``parameter_help``)."""
+    from importlib.metadata import entry_points
+    lines = ["## Backends", "", "`components.<name>.rom` and `components.<name>.fmu`: besides `entry` and "
+             "`switch_time`, the keys of a backend's table are its class's parameters. The installed backends "
+             f"(entry points of the group `{BACKENDS}`) take:", ""]
+    for point in sorted(entry_points(group=BACKENDS), key=lambda p: p.name):
+        cls = point.load()
+        help_ = getattr(cls, "parameter_help", {})
+        lines += [f"### `{point.name}`: `{point.value}`", "",
+                  *table(getattr(cls, "parameter_schema", {}), help_, f"{point.name}.", "",
+                         f"the {point.name} backend's parameter_help"), ""]
     return lines
 
 
@@ -86,10 +58,11 @@ def page() -> str:
              "## `[components.<name>]`", "", *_table(COMPONENT, "", "component."), "",
              "## `[[exchange]]`", "", "One table per exchanged variable.", "", *_table(EXCHANGE, "", "exchange."), "",
              "## `[[coupling.convergence]]`", "", MEANINGS["coupling.convergence"], "",
-             *_plugins(MEASURES, "Convergence measures", "coupling.convergence.N"),
-             *_plugins(ACCELERATIONS, "Accelerations", "coupling.acceleration"),
-             *_plugins(SCHEMES, "Coupling schemes", "coupling.scheme"),
-             *_plugins(MAPPINGS, "Mappings", "exchange.N.mapping")]
+             *plugins(MEASURES, "Convergence measures", "coupling.convergence.N"),
+             *plugins(ACCELERATIONS, "Accelerations", "coupling.acceleration"),
+             *plugins(SCHEMES, "Coupling schemes", "coupling.scheme"),
+             *plugins(MAPPINGS, "Mappings", "exchange.N.mapping"),
+             *_backends()]
     return "\n".join(lines).rstrip() + "\n"
 
 

@@ -22,7 +22,7 @@ from scipy.linalg import solve_banded
 
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
-from cosim.schema import FilePath, Positive, Value, validate
+from cosim.schema import Choice, FilePath, Positive, Value, validate
 from fluid_component.inlet import DUFFING_DEFAULTS, make_inlet
 
 # the fluid holds about 670 bytes a cell (10 million cells took it past 6.7 GB), and results.h5 grows by 16 bytes
@@ -30,7 +30,8 @@ from fluid_component.inlet import DUFFING_DEFAULTS, make_inlet
 MAX_CELLS = 1_000_000
 TUBE_SCHEMA = {"length": Positive(10.0), "cells": Value(100, low=2, high=MAX_CELLS), "a0": Positive(1.0),
                "stiffness_factor": Positive(1.0),   # scales the wall law (the solid's)
-               "wall_law": "piecewise"}             # or "linear": sigma = E_small eps at every strain
+               # or "linear": sigma = E_small eps at every strain
+               "wall_law": Choice("piecewise", ("piecewise", "linear"))}
 FLUID_SCHEMA = {
     "tube": TUBE_SCHEMA,
     "inlet": {"f": 2.0, "h": 6.0, "table": FilePath(), **DUFFING_DEFAULTS},

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from cosim.component import Variable
-from cosim.schema import FilePath, Positive, Required, validate
+from cosim.schema import Choice, FilePath, Positive, Required, validate
 from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 
 FLUID_SCHEMA = {
@@ -30,7 +30,7 @@ FLUID_SCHEMA = {
     "mesh": FilePath(required=True),       # the .mdpa file
     "tolerance": Positive(1e-6),
     "max_iterations": Positive(20),
-    "on_unconverged": "warn",              # "warn" or "fail" when Newton hits max_iterations
+    "on_unconverged": Choice("warn", ("warn", "fail")),   # when Newton hits max_iterations
     "interface": "NoSlip2D_Interface",
 }
 WALLS = ("NoSlip2D_Top", "NoSlip2D_Bottom", "NoSlip2D_Cylinder")

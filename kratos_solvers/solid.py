@@ -18,8 +18,7 @@ from typing import Any
 import numpy as np
 
 from cosim.component import Variable
-from cosim.errors import ComponentError
-from cosim.schema import FilePath, Positive, Required, Value, validate
+from cosim.schema import Choice, FilePath, Positive, Required, Value, validate
 from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 
 LINEAR_SOLVERS = {
@@ -33,10 +32,10 @@ SOLID_SCHEMA = {
     "young_modulus": Positive(10e6),
     "poisson_ratio": Value(0.3, low=0.0, high=0.5, high_open=True),
     "density": Positive(1000.0),           # unused by the static solver, required by the material
-    "linear_solver": "sparse_lu",
+    "linear_solver": Choice("sparse_lu", tuple(LINEAR_SOLVERS)),
     "tolerance": Positive(1e-6),
     "max_iterations": Positive(25),
-    "on_unconverged": "warn",              # "warn" or "fail" when Newton hits max_iterations
+    "on_unconverged": Choice("warn", ("warn", "fail")),   # when Newton hits max_iterations
     "interface": "StructureInterface2D_Struc_Fsi",
     "clamped": "DISPLACEMENT_BCDisp",
 }
@@ -52,9 +51,6 @@ class KratosSolid(KratosComponent):
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, SOLID_SCHEMA)
-        if prm["linear_solver"] not in LINEAR_SOLVERS:
-            raise ComponentError(self.name, f"'linear_solver' is {prm['linear_solver']!r}; "
-                                            f"allowed: {', '.join(LINEAR_SOLVERS)}")
         mesh, materials = self.prepare(prm, self._materials(prm))
         import KratosMultiphysics as KM
         import KratosMultiphysics.StructuralMechanicsApplication as SMA

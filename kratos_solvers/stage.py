@@ -122,8 +122,6 @@ class KratosComponent(Component):
     def prepare(self, settings: dict[str, Any], materials: dict[str, Any]) -> tuple[Path, Path]:
         """Checks shared by the Kratos components, Kratos's logging and threads, and a private folder
         holding the materials file; returns the mesh (without .mdpa) and the materials file."""
-        if settings["on_unconverged"] not in ("warn", "fail"):
-            raise ComponentError(self.name, f"'on_unconverged' is {settings['on_unconverged']!r}; allowed: warn, fail")
         mesh = Path(settings["mesh"]).with_suffix("")
         if not mesh.with_suffix(".mdpa").is_file():
             raise ComponentError(self.name, f"mesh '{mesh.with_suffix('.mdpa')}' does not exist")

@@ -15,20 +15,30 @@ from typing import Any
 import numpy as np
 
 from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
-from cosim.errors import ComponentError, CosimError
-from cosim.schema import Required, Value, validate
+from cosim.errors import ComponentError, CosimError, SceneError
+from cosim.schema import Choice, FilePath, Value, validate
 from rom_component.persistence import load
 
-ROM_SCHEMA = {"model": Required(str), "arithmetic": "reproducible",
-              "on_out_of_range": "warn",     # "warn", "fail", or "fallback" (the full-order solid takes the call)
-              "range_margin": Value(0.05, low=0.0),   # beyond a mode's training range by this fraction of it
-              # a window's first transient_calls calls are out of range only beyond transient_margin (the
-              # coupling's first updates overshoot and come back; the window's later calls answer to range_margin)
-              "transient_calls": Value(0, low=0), "transient_margin": Value(0.0, low=0.0),
-              # between requests, repeat the last call every keep_warm seconds (0: never), so that the ROM's data
-              # are still in the caches when the next call comes (the machine evicts them within milliseconds)
-              "keep_warm": Value(0.0, low=0.0)}
 ARITHMETIC = ("reproducible", "compiled", "fast")   # compiled: the FMU's C code in-process, same results
+ROM_SCHEMA = {"model": FilePath(), "arithmetic": Choice("reproducible", ARITHMETIC),
+              "on_out_of_range": Choice("warn", ("warn", "fail", "fallback")),
+              "range_margin": Value(0.05, low=0.0),
+              "transient_calls": Value(0, low=0), "transient_margin": Value(0.0, low=0.0),
+              "keep_warm": Value(0.0, low=0.0)}
+ROM_HELP = {
+    "model": "the model file written by `cosim train` (.npz)",
+    "arithmetic": "'reproducible': bit-identical to the exported FMU; 'compiled': the FMU's own C code in-process "
+                  "(the same results, faster; needs a C compiler); 'fast': BLAS products (not bit-identical)",
+    "on_out_of_range": "a call outside the training range: 'warn', 'fail', or 'fallback' (the full-order solid, "
+                       "kept running, takes the window)",
+    "range_margin": "how far beyond the training range (in range widths of each reduced force) a call is still in "
+                    "range",
+    "transient_calls": "a window's first calls that are out of range only beyond transient_margin (the coupling's "
+                       "first updates overshoot and come back)",
+    "transient_margin": "the margin of those first calls",
+    "keep_warm": "between calls, repeat the last one every keep_warm seconds (0: never) to keep the ROM's data in "
+                 "the caches (the machine evicts them within milliseconds); changes no result",
+}
 TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
 FLOAT64 = np.dtype(np.float64)
 
@@ -37,20 +47,20 @@ class RomSolid(Component):
     """A trained solid ROM (``model`` parameter: path of the .npz)."""
 
     name = "solid_rom"
+    parameter_schema = ROM_SCHEMA
+    parameter_help = ROM_HELP
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
-        prm = validate(parameters, ROM_SCHEMA)
+        try:
+            prm = validate(parameters, ROM_SCHEMA)
+        except SceneError as exc:
+            raise ComponentError(self.name, str(exc)) from None
         if not prm["model"]:
             raise ComponentError(self.name, "parameter 'model' (path of the trained .npz) is not set")
-        if prm["arithmetic"] not in ARITHMETIC:
-            raise ComponentError(self.name, f"'arithmetic' is {prm['arithmetic']!r}; allowed: {', '.join(ARITHMETIC)}")
         try:
             self.rom = load(prm["model"], prm["arithmetic"])
         except CosimError as exc:   # a bad model file, or no compiler for the compiled arithmetic
             raise ComponentError(self.name, str(exc)) from None
-        if prm["on_out_of_range"] not in ("warn", "fail", "fallback"):
-            raise ComponentError(self.name, f"'on_out_of_range' is {prm['on_out_of_range']!r}; "
-                                            "allowed: warn, fail, fallback")
         self.on_out_of_range, self.range_margin = prm["on_out_of_range"], prm["range_margin"]
         self.transient_calls, self.transient_margin = prm["transient_calls"], prm["transient_margin"]
         if self.transient_calls and self.transient_margin < self.range_margin:

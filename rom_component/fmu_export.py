@@ -47,11 +47,10 @@ def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
     meta = rom.metadata
     inputs = scalar_names(meta.get("input_variable", "force"), rom.n_inputs, components)
     outputs = scalar_names(meta.get("output_variable", "displacement"), rom.n_outputs, components)
-    params = meta.get("params", {})
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": MODEL_IDENTIFIER, "guid": guid,
-        "description": (f"solid ROM: r_f={params.get('n_force_modes')}, r_u={params.get('n_disp_modes')}, "
-                        f"{meta.get('regressor')} regression, {params.get('decoder', 'linear')} decoder"),
+        "description": (f"solid ROM: r_f={rom.E.shape[0]}, r_u={rom.A.shape[1]}, {rom.regressor} regression, "
+                        f"{'quadratic' if rom.quadratic_decoder else 'linear'} decoder"),
         "generationTool": "cosim export-fmu", "variableNamingConvention": "structured",
         "numberOfEventIndicators": "0"})
     cosimulation = ET.SubElement(root, "CoSimulation", {

@@ -22,6 +22,7 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.results import RunResults
+from rom_component.parts import describe_parts
 from rom_component.persistence import ModelFileError, load_arrays
 from rom_component.report_plots import write_plots
 
@@ -328,8 +329,7 @@ def _table(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         solid = r.get("solid", {})
         model = r.get("model", {})
-        desc = (f"r_f={model.get('n_force_modes')} r_u={model.get('n_disp_modes')} {model.get('regressor')} "
-                f"{model.get('decoder')} s={model.get('rbf_smoothing')}") if model else "-"
+        desc = describe_parts(model) if model else "-"
         lines.append(
             f"{r['label']:<16}{r['reference_label']:<12}{_num(r['switch_time'], '9.1f')}"
             f"{r['monitor_error']:>12.2e}{_num(r.get('displacement_error', {}).get('mean'), '11.2e')}"

@@ -152,8 +152,8 @@ def error_vs_cost(pairs, rows, out: Path) -> Path:
         for run, row in items:
             error, kind = _error_of(row)
             model = row.get("model", {})
-            variant = (f"r_f={model.get('n_force_modes')}, {model.get('regressor')}, {model.get('decoder')}"
-                       if model else "")
+            variant = (f"r_f={model.get('encoder', {}).get('modes')}, {model.get('regressor', {}).get('type')}, "
+                       f"{model.get('decoder', {}).get('type')}" if model else "")
             ax.plot([solid_cost(row)], [100 * error], "o", label=f"{run.label}: {variant}")
         costs = [calls] + [solid_cost(row) for _, row in items]
         errors = [100 * _error_of(row)[0] for _, row in items]

@@ -95,7 +95,7 @@ def holdout_table(estimator, F: np.ndarray, U: np.ndarray, force_modes: Sequence
     errors = np.full((len(disp_modes), len(force_modes)), np.nan)
     for j, r_f in enumerate(force_modes):
         for i, r_u in enumerate(disp_modes):
-            model = clone(estimator).set_params(n_force_modes=r_f, n_disp_modes=r_u).fit(F_train, U_train,
+            model = clone(estimator).set_params(encoder__modes=r_f, decoder__modes=r_u).fit(F_train, U_train,
                                                                                           **fit_params)
             errors[i, j] = np.linalg.norm(U_test - model.predict(F_test), axis=1).mean()
     scale = np.linalg.norm(U_test - U_train.mean(axis=0), axis=1).mean()

@@ -19,37 +19,50 @@ from cosim.component import MESH_PREFIX
 from cosim.errors import SceneError
 from cosim.results import RunResults
 from cosim.scene import apply_override, parse_override, read_toml
-from cosim.schema import Value, validate
+from cosim.schema import Choice, PluginChoice, Value, validate
 from rom_component import persistence
-from rom_component.estimator import SolidRom
+from rom_component.estimator import DEFAULT_PARTS, SolidRom, resolve_parts
 from rom_component.selection import energy_choice, holdout_table
 
-CONFIG = {
-    "snapshots": {"component": "solid", "input": "pressure", "output": "section",
-                  # a recorded local holding the whole displacement field (the double flap's displacement_field):
-                  # the decoder learns it and the ROM's output is its part on the output's nodes
-                  "field": "",
+CONFIG: dict[str, dict[str, Any]] = {
+    "snapshots": {"component": "solid", "input": "pressure", "output": "section", "field": "",
                   "t_min": 0.0, "t_max": 1e300, "converged_only": False},
-    "model": {"n_force_modes": 3, "n_disp_modes": 9, "decoder": "linear", "regressor": "rbf",
-              "input_scaling": "global", "manifold_regularization": 1e-6, "rbf_smoothing": 0.0,
-              "quadratic_modes": 0,    # poly: products of the leading quadratic_modes reduced forces only (0: all)
-              "feature_scaling": "standard",   # poly: each term to unit variance, or "global": one scale for all
-              # poly: the products of the leading cross_modes reduced forces with every reduced force, too
-              "cross_modes": 0,
-              # poly: "lasso-bic" (terms chosen per output, the paper's) or "ridge" (all terms, the penalty
-              # cross-validated over whole windows)
-              "poly_fit": "lasso-bic",
-              # poly: the cubic terms x_i x_j x_k with i <= j among the leading cubic_modes reduced forces and
-              # k >= j any (0: none): the solid's response along the coupling's sub-iteration steps in its weak
-              # displacement modes (README, "Cubic terms")
-              "cubic_modes": 0},
-    "output": {"plots": True},   # singular values, hold-out table and kept terms, next to the model
-    # split: the hold-out set is random snapshots or random whole windows; compare_splits prints the other too
-    "selection": {"choose": "fixed", "table": True, "force_modes": [1, 2, 3, 4, 5, 6],
-                  "disp_modes": [1, 3, 5, 7, 9, 11, 13], "test_fraction": 0.2, "seed": 0, "energy": 0.9999,
-                  "split": "snapshots", "compare_splits": False,
-                  # choose = "holdout": the fewest modes whose hold-out error is within this fraction of the best
+    "model": {kind: PluginChoice(name) for kind, name in DEFAULT_PARTS.items()},
+    "output": {"plots": True},
+    "selection": {"choose": Choice("fixed", ("fixed", "holdout", "energy")), "table": True,
+                  "force_modes": [1, 2, 3, 4, 5, 6], "disp_modes": [1, 3, 5, 7, 9, 11, 13],
+                  "test_fraction": Value(0.2, low=0.0, high=1.0, low_open=True, high_open=True),
+                  "seed": 0, "energy": Value(0.9999, low=0.0, high=1.0, low_open=True),
+                  "split": Choice("snapshots", ("snapshots", "windows")), "compare_splits": False,
                   "tolerance": Value(0.0, low=0.0)},
+}
+MEANINGS = {
+    "snapshots.component": "the recorded component whose calls are the training data",
+    "snapshots.input": "the force: an input of that component",
+    "snapshots.output": "the displacement the ROM serves: an output of that component",
+    "snapshots.field": "a recorded local holding the whole displacement field (the double flap's "
+                       "displacement_field): the decoder learns it and the ROM serves its part on the output's nodes "
+                       "(empty: the output itself)",
+    "snapshots.t_min": "the first window end time whose calls are used [s]",
+    "snapshots.t_max": "the last window end time whose calls are used [s]",
+    "snapshots.converged_only": "true: only each window's converged call; false: every sub-iteration",
+    "model.encoder": "forces to reduced coordinates: a registered encoder (below)",
+    "model.regressor": "reduced forces to reduced displacements: a registered regressor (below)",
+    "model.decoder": "reduced displacements to the field: a registered decoder (below)",
+    "output.plots": "write the singular values, the hold-out table and the kept terms next to the model (.png)",
+    "selection.choose": "the numbers of modes: 'fixed' (the encoder's and decoder's modes), 'holdout' (the "
+                        "hold-out table's choice) or 'energy' (the energy criterion)",
+    "selection.table": "print the hold-out table even when it chooses nothing",
+    "selection.force_modes": "the r_f of the hold-out grid",
+    "selection.disp_modes": "the r_u of the hold-out grid",
+    "selection.test_fraction": "the share of snapshots (or windows) held out",
+    "selection.seed": "the seed of the random hold-out split",
+    "selection.energy": "the energy criterion's share of the snapshot energy (sum of squared singular values)",
+    "selection.split": "hold out random 'snapshots' or random whole 'windows' (a random snapshot's neighbouring "
+                       "sub-iterations are no test)",
+    "selection.compare_splits": "print the table of the other split too",
+    "selection.tolerance": "choose = 'holdout': the fewest modes whose hold-out error is within this fraction of "
+                           "the best",
 }
 
 
@@ -62,11 +75,7 @@ def load_config(path: str | Path | None, overrides: Sequence[str] = ()) -> dict[
     for item in overrides:
         apply_override(raw, *parse_override(item))
     config = validate(raw, CONFIG, source=source)
-    if config["selection"]["choose"] not in ("fixed", "holdout", "energy"):
-        raise SceneError(f"{source}: 'selection.choose' is {config['selection']['choose']!r}; "
-                         "allowed: fixed, holdout, energy")
-    if config["selection"]["split"] not in ("snapshots", "windows"):
-        raise SceneError(f"{source}: 'selection.split' is {config['selection']['split']!r}; allowed: snapshots, windows")
+    config["model"] = resolve_parts(config["model"], source)
     return config
 
 
@@ -145,46 +154,49 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
     F, U, times, windows = read_training_set(sources, config["snapshots"])
     echo(f"{len(F)} snapshots of '{config['snapshots']['component']}' from {len(sources)} run(s), "
          f"t in [{times.min():g}, {times.max():g}]: F {F.shape}, U {U.shape}")
-    params = dict(config["model"])
+    model = SolidRom.from_settings(config["model"])
     try:
-        SolidRom(**params).check_params()
+        model.check_params()
     except ValueError as exc:
         raise SceneError(f"model: {exc}") from None
     K = interface_index(results, config["snapshots"]) if config["snapshots"]["field"] else None
     selection = config["selection"]
     table = None
     # the ridge fit cross-validates over whole windows
-    fit_by_window = params["regressor"] == "poly" and params["poly_fit"] == "ridge"
+    fit_windows = windows if model.parts()["regressor"].windows_group_fit else None
     started = time.perf_counter()
     tables = {}
     if selection["table"] or selection["choose"] == "holdout":
         splits = ["snapshots", "windows"] if selection["compare_splits"] else [selection["split"]]
         for split in sorted(splits, key=lambda s: s != selection["split"]):   # the one that chooses first
             split_started = time.perf_counter()
-            tables[split] = holdout_table(SolidRom(**params), F, U, selection["force_modes"], selection["disp_modes"],
+            tables[split] = holdout_table(model, F, U, selection["force_modes"], selection["disp_modes"],
                                           selection["test_fraction"], selection["seed"], selection["energy"],
                                           windows if split == "windows" else None, selection["tolerance"],
-                                          windows if fit_by_window else None)
+                                          fit_windows)
             echo(tables[split].format())
             echo(f"cross-validation time (split by {split}): {time.perf_counter() - split_started:.2f} s")
         table = tables[selection["split"]]
     cv_seconds = time.perf_counter() - started
+    r_f, r_u = model.parts()["encoder"].modes, model.parts()["decoder"].modes
     if selection["choose"] == "holdout":
         assert table is not None       # choose = "holdout" makes the table
-        params["n_force_modes"], params["n_disp_modes"] = table.chosen
+        r_f, r_u = table.chosen
     elif selection["choose"] == "energy":
-        params["n_force_modes"], params["n_disp_modes"] = energy_choice(F, U, selection["energy"])
+        r_f, r_u = energy_choice(F, U, selection["energy"])
     elif table is not None:
-        echo(f"the configuration fixes r_f = {params['n_force_modes']}, r_u = {params['n_disp_modes']} "
-             "(selection.choose = \"fixed\"; \"holdout\" or \"energy\" would choose them): the table informs only")
+        echo(f"the configuration fixes r_f = {r_f}, r_u = {r_u} (selection.choose = \"fixed\"; \"holdout\" or "
+             "\"energy\" would choose them): the table informs only")
+    model.set_params(encoder__modes=r_f, decoder__modes=r_u)
     fit_started = time.perf_counter()
-    model = SolidRom(**params).fit(F, U, windows=windows if fit_by_window else None)
+    model.fit(F, U, windows=fit_windows)
     fit_seconds = time.perf_counter() - fit_started
-    params["n_force_modes"], params["n_disp_modes"] = model.modes   # as used (capped by the data)
+    params = model.settings()
+    params["encoder"]["modes"], params["decoder"]["modes"] = model.modes   # as used (capped by the data)
     U_fit = model.predict(F)
     training_error = float(np.linalg.norm(U_fit - U, axis=1).mean())
     metadata = {
-        "regressor": params["regressor"], "params": params,
+        "regressor": params["regressor"]["type"], "params": params,
         "input_variable": config["snapshots"]["input"], "output_variable": config["snapshots"]["output"],
         "component": config["snapshots"]["component"], "results": str(results),
         "t_range": [float(times.min()), float(times.max())], "n_snapshots": int(len(F)),
@@ -202,11 +214,11 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
                                                       "best": list(t.best)} for split, t in tables.items()}}
     if K is not None:
         metadata["field_variable"] = config["snapshots"]["field"]
-    coefficients = getattr(model.regression_, "coefficients", None)
+    coefficients = getattr(model.regressor_, "coefficients_", None)
     if coefficients is not None:
         kept = (coefficients != 0).sum(axis=0)
         metadata["terms_kept"] = {"per_output": kept.tolist(), "of": int(coefficients.shape[0])}
-        penalty = getattr(model.regression_, "ridge_penalty", None)
+        penalty = getattr(model.regressor_, "ridge_penalty_", None)
         if penalty is None:
             echo(f"sparse polynomial: {int(kept.sum())} of {coefficients.size} terms kept "
                  f"({kept.min()}-{kept.max()} of {coefficients.shape[0]} per reduced displacement)")
@@ -219,7 +231,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
         from rom_component.training_plots import write_training_plots
         written = write_training_plots(out, model, tables)
         echo(f"plots: {', '.join(str(p) for p in written)}")
-    echo(f"fitted r_f = {params['n_force_modes']}, r_u = {params['n_disp_modes']}, {params['regressor']} regression, "
-         f"{params['decoder']} decoder in {fit_seconds:.3f} s (training time); mean training error {training_error:.3e}")
+    echo(f"fitted r_f = {model.modes[0]}, r_u = {model.modes[1]}, {params['regressor']['type']} regression, "
+         f"{params['decoder']['type']} decoder in {fit_seconds:.3f} s (training time); mean training error {training_error:.3e}")
     echo(f"saved {out}")
     return metadata

@@ -60,8 +60,8 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
     paths = []
     r_f, r_u = estimator.modes
     fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
-    for values, chosen, label in ((estimator.force_singular_values_, r_f, "interface force"),
-                                  (estimator.disp_singular_values_, r_u, "displacement field")):
+    for values, chosen, label in ((estimator.encoder_.singular_values_, r_f, "interface force"),
+                                  (estimator.decoder_.singular_values_, r_u, "displacement field")):
         s = values / values[0]
         line, = ax.semilogy(np.arange(1, len(s) + 1), s, lw=1.2, label=f"{label} (r = {chosen})")
         ax.plot([chosen], [s[chosen - 1]], "o", color=line.get_color())
@@ -75,11 +75,11 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
         plt.close(fig)
         paths.append(Path(f"{stem}_holdout.png"))
 
-    coefficients = getattr(estimator.regression_, "coefficients", None)
+    coefficients = getattr(estimator.regressor_, "coefficients_", None)
     if coefficients is not None:
-        n = estimator.regression_.n_inputs
-        cubic = len(estimator.regression_.cube_i)
-        products = len(estimator.regression_.quad_i) + cubic
+        n = estimator.regressor_.n_inputs_
+        cubic = len(estimator.regressor_.cube_i_)
+        products = len(estimator.regressor_.quad_i_) + cubic
         order = np.r_[products:products + n, 0:products]         # linear terms first, then the products
         kept = coefficients[order].T != 0                        # (r_u, terms)
         fig, ax = plt.subplots(figsize=(11, 3.2), constrained_layout=True)
@@ -89,7 +89,7 @@ def write_training_plots(model_path: str | Path, estimator, tables: dict) -> lis
                       + (f" and {cubic} cubic terms x_i x_j x_k" if cubic else ""))
         ax.set_ylabel("reduced displacement [index]")
         ax.set_yticks(range(kept.shape[0]))
-        fit = "a ridge fit" if estimator.regression_.fit_method == "ridge" else "Lasso-LARS with the BIC"
+        fit = "a ridge fit" if estimator.regressor_.method == "ridge" else "Lasso-LARS with the BIC"
         ax.set_title(f"Terms kept by {fit}: {int(kept.sum())} of {kept.size} "
                      f"({kept.sum(axis=1).min()}-{kept.sum(axis=1).max()} of {kept.shape[1]} per output)", fontsize=10)
         paths.append(Path(f"{stem}_terms.png"))

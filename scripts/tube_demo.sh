@@ -27,9 +27,9 @@ rom $OUT/model.npz 0.1 --out $OUT/rom_mu2 "${MU2[@]}"
 
 # variants for the error-against-run-time comparison (mu1, switch at 18 s)
 variants=()
-for spec in "energy:--set selection.choose=energy" "no_smoothing:--set model.rbf_smoothing=0" \
-            "rf2_ru5:--set model.n_force_modes=2 --set model.n_disp_modes=5" \
-            "poly:--set model.regressor=poly --set model.rbf_smoothing=0"; do
+for spec in "energy:--set selection.choose=energy" "no_smoothing:--set model.regressor.smoothing=0" \
+            "rf2_ru5:--set model.encoder.modes=2 --set model.decoder.modes=5" \
+            "poly:--set model.regressor=poly"; do
   name=${spec%%:*}; args=${spec#*:}
   # shellcheck disable=SC2086
   "$COSIM" train $OUT/fom_mu1/results.h5 --config scenes/tube_rom.toml --out $OUT/variants/$name.npz \

@@ -25,10 +25,12 @@ from typing import Any
 import numpy as np
 
 from cosim.component import Component, Variable, check_inputs
-from cosim.errors import ComponentError
-from cosim.schema import Required, validate
+from cosim.errors import ComponentError, SceneError
+from cosim.schema import FilePath, validate
 
-FMU_SCHEMA = {"fmu": Required(str), "stateful": False}
+FMU_SCHEMA = {"path": FilePath(), "stateful": False}
+FMU_HELP = {"path": "any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)",
+            "stateful": "true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate between iterations"}
 NAME = re.compile(r"^(?P<name>[A-Za-z_]\w*)\[(?P<node>\d+)\](?:\.(?P<axis>[xyz]))?$")
 WARNING = 1  # fmi2Warning: the worst status that is not an error
 
@@ -52,10 +54,17 @@ class FmuSolid(Component):
     """A Co-Simulation FMU behind the component contract."""
 
     name = "solid_fmu"
+    parameter_schema = FMU_SCHEMA
+    parameter_help = FMU_HELP
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
-        prm = validate(parameters, FMU_SCHEMA)
-        path = Path(prm["fmu"])
+        try:
+            prm = validate(parameters, FMU_SCHEMA)
+        except SceneError as exc:
+            raise ComponentError(self.name, str(exc)) from None
+        if not prm["path"]:
+            raise ComponentError(self.name, "parameter 'path' (the FMU file) is not set")
+        path = Path(prm["path"])
         if not path.is_file():
             raise ComponentError(self.name, f"FMU '{path}' does not exist")
         if not zipfile.is_zipfile(path):

@@ -178,8 +178,9 @@ def test_a_campaign_file_naming_unknown_runs_or_models_is_refused(tmp_path, text
 def test_recipes_expand_to_the_overrides_they_name_before_a_table_s_own(tmp_path):
     """The paper's campaign file names its recipes once: ROM 1's model overrides are the cubic recipe's, then its own."""
     plan = load_plan(ROOT / "scenes/double_flap_campaign.toml", tmp_path)
-    assert plan.models["rom1"]["set"] == ["snapshots.t_max=3.0", "model.poly_fit='ridge'", "model.cross_modes=5",
-                                          "model.cubic_modes=3", "selection.compare_splits=true"]
+    assert plan.models["rom1"]["set"] == ["snapshots.t_max=3.0", "model.regressor.method='ridge'",
+                                          "model.regressor.cross_modes=5", "model.regressor.cubic_modes=3",
+                                          "selection.compare_splits=true"]
     assert plan.models["rom2_lasso"]["set"] == ["snapshots.t_max=3.0"]
     rom4 = next(p for p in plan.predictions if p.name == "rom4-re192")
     assert rom4.run.overrides[-2:] == ("components.solid.rom.transient_calls=2",
@@ -214,7 +215,7 @@ def test_a_model_may_train_on_a_failed_run_only_up_to_its_training_end(tmp_path)
     config.write_text("[snapshots]\nt_max = 1.0\n")
     assert _training_end(config, []) == 1.0
     assert _training_end(config, ["snapshots.t_max=3.0"]) == 3.0        # the model's own override wins
-    assert _training_end(tmp_path / "rom.toml", ["model.n_force_modes=4"]) == 1.0
+    assert _training_end(tmp_path / "rom.toml", ["model.encoder.modes=4"]) == 1.0
     assert _end_time(tmp_path / "no-run") == 0.0                        # a run without results holds no data
 
 

@@ -48,6 +48,12 @@ def one_line_error(capsys, argv: list[str]) -> str:
     ('components.fluid.address="nonsense"', r"'components.fluid.address' is 'nonsense'; allowed: tcp://HOST:PORT"),
     ("components.fluid.address='tcp://127.0.0.1:0'", r"'components.fluid.address' is 'tcp://127.0.0.1:0'"),
     ("output.plot_index=1000", r"'output.plot_index' is 1000, but 'pressure' has 101 values \(0 to 100\)"),
+    # a backend's table is checked against its class's parameter_schema (the ROM's settings live in the ROM)
+    ("components.solid.rom.arithmetic=exact", r"'components.solid.rom.arithmetic' is 'exact'; allowed: reproducible, "
+                                              r"compiled, fast"),
+    ("components.solid.rom.range_margn=0.1", r"unknown key 'components.solid.rom.range_margn' .*did you mean "
+                                             r"'components.solid.rom.range_margin'\?"),
+    ("components.solid.fmu.stateful=3", r"'components.solid.fmu.stateful' must be true or false, got int 3"),
 ])
 def test_bad_scene_values_are_one_line_errors(capsys, tmp_path, override, message):
     extra = ["--set", 'components.fluid.entry=""'] if override.startswith("components.fluid.address") else []
@@ -57,6 +63,17 @@ def test_bad_scene_values_are_one_line_errors(capsys, tmp_path, override, messag
     assert __import__("re").search(message, err), err
     if "plot_index" not in override:    # a field's size is known once its component describes it
         assert not (tmp_path / "run" / "logs").exists()     # refused before any component process started
+
+
+@pytest.mark.parametrize("model, message", [
+    ("", r"components.solid.backend is 'rom' but 'components.solid.rom.model' is not set"),
+    # (a campaign checks its ROM-FOM runs before it trains their models: the ROM itself finds the file missing)
+    ("missing.npz", r"component 'solid_rom' in start-up: 'instantiate' failed: model file 'missing.npz' does not exist"),
+])
+def test_a_selected_backend_needs_its_file(capsys, tmp_path, model, message):
+    err = one_line_error(capsys, ["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet", "--set", "time.end=0.2",
+                                  "--set", "components.solid.backend=rom", "--set", f"components.solid.rom.model='{model}'"])
+    assert __import__("re").search(message, err), err
 
 
 def test_scene_files_that_are_no_scenes(capsys, tmp_path):

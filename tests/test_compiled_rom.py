@@ -14,8 +14,8 @@ from cosim.proxy import ComponentProxy
 from cosim.results import RunResults
 from rom_component import compiled, persistence
 from rom_component.component import RomSolid
-from rom_component.estimator import SolidRom
 from tests.conftest import children_of
+from tests.roms import solid_rom
 from tests.test_flap_rom import calls  # noqa: F401  (the module's fixture)
 from tests.test_fmu import models  # noqa: F401  (the module's fixture)
 from tests.test_rom_integration import TRAIN_END, fom, model, rom_run  # noqa: F401  (fixtures)
@@ -40,10 +40,9 @@ def flap_model(calls, folder):  # noqa: F811
     """A ROM of the double flap's sizes (r_f = 45: 11 groups of 4 encoder rows and one more; 530 outputs: 33
     blocks of 16 and 2 more), its path and the forces to call it with, the last ten beyond the training data."""
     F, U, _, _ = calls
-    rom = SolidRom(n_force_modes=45, n_disp_modes=9, decoder="quadratic", regressor="poly", quadratic_modes=4,
-                   feature_scaling="global").fit(F[::2], U[::2])
-    path = persistence.save(folder / "flap.npz", rom.online_arrays(), {"regressor": "poly",
-                                                                         "params": rom.get_params()})
+    rom = solid_rom(45, 9, {"type": "poly", "quadratic_modes": 4, "term_scaling": "global"}, "quadratic")
+    rom.fit(F[::2], U[::2])
+    path = persistence.save(folder / "flap.npz", rom.online_arrays(), {"regressor": "poly", "params": rom.settings()})
     out_of_range = F[1:200:20] + 0.3 * (F[1:200:20] - F.mean(axis=0))
     return path, np.vstack([F[1:400:4], out_of_range])
 
@@ -87,7 +86,7 @@ def test_the_component_takes_compiled_arithmetic_and_names_a_wrong_one(models): 
         assert a.keys() == b.keys()
         assert a["displacement"].tobytes() == b["displacement"].tobytes()
         assert a["rom_excess"][0] == b["rom_excess"][0]
-    with pytest.raises(ComponentError, match="'arithmetic' is 'quick'; allowed: reproducible, compiled, fast"):
+    with pytest.raises(ComponentError, match="solid_rom.*'arithmetic' is 'quick'; allowed: reproducible, compiled, fast"):
         RomSolid().instantiate({"model": str(path), "arithmetic": "quick"})
 
 

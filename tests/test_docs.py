@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from cosim.reference import MissingMeaning
 from cosim.scene import MEANINGS
 from coupler import scene_reference
 from coupler.acceleration import ACCELERATIONS, IQNILS
@@ -19,11 +20,34 @@ def test_the_scene_reference_page_is_the_generated_one():
 
 
 def test_a_schema_key_or_a_plug_in_setting_without_a_meaning_fails_the_reference(monkeypatch):
-    monkeypatch.delitem(MEANINGS, "component.rom.keep_warm")
-    with pytest.raises(scene_reference.MissingMeaning, match="'component.rom.keep_warm'"):
+    monkeypatch.delitem(MEANINGS, "component.rom.switch_time")
+    with pytest.raises(MissingMeaning, match="'component.rom.switch_time'"):
+        scene_reference.page()
+    monkeypatch.undo()
+    from rom_component.component import ROM_HELP
+    monkeypatch.delitem(ROM_HELP, "keep_warm")
+    with pytest.raises(MissingMeaning, match=r"no meaning for key 'keep_warm' \(the rom backend's parameter_help\)"):
         scene_reference.page()
     monkeypatch.undo()
     monkeypatch.setitem(IQNILS.SETTINGS, "new_setting", 1.0)
-    with pytest.raises(scene_reference.MissingMeaning, match="'iqn-ils' setting 'new_setting'"):
+    with pytest.raises(MissingMeaning, match="'iqn-ils' setting 'new_setting'"):
         scene_reference.page()
     assert "iqn-ils" in ACCELERATIONS.names()
+
+
+def test_the_rom_configuration_reference_is_the_generated_one(monkeypatch):
+    from rom_component import config_reference
+    from rom_component.regression import PolynomialRegression
+    from rom_component.train import MEANINGS as ROM_MEANINGS
+    page = (ROOT / "docs/reference/rom-config.md").read_text()
+    assert page == config_reference.page(), \
+        "docs/reference/rom-config.md is stale: python -m rom_component.config_reference > docs/reference/rom-config.md"
+    for key in ("`t_max`", "`split`", "### `poly`", "`cubic_modes`", "### `quadratic`", "`regularization`"):
+        assert key in page
+    monkeypatch.delitem(ROM_MEANINGS, "selection.split")
+    with pytest.raises(MissingMeaning, match="'selection.split'"):
+        config_reference.page()
+    monkeypatch.undo()
+    monkeypatch.delitem(PolynomialRegression.HELP, "cubic_modes")
+    with pytest.raises(MissingMeaning, match="'poly' setting 'cubic_modes'"):
+        config_reference.page()

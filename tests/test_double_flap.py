@@ -180,8 +180,8 @@ def three_window_rom(three_windows, tmp_path_factory):
     """A ROM (r_f = r_u = 3, quadratic decoder) trained on the three windows' calls: its path and training config."""
     from rom_component.train import load_config, train
     config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
-                                "snapshots.field=displacement_field", "model.n_force_modes=3", "model.n_disp_modes=3",
-                                "model.decoder=quadratic", "selection.table=false"])
+                                "snapshots.field=displacement_field", "model.encoder.modes=3", "model.decoder.modes=3",
+                                "model.decoder.type=quadratic", "selection.table=false"])
     model = tmp_path_factory.mktemp("rom") / "model.npz"
     train(three_windows[0] / "results.h5", model, config, echo=lambda *a: None)
     return model, config
@@ -255,7 +255,7 @@ def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
     run_scene(load_scene(SCENE, [f"time.end={6 * DT!r}"]), fom, progress=False)
     config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
                                 "snapshots.field=displacement_field", f"snapshots.t_max={3 * DT!r}",
-                                "model.n_force_modes=4", "model.n_disp_modes=4", "selection.table=false"])
+                                "model.encoder.modes=4", "model.decoder.modes=4", "selection.table=false"])
     train(fom / "results.h5", tmp_path / "model.npz", config, echo=lambda *a: None)
     rom = tmp_path / "rom"
     run_scene(load_scene(SCENE, [f"time.end={6 * DT!r}", "components.solid.backend=rom",

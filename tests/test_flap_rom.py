@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from sklearn.model_selection import GroupShuffleSplit
 
-from rom_component.estimator import SolidRom
 from rom_component.manifold import fit_quadratic_manifold, quadratic_terms
 from rom_component.pod import centred_pod
+from tests.roms import solid_rom
 
 DATA = Path(__file__).parent / "data" / "flap_snapshots.npz"
 
@@ -27,7 +27,7 @@ def calls():
 @pytest.fixture(scope="module")
 def paper_rom(calls):
     F, U, _, _ = calls
-    return SolidRom(n_force_modes=45, n_disp_modes=9, decoder="quadratic", regressor="poly").fit(F, U)
+    return solid_rom(45, 9, "poly", "quadratic").fit(F, U)
 
 
 def test_the_data_are_the_flap_s_sizes(calls):
@@ -54,7 +54,7 @@ def test_the_quadratic_manifold_beats_pod_alone_at_equal_modes_on_held_out_windo
 
 
 def test_lasso_bic_keeps_fewer_than_half_of_the_1081_terms(paper_rom):
-    coefficients = paper_rom.regression_.coefficients
+    coefficients = paper_rom.regressor_.coefficients_
     assert coefficients.shape == (1080, 9)   # 1035 products and 45 linear terms; the constant makes 1081
     kept = (coefficients != 0).sum(axis=0)
     assert (kept > 0).all() and (kept < 1081 / 2).all(), kept

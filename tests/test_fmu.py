@@ -13,18 +13,18 @@ from fmpy.validation import validate_fmu
 
 from cosim.errors import ComponentError
 from rom_component import persistence
-from rom_component.estimator import SolidRom
 from rom_component.fmu_export import export_fmu
 from solid_component.fmu import FmuSolid
+from tests.roms import solid_rom
 from tests.test_rom import smooth_data
 
 
 def train(tmp_path: Path, name: str, n_in: int, n_out: int, components: int, input_name: str, output_name: str,
-          **params) -> tuple[Path, np.ndarray]:
+          **parts) -> tuple[Path, np.ndarray]:
     F, U = smooth_data(m=300, n_in=n_in, n_out=n_out, seed=len(name))
-    model = SolidRom(**params).fit(F, U)
+    model = solid_rom(**parts).fit(F, U)
     path = persistence.save(tmp_path / f"{name}.npz", model.online_arrays(),
-                            {"regressor": params.get("regressor", "rbf"), "params": model.get_params(),
+                            {"regressor": model.regressor_.type_name, "params": model.settings(),
                              "input_variable": input_name, "output_variable": output_name,
                              "components_per_node": components})
     return path, F
@@ -35,11 +35,11 @@ def models(tmp_path_factory):
     """An RBF tube-sized model (101 nodes), a quadratic-manifold + sparse-polynomial 2-D model, and the same with
     cubic terms (ridge fit)."""
     tmp = tmp_path_factory.mktemp("fmu")
-    rbf, F_rbf = train(tmp, "rbf", 101, 101, 1, "pressure", "section", n_force_modes=3, n_disp_modes=4)
-    qm, F_qm = train(tmp, "qm_poly", 40, 30, 2, "force", "displacement", n_force_modes=3, n_disp_modes=4,
+    rbf, F_rbf = train(tmp, "rbf", 101, 101, 1, "pressure", "section", r_f=3, r_u=4)
+    qm, F_qm = train(tmp, "qm_poly", 40, 30, 2, "force", "displacement", r_f=3, r_u=4,
                      decoder="quadratic", regressor="poly")
-    cubic, F_cubic = train(tmp, "qm_cubic", 40, 30, 2, "force", "displacement", n_force_modes=4, n_disp_modes=4,
-                           decoder="quadratic", regressor="poly", cubic_modes=2, poly_fit="ridge")
+    cubic, F_cubic = train(tmp, "qm_cubic", 40, 30, 2, "force", "displacement", r_f=4, r_u=4,
+                           decoder="quadratic", regressor={"type": "poly", "method": "ridge", "cubic_modes": 2})
     return {name: (model, export_fmu(model, tmp / f"{name}.fmu"), F)
             for name, model, F in (("rbf", rbf, F_rbf), ("qm_poly", qm, F_qm), ("qm_cubic", cubic, F_cubic))}
 
@@ -89,7 +89,7 @@ def test_fmu_component_is_bit_identical_to_the_python_rom(models, name):
     model, fmu, F = models[name]
     rom = persistence.load(model)
     component = FmuSolid()
-    component.instantiate({"fmu": str(fmu)})
+    component.instantiate({"path": str(fmu)})
     component.enter_initialization_mode(0.0, 1.0)
     component.exit_initialization_mode()
     (input_name,) = [v.name for v in component.variables() if v.causality == "input"]
@@ -103,7 +103,7 @@ def test_fmu_component_is_bit_identical_to_the_python_rom(models, name):
 def test_fmu_state_round_trip(models):
     _, fmu, F = models["rbf"]
     component = FmuSolid()
-    component.instantiate({"fmu": str(fmu), "stateful": True})
+    component.instantiate({"path": str(fmu), "stateful": True})
     component.enter_initialization_mode(0.0, 1.0)
     component.exit_initialization_mode()
     first = component.step(0.0, 0.1, {"pressure": F[0]})["section"]
@@ -118,7 +118,7 @@ def test_fmu_state_round_trip(models):
 def test_c_code_checks_pointers_counts_and_references(models):
     _, fmu, _ = models["rbf"]
     component = FmuSolid()
-    component.instantiate({"fmu": str(fmu)})
+    component.instantiate({"path": str(fmu)})
     set_real, get_real = component._set, component._get
     handle = component.slave.component
     values = (ctypes.c_double * 3)()
@@ -142,27 +142,27 @@ def test_bad_fmus_get_clear_errors(models, tmp_path):
     garbage = tmp_path / "garbage.fmu"
     garbage.write_bytes(b"definitely not a zip")
     with pytest.raises(ComponentError, match="not a zip archive"):
-        FmuSolid().instantiate({"fmu": str(garbage)})
+        FmuSolid().instantiate({"path": str(garbage)})
     truncated = tmp_path / "truncated.fmu"
     truncated.write_bytes(fmu.read_bytes()[: fmu.stat().st_size // 2])
     with pytest.raises(ComponentError, match="not a zip archive|no valid modelDescription"):
-        FmuSolid().instantiate({"fmu": str(truncated)})
+        FmuSolid().instantiate({"path": str(truncated)})
     with pytest.raises(ComponentError, match="does not exist"):
-        FmuSolid().instantiate({"fmu": str(tmp_path / "missing.fmu")})
+        FmuSolid().instantiate({"path": str(tmp_path / "missing.fmu")})
     no_resource = tmp_path / "no_resource.fmu"
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(no_resource, "w") as target:
         for item in source.infolist():
             if item.filename != "resources/rom.bin":
                 target.writestr(item, source.read(item.filename))
     with pytest.raises(ComponentError, match=r"failed to instantiate.*cannot open resource file '.*rom.bin'"):
-        FmuSolid().instantiate({"fmu": str(no_resource)})
+        FmuSolid().instantiate({"path": str(no_resource)})
     short_resource = tmp_path / "short_resource.fmu"
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(short_resource, "w") as target:
         for item in source.infolist():
             data = source.read(item.filename)
             target.writestr(item, data[:-8] if item.filename == "resources/rom.bin" else data)
     with pytest.raises(ComponentError, match=r"bytes, the sizes in its header need"):
-        FmuSolid().instantiate({"fmu": str(short_resource)})
+        FmuSolid().instantiate({"path": str(short_resource)})
 
 
 def test_resource_uri_forms(models, tmp_path):
@@ -289,13 +289,13 @@ def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
             if not item.filename.startswith("binaries/"):
                 target.writestr(item, source.read(item.filename))
     with pytest.raises(ComponentError, match="has no linux64 binary"):
-        FmuSolid().instantiate({"fmu": str(no_binary)})
+        FmuSolid().instantiate({"path": str(no_binary)})
     assert unpacked_folders() == before
     with Launcher(tmp_path / "logs") as launcher:
         for stop in (signal.SIGTERM, signal.SIGKILL):
             process = launcher.spawn("fmu", "solid_component.fmu:FmuSolid")
             proxy = ComponentProxy("fmu", launcher.handshake(process), process=process)
-            proxy.instantiate({"fmu": str(fmu)})
+            proxy.instantiate({"path": str(fmu)})
             mine = {name for name in unpacked_folders() - before if name.startswith(f"{process.pid}-")}
             assert len(mine) == 1
             os.kill(process.pid, stop)
@@ -304,5 +304,5 @@ def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
             if stop == signal.SIGTERM:
                 assert not mine & unpacked_folders()
         assert mine <= unpacked_folders()        # SIGKILL: no process can clean up after itself ...
-        FmuSolid().instantiate({"fmu": str(fmu)})   # ... the next FMU instance does
+        FmuSolid().instantiate({"path": str(fmu)})   # ... the next FMU instance does
         wait_for(lambda: not mine & unpacked_folders(), "the killed instance's folder to go")

@@ -216,7 +216,7 @@ def test_a_binary_rebuilt_from_sources_is_bit_identical_without_libm(models, tmp
         model, fmu, F = models[name]
         rom = persistence.load(model)
         component = FmuSolid()
-        component.instantiate({"fmu": str(rebuilt(fmu, tmp_path / name, how))})
+        component.instantiate({"path": str(rebuilt(fmu, tmp_path / name, how))})
         component.enter_initialization_mode(0.0, 1.0)
         component.exit_initialization_mode()
         [input_name], [output_name] = component.inputs, component.outputs

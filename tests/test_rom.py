@@ -6,10 +6,13 @@ from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV
 
 from rom_component import persistence
+from rom_component.decoders import PodDecoder, QuadraticManifoldDecoder
+from rom_component.encoders import PodEncoder
 from rom_component.estimator import SolidRom
 from rom_component.manifold import quadratic_terms
 from rom_component.pod import centred_pod, energy_rank
-from rom_component.regression import RbfRegression, SparseQuadraticRegression, cubic_index, product_index
+from rom_component.regression import PolynomialRegression, RbfRegression, cubic_index, product_index
+from tests.roms import solid_rom
 
 
 def smooth_data(m=300, n_in=40, n_out=30, seed=0):
@@ -47,14 +50,10 @@ def test_quadratic_manifold_reproduces_data_on_a_quadratic_manifold():
     half = rng.uniform(-1, 1, (m // 2, r))
     Z = np.vstack([half, -half])  # a symmetric sample: no correlation between z and q(z), POD finds span(V)
     U = 2.0 + Z @ V.T + quadratic_terms(Z) @ W.T
-    quadratic = SolidRom(n_force_modes=r, n_disp_modes=r, decoder="quadratic", manifold_regularization=1e-12)
-    linear = SolidRom(n_force_modes=r, n_disp_modes=r, decoder="linear")
-    F = Z @ rng.standard_normal((r, 20))
-    quadratic.fit(F, U)
-    linear.fit(F, U)
-    Zu = (U - quadratic.u_mean_) @ quadratic.Phi_u_
-    error_quadratic = np.abs(quadratic.decode(Zu) - U).max()
-    error_linear = np.abs(linear.decode((U - linear.u_mean_) @ linear.Phi_u_) - U).max()
+    quadratic = QuadraticManifoldDecoder(r, regularization=1e-12)
+    linear = PodDecoder(r)
+    error_quadratic = np.abs(quadratic.inverse_transform(quadratic.fit_transform(U)) - U).max()
+    error_linear = np.abs(linear.inverse_transform(linear.fit_transform(U)) - U).max()
     assert error_linear > 0.05
     assert error_quadratic < 1e-6 * error_linear
 
@@ -67,8 +66,8 @@ def test_lasso_bic_recovers_the_support_of_a_sparse_quadratic():
     truth = np.zeros(terms.shape[1])
     truth[[0, 5, 11]] = [1.5, -2.0, 0.8]     # x0^2, x1 x3, x1
     y = terms @ truth + 0.3 + 1e-3 * rng.standard_normal(400)
-    model = SparseQuadraticRegression().fit(X, y[:, None])
-    np.testing.assert_array_equal(np.flatnonzero(model.coefficients[:, 0]), [0, 5, 11])
+    model = PolynomialRegression().fit(X, y[:, None])
+    np.testing.assert_array_equal(np.flatnonzero(model.coefficients_[:, 0]), [0, 5, 11])
     np.testing.assert_allclose(model.predict(X)[:, 0], terms @ truth + 0.3, atol=1e-2)
 
 
@@ -76,8 +75,8 @@ def test_products_of_the_leading_modes_only_keep_the_response_linear_in_the_othe
     rng = np.random.default_rng(5)
     X = rng.standard_normal((400, 5))
     y = 1.5 * X[:, 0] ** 2 - 2.0 * X[:, 0] * X[:, 1] + 0.8 * X[:, 4] + 1e-3 * rng.standard_normal(400)
-    model = SparseQuadraticRegression(quadratic_modes=2).fit(X, y[:, None])
-    assert len(model.quad_i) == 3 and model.coefficients.shape == (3 + 5, 1)   # x0^2, x0 x1, x1^2; 5 linear
+    model = PolynomialRegression(quadratic_modes=2).fit(X, y[:, None])
+    assert len(model.quad_i_) == 3 and model.coefficients_.shape == (3 + 5, 1)   # x0^2, x0 x1, x1^2; 5 linear
     np.testing.assert_allclose(model.predict(X)[:, 0], y, atol=1e-2)
     far = np.zeros((2, 5))
     far[:, 3] = [10.0, 20.0]                  # far out in a weak mode: the response stays linear (here: flat)
@@ -85,7 +84,7 @@ def test_products_of_the_leading_modes_only_keep_the_response_linear_in_the_othe
     assert abs(response[1] - 2 * response[0] + model.predict(np.zeros((1, 5)))[0, 0]) < 1e-9
     # the online path and the FMU's arrays take the products they are given
     F, U = smooth_data()
-    rom = SolidRom(4, 4, decoder="quadratic", regressor="poly", quadratic_modes=2).fit(F, U)
+    rom = solid_rom(4, 4, {"type": "poly", "quadratic_modes": 2}, "quadratic").fit(F, U)
     assert len(rom.online_arrays()["quad_i"]) == 3
     np.testing.assert_allclose(rom.to_online().predict(F[:20] + 0.01), rom.predict(F[:20] + 0.01), atol=1e-9)
 
@@ -100,8 +99,8 @@ def test_cross_products_let_the_response_to_a_weak_mode_follow_the_leading_state
     np.testing.assert_array_equal(np.column_stack(product_index(6, 2)), np.column_stack(np.triu_indices(2)))
     i, j = product_index(6, 2, cross_modes=1)
     assert list(zip(i.tolist(), j.tolist())) == [(0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (0, 5), (1, 1)]
-    leading = SparseQuadraticRegression(quadratic_modes=2, feature_scaling="global").fit(X, y[:, None])
-    cross = SparseQuadraticRegression(2, "global", cross_modes=1, fit="ridge").fit(X, y[:, None], groups=windows)
+    leading = PolynomialRegression(quadratic_modes=2, term_scaling="global").fit(X, y[:, None])
+    cross = PolynomialRegression("ridge", 2, cross_modes=1, term_scaling="global").fit(X, y[:, None], groups=windows)
     test = rng.standard_normal((200, 6)) * np.array([1.0, 0.7, 0.3, 0.1, 0.1, 0.05])
     truth = test[:, 0] + 0.5 * test[:, 1] ** 2 + 2.0 * test[:, 0] * test[:, 4] + 0.3 * test[:, 4]
     gain = lambda model: (model.predict(test + np.eye(6)[4] * 1e-3) - model.predict(test))[:, 0] / 1e-3
@@ -109,17 +108,18 @@ def test_cross_products_let_the_response_to_a_weak_mode_follow_the_leading_state
     assert np.abs(gain(leading) - true_gain).max() > 1.0               # a constant gain, off by 2 |x0|
     np.testing.assert_allclose(gain(cross), true_gain, atol=2e-3)
     np.testing.assert_allclose(cross.predict(test)[:, 0], truth, atol=1e-4)
-    assert cross.ridge_penalty <= 1e-9                                  # noise 1e-5: hardly any penalty
+    assert cross.ridge_penalty_ <= 1e-9                                  # noise 1e-5: hardly any penalty
     noisy = y + 0.5 * rng.standard_normal(600)
-    assert SparseQuadraticRegression(2, "global", 1, "ridge").fit(X, noisy[:, None], groups=windows).ridge_penalty \
-        > 100 * cross.ridge_penalty                                     # noise 0.5: the cross-validation damps it
-    rom = SolidRom(4, 4, decoder="quadratic", regressor="poly", quadratic_modes=2, cross_modes=1, poly_fit="ridge")
+    assert PolynomialRegression("ridge", 2, 1, term_scaling="global").fit(X, noisy[:, None], groups=windows) \
+        .ridge_penalty_ > 100 * cross.ridge_penalty_                                    # noise 0.5: the cross-validation damps it
+    rom = solid_rom(4, 4, {"type": "poly", "method": "ridge", "quadratic_modes": 2, "cross_modes": 1}, "quadratic")
     F, U = smooth_data()
     rom.fit(F, U, windows=np.arange(len(F)) // 3)
     np.testing.assert_allclose(rom.to_online().predict(F[:20] + 0.01), rom.predict(F[:20] + 0.01), atol=1e-9)
-    for bad, message in (({"poly_fit": "ols"}, "poly_fit 'ols' not in"), ({"cross_modes": -1}, "cross_modes must be")):
+    for bad, message in (({"method": "ols"}, "'regressor.method' is 'ols'; allowed: lasso-bic, ridge"),
+                         ({"cross_modes": -1}, "'regressor.cross_modes' is -1; allowed: an integer >= 0")):
         with pytest.raises(ValueError, match=message):
-            SolidRom(regressor="poly", **bad).fit(F, U)
+            solid_rom(regressor={"type": "poly", **bad}).fit(F, U)
 
 
 def test_cubic_terms_let_the_gain_of_a_weak_mode_follow_the_square_of_the_leading_state():
@@ -137,21 +137,21 @@ def test_cubic_terms_let_the_gain_of_a_weak_mode_follow_the_square_of_the_leadin
     assert all(len(a) == 0 for a in cubic_index(6, 0))
     gain = lambda model: (model.predict(test + np.eye(6)[4] * 1e-3) - model.predict(test))[:, 0] / 1e-3
     true_gain = 0.3 + 1.5 * test[:, 0] ** 2
-    quadratic = SparseQuadraticRegression(0, "global", fit="ridge").fit(X, y[:, None], groups=windows)
+    quadratic = PolynomialRegression("ridge", term_scaling="global").fit(X, y[:, None], groups=windows)
     assert np.abs(gain(quadratic) - true_gain).max() > 1.0                 # off by 1.5 x0^2 - its best constant
-    for fit in ("ridge", "lasso-bic"):
-        cubic = SparseQuadraticRegression(2, "global", fit=fit, cubic_modes=1).fit(X, y[:, None], groups=windows)
-        assert len(cubic.cube_i) == 6 and cubic.coefficients.shape == (3 + 6 + 6, 1)
+    for method in ("ridge", "lasso-bic"):
+        cubic = PolynomialRegression(method, 2, cubic_modes=1, term_scaling="global").fit(X, y[:, None], groups=windows)
+        assert len(cubic.cube_i_) == 6 and cubic.coefficients_.shape == (3 + 6 + 6, 1)
         np.testing.assert_allclose(gain(cubic), true_gain, atol=2e-3)
         np.testing.assert_allclose(cubic.predict(test)[:, 0], response(test), atol=1e-4)
-    rom = SolidRom(4, 4, decoder="quadratic", regressor="poly", quadratic_modes=2, cubic_modes=2, poly_fit="ridge")
+    rom = solid_rom(4, 4, {"type": "poly", "method": "ridge", "quadratic_modes": 2, "cubic_modes": 2}, "quadratic")
     F, U = smooth_data()
     rom.fit(F, U, windows=np.arange(len(F)) // 3)
     assert len(rom.online_arrays()["cube_i"]) == 4 + 3 + 3                   # (0, 0, 0..3), (0, 1, 1..3), (1, 1, 1..3)
     np.testing.assert_allclose(rom.to_online().predict(F[:20] + 0.01), rom.predict(F[:20] + 0.01), atol=1e-9)
-    assert "cube_i" not in SolidRom(4, 4, regressor="poly").fit(F, U).online_arrays()   # degree 2: as before
-    with pytest.raises(ValueError, match="cubic_modes must be"):
-        SolidRom(regressor="poly", cubic_modes=-1).fit(F, U)
+    assert "cube_i" not in solid_rom(4, 4, "poly").fit(F, U).online_arrays()   # degree 2: as before
+    with pytest.raises(ValueError, match="'regressor.cubic_modes' is -1"):
+        solid_rom(regressor={"type": "poly", "cubic_modes": -1}).fit(F, U)
 
 
 def test_rbf_regressor_interpolates_its_centres():
@@ -169,7 +169,7 @@ def test_rbf_regressor_interpolates_its_centres():
                                                 ("poly", "quadratic")])
 def test_online_path_equals_offline_prediction(regressor, decoder):
     F, U = smooth_data()
-    model = SolidRom(3, 4, decoder=decoder, regressor=regressor).fit(F, U)
+    model = solid_rom(3, 4, regressor, decoder).fit(F, U)
     online = model.to_online()
     test = F[:40] + 0.01
     np.testing.assert_allclose(online.predict(test), model.predict(test), rtol=0, atol=1e-9)
@@ -178,14 +178,14 @@ def test_online_path_equals_offline_prediction(regressor, decoder):
 
 def test_rom_is_accurate_on_unseen_smooth_data():
     F, U = smooth_data(m=400)
-    model = SolidRom(3, 4).fit(F[:300], U[:300])
+    model = solid_rom(3, 4).fit(F[:300], U[:300])
     error = np.linalg.norm(model.predict(F[300:]) - U[300:], axis=1) / np.linalg.norm(U[300:] - U.mean(0), axis=1)
     assert np.median(error) < 0.05
 
 
 def test_save_load_round_trips_bit_for_bit(tmp_path):
     F, U = smooth_data()
-    model = SolidRom(3, 4, decoder="quadratic").fit(F, U)
+    model = solid_rom(3, 4, decoder="quadratic").fit(F, U)
     arrays = model.online_arrays()
     path = persistence.save(tmp_path / "model.npz", arrays, {"regressor": "rbf", "note": "x"})
     loaded_arrays, metadata = persistence.load_arrays(path)
@@ -216,28 +216,32 @@ def test_model_files_with_pickles_or_garbage_are_refused(tmp_path):
 
 def test_clone_and_grid_search_work_on_the_estimator():
     F, U = smooth_data()
-    model = SolidRom(2, 2, rbf_smoothing=1e-6)
+    model = solid_rom(2, 2, {"type": "rbf", "smoothing": 1e-6})
     copy = clone(model)
-    assert copy.get_params() == model.get_params() and copy is not model
-    search = GridSearchCV(SolidRom(), {"n_force_modes": [1, 3], "n_disp_modes": [1, 4]}, cv=3,
-                          scoring="neg_mean_squared_error")
+    assert copy.settings() == model.settings() and copy is not model and copy.encoder is not model.encoder
+    search = GridSearchCV(SolidRom(PodEncoder(), RbfRegression(), PodDecoder()),
+                          {"encoder__modes": [1, 3], "decoder__modes": [1, 4]}, cv=3, scoring="neg_mean_squared_error")
     search.fit(F, U)
-    assert search.best_params_ == {"n_force_modes": 3, "n_disp_modes": 4}
+    assert search.best_params_ == {"encoder__modes": 3, "decoder__modes": 4}
 
 
 def test_mode_numbers_are_capped_by_the_data_and_bad_ones_reported():
     F, U = smooth_data(m=20)
-    assert SolidRom(3, 50).fit(F, U).modes == (3, 19)    # at most m - 1 modes
-    for bad in (0, 2.5, True):
-        with pytest.raises(ValueError, match=f"n_disp_modes must be an integer >= 1, got {bad!r}"):
-            SolidRom(3, bad).fit(F, U)
+    assert solid_rom(3, 50).fit(F, U).modes == (3, 19)    # at most m - 1 modes
+    for bad, message in ((0, "'decoder.modes' is 0; allowed: an integer >= 1"),
+                         (2.5, "'decoder.modes' must be an integer"), (True, "'decoder.modes' must be an integer")):
+        with pytest.raises(ValueError, match=message):
+            solid_rom(3, bad).fit(F, U)
+    with pytest.raises(ValueError, match="regressor must be one of the registered regressors"):
+        SolidRom(regressor=PodEncoder()).fit(F, U)
 
 
-@pytest.mark.parametrize("params", [{}, {"regressor": "poly"}, {"decoder": "quadratic"},
-                                    {"regressor": "poly", "poly_fit": "ridge", "cross_modes": 1}])
-def test_the_estimator_passes_scikit_learns_checks(params):
+@pytest.mark.parametrize("parts", [{}, {"regressor": PolynomialRegression()},
+                                   {"decoder": QuadraticManifoldDecoder()},
+                                   {"regressor": PolynomialRegression("ridge", cross_modes=1)}])
+def test_the_estimator_passes_scikit_learns_checks(parts):
     from sklearn.utils.estimator_checks import check_estimator
-    results = check_estimator(SolidRom(**params), on_fail=None)
+    results = check_estimator(SolidRom(**parts), on_fail=None)
     failed = [f"{r['check_name']}: {r['exception']}" for r in results if r["status"] == "failed"]
     assert len(results) > 40 and failed == []
 
@@ -246,7 +250,6 @@ def test_the_estimator_passes_scikit_learns_checks(params):
 def test_thin_plate_spline_matches_scipys_rbf_interpolator(smoothing):
     from scipy.interpolate import RBFInterpolator
 
-    from rom_component.regression import RbfRegression
     rng = np.random.default_rng(5)
     X, Y = rng.standard_normal((60, 3)), rng.standard_normal((60, 4))
     X_new = rng.standard_normal((25, 3))
@@ -259,16 +262,16 @@ def test_thin_plate_spline_matches_scipys_rbf_interpolator(smoothing):
 
 def test_one_feature_scale_for_every_term_keeps_the_online_path_and_the_fit():
     F, U = smooth_data(m=300)
-    standard = SolidRom(3, 4, decoder="quadratic", regressor="poly").fit(F, U)
-    single = SolidRom(3, 4, decoder="quadratic", regressor="poly", feature_scaling="global").fit(F, U)
-    scale = single.regression_.feature_scale
-    assert np.all(scale == scale[0]) and not np.all(standard.regression_.feature_scale == scale[0])
+    standard = solid_rom(3, 4, "poly", "quadratic").fit(F, U)
+    single = solid_rom(3, 4, {"type": "poly", "term_scaling": "global"}, "quadratic").fit(F, U)
+    scale = single.regressor_.feature_scale_
+    assert np.all(scale == scale[0]) and not np.all(standard.regressor_.feature_scale_ == scale[0])
     np.testing.assert_allclose(single.to_online().predict(F[:20] + 0.01), single.predict(F[:20] + 0.01), atol=1e-9)
     for model in (standard, single):
         error = np.linalg.norm(model.predict(F) - U, axis=1) / np.linalg.norm(U - U.mean(0), axis=1)
         assert np.median(error) < 0.05
-    with pytest.raises(ValueError, match="feature scaling"):
-        SolidRom(3, 4, regressor="poly", feature_scaling="minmax").fit(F, U)
+    with pytest.raises(ValueError, match="'regressor.term_scaling' is 'minmax'"):
+        solid_rom(3, 4, {"type": "poly", "term_scaling": "minmax"}).fit(F, U)
 
 
 def test_the_chosen_modes_are_the_fewest_within_the_tolerance_of_the_best():

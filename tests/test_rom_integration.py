@@ -16,10 +16,10 @@ from cosim.results import RunResults
 from cosim.scene import load_scene
 from coupler.run import run_scene
 from rom_component import persistence
-from rom_component.estimator import SolidRom
 from rom_component.selection import holdout_table
 from rom_component.train import load_config, read_snapshots
 from tests.conftest import ROOT, TUBE_SCENE, children_of
+from tests.roms import solid_rom
 
 TRAIN_END = 6.0
 END = 8.0
@@ -113,7 +113,9 @@ def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
     # the ROM serves every call of the predicted windows: their bound lies further from 1 than the whole run's
     assert abs(np.log(predicted["bound"])) > abs(np.log(row["total_speedup_bound"])) and predicted["speedup"] > 0
     assert t_f > 3 * t_s and 0.5 < row["total_speedup_bound"] < 1.5  # the fluid dominates the tube's cost
-    assert row["model"]["n_disp_modes"] == 9 and row["model"]["n_force_modes"] == 3
+    assert row["model"]["decoder"] == {"type": "linear", "modes": 9}
+    assert row["model"]["encoder"] == {"type": "pod", "modes": 3, "scaling": "global"}
+    assert row["model"]["regressor"] == {"type": "rbf", "smoothing": 1e-3}
     assert row["fom_solid_calls"] + row["rom_solid_calls"] == row["iterations"]
     for png in ("monitor_rom.png", f"error_and_iterations_{fom.name}.png", "error_vs_cost.png",
                 "stress_strain_rom.png"):   # the last from the tube's own hook (cases.tube.report_plots)
@@ -207,7 +209,7 @@ def test_global_input_scaling_beats_per_mode_scaling_on_tube_snapshots(fom):
     F, U, _, _ = read_snapshots(fom / "results.h5", config["snapshots"])
     errors = {}
     for scaling in ("global", "standard", "minmax"):
-        table = holdout_table(SolidRom(input_scaling=scaling), F, U, [5], [9], 0.2, 0)
+        table = holdout_table(solid_rom(scaling=scaling), F, U, [5], [9], 0.2, 0)
         errors[scaling] = table.error_at(5, 9)
     assert errors["global"] < 0.5 * min(errors["standard"], errors["minmax"]), errors
 
@@ -220,7 +222,8 @@ def test_train_refuses_the_retired_options_by_their_scene_key(fom, tmp_path):
         assert failed.returncode == 2 and "Traceback" not in failed.stderr
         assert len(failed.stderr.strip().splitlines()) == 1 and key.split("=")[0] in failed.stderr, failed.stderr
     failed = cosim(*base, "--set", "model.regressor='potential'", "--out", str(tmp_path / "n.npz"))
-    assert failed.returncode == 2 and "regressor 'potential' not in ('rbf', 'poly')" in failed.stderr, failed.stderr
+    assert failed.returncode == 2 and "'model.regressor.type' is 'potential'; known regressors: rbf, poly" \
+        in failed.stderr, failed.stderr
     assert not (tmp_path / "n.npz").exists()
 
 def test_missing_or_broken_model_is_named(tmp_path):
@@ -254,7 +257,7 @@ def test_fmu_backend_reproduces_the_rom_backend(fom, model, tmp_path):
 
 def test_fmu_whose_sizes_do_not_fit_the_scene_is_refused(tmp_path):
     F, U = np.random.default_rng(0).standard_normal((40, 50)), np.random.default_rng(1).standard_normal((40, 50))
-    small = persistence_save(tmp_path / "small.npz", SolidRom(3, 3).fit(F, U))
+    small = persistence_save(tmp_path / "small.npz", solid_rom(3, 3).fit(F, U))
     fmu = tmp_path / "small.fmu"
     assert cosim("export-fmu", str(small), "--out", str(fmu)).returncode == 0
     with pytest.raises(SceneError, match=r"exchange.0 \(pressure\): identity mapping needs equal shapes, got \(101,\) and \(50,\)"):

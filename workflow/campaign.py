@@ -165,7 +165,7 @@ def train_model(sources: list[str], config_path: str, overrides: list[str], out:
     out_path.with_suffix(".log").write_text("\n".join(lines) + "\n")
     _stamp(out_path).write_text(json.dumps(_model_key(sources, config_path, overrides)))
     return {"seconds": time.perf_counter() - started, "cv_seconds": metadata.get("cv_seconds"),
-            "fit_seconds": metadata["fit_seconds"], "modes": metadata["params"]["n_force_modes"]}
+            "fit_seconds": metadata["fit_seconds"], "modes": metadata["params"]["encoder"]["modes"]}
 
 
 def _stamp(model: Path) -> Path:
