@@ -29,7 +29,6 @@ Training, the FMU export and the report are the ROM's own functions (``rom_compo
 
 from __future__ import annotations
 
-import heapq
 import json
 import os
 import shutil
@@ -57,6 +56,7 @@ from coupler.sweep import (
 from rom_component.fmu_export import export_fmu
 from rom_component.report import Run, write_report
 from rom_component.train import load_config, train
+from workflow.scheduler import Scheduler
 
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "recipes": AnyTable(),
         "models": Required(dict), "predictions": Required(list)}
@@ -201,148 +201,162 @@ def run_campaign(campaign: str | Path, out: str | Path, workers: int = 2, schedu
 def _run_campaign(plan: Plan, out: Path, workers: int, scheduler: str | None, echo: Callable[[str], None],
                   retry_failed: bool) -> Path:
     check_runs(str(plan.scene), [*plan.fom.values(), *(p.run for p in plan.predictions)])
-    scene = scene_fingerprint(plan.scene)
-    fom_table = SweepTable(out / "fom" / TABLE, setting_keys(list(plan.fom.values())), scene)
-    rom_table = SweepTable(out / "rom" / TABLE, ["model", "reference", "switch_time"], scene)
-    fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
-    rom_dir = {p.name: out / "rom" / "runs" / p.run.name for p in plan.predictions}
-    names = out / "rom" / "predictions.json"     # which prediction each run of the ROM table is
-    known = json.loads(names.read_text()) if names.is_file() else {}
-    names.write_text(json.dumps({**known, **{p.run.name: p.name for p in plan.predictions}}, indent=1) + "\n")
+    campaign = CampaignRun(plan, out, echo)
     started = time.perf_counter()
-    from dask.distributed import Client, LocalCluster, as_completed
-
-    sources = {name: [str(fom_dir[run] / "results.h5") for run in spec["runs"]] for name, spec in plan.models.items()}
-    current = {name for name, spec in plan.models.items()
-               if _model_is_current(spec["path"], _model_key(sources[name], str(plan.rom_config), spec["set"]))}
-    rom_table.forget({p.run.name for p in plan.predictions if p.model not in current})   # stale: retrained below
-    if retry_failed:   # the failed runs' directories are kept beside, as <run>.failed-<time>
-        for table, named, folder in ((rom_table, {p.name: p.run for p in plan.predictions}, rom_dir),
-                                     (fom_table, plan.fom, fom_dir)):
-            failed_runs = {name: run for name, run in named.items() if table.done.get(run.name, {}).get("failure")}
-            for name in failed_runs:
-                _set_aside(folder[name], "failed")
-            table.forget({run.name for run in failed_runs.values()})
-    _adopt_finished(plan, fom_table, rom_table, fom_dir, rom_dir, current, echo)
-    failed_fom = {name for name, run in plan.fom.items() if fom_table.done.get(run.name, {}).get("failure")}
-    trained_on = {run for spec in plan.models.values() for run in spec["runs"]}
-    # the campaign keeps its own queue: a task is queued once its inputs exist, and handed to Dask only
-    # when a worker thread is free, highest priority first (models, then the FOM runs they train on, the
-    # ROM-FOM runs in the campaign file's order whenever their models trained, the other FOM runs), so no task
-    # waits behind another on a busy worker
+    from dask.distributed import Client, LocalCluster
+    campaign.prepare(retry_failed)
     cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                                   host="127.0.0.1", dashboard_address=None)
     try:
         with Client(scheduler or cluster) as client:
-            jobs: dict[Any, tuple[str, str]] = {}
-            pending = as_completed()
-            queue: list[tuple[int, int, str, str, Any, tuple]] = []
-            capacity = max(sum(client.nthreads().values()), 1)
-
-            starting = True    # the first tasks are all queued before any is handed out, so priorities hold
-
-            def submit(kind: str, name: str, function, *args, priority: int, order: int | None = None) -> None:
-                order = len(jobs) + len(queue) if order is None else order    # first come, first served by default
-                heapq.heappush(queue, (-priority, order, kind, name, function, args))
-                if not starting:
-                    dispatch()
-
-            def dispatch() -> None:
-                while queue and sum(not f.done() for f in jobs) < capacity:
-                    _, _, kind, name, function, args = heapq.heappop(queue)
-                    future = client.submit(function, *args, key=f"{kind}-{name}-{time.time_ns()}", pure=False)
-                    jobs[future] = (kind, name)
-                    pending.add(future)
-
-            def submit_ready_models() -> None:
-                for name, spec in plan.models.items():
-                    if name in current or name in submitted_models:
-                        continue
-                    short = [run for run in spec["runs"] if run in failed_fom and
-                             _end_time(fom_dir[run]) < _training_end(plan.rom_config, spec["set"])]
-                    if short:
-                        echo(f"model {name}: not trained, FOM run {short[0]} failed before the end of the training "
-                             f"data")
-                        submitted_models.add(name)
-                    elif all(plan.fom[run].name in fom_table.done for run in spec["runs"]):
-                        submitted_models.add(name)
-                        submit("model", name, train_model, sources[name], str(plan.rom_config), spec["set"],
-                               str(spec["path"]), priority=3)
-
-            def submit_ready_predictions() -> None:
-                for p in plan.predictions:
-                    if p.name in submitted_runs or p.run.name in rom_table.done or p.model not in current:
-                        continue
-                    if p.reference in failed_fom:
-                        echo(f"rom {p.name}: not run, its reference {p.reference} failed")
-                        submitted_runs.add(p.name)
-                        continue
-                    submitted_runs.add(p.name)
-                    model = plan.models[p.model]["path"]
-                    _set_aside(rom_dir[p.name], _why_again(rom_dir[p.name]))
-                    if p.fmu and (not p.fmu.is_file() or p.fmu.stat().st_mtime_ns < model.stat().st_mtime_ns):
-                        echo(f"wrote {export_fmu(model, p.fmu)}")
-                    submit("rom", p.name, run_one, str(plan.scene), list(p.run.overrides), str(rom_dir[p.name]),
-                           priority=1, order=plan.predictions.index(p))   # in the campaign file's order
-
-            submitted_models: set[str] = set()
-            submitted_runs: set[str] = set()
-            submit_ready_models()
-            for name, run in plan.fom.items():
-                if run.name not in fom_table.done:
-                    _set_aside(fom_dir[name], _why_again(fom_dir[name]))
-                    submit("fom", name, run_one, str(plan.scene), list(run.overrides), str(fom_dir[name]),
-                           priority=2 if name in trained_on else 0)
-            submit_ready_predictions()
-            starting = False
-            dispatch()
-
-            def refresh_report() -> None:   # the report so far, over the ROM-FOM runs and references finished
-                done = {name for name, run in plan.fom.items() if run.name in fom_table.done} | \
-                       {p.name for p in plan.predictions if p.run.name in rom_table.done}
-                try:   # a side product: the runs go on whatever it says
-                    write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table),
-                                          lambda line: None, done)
-                except (CosimError, OSError) as exc:    # the file system's no included, as the command line had it
-                    echo(f"warning: the interim report failed (the runs go on): {exc}")
-
-            if any(p.run.name in rom_table.done for p in plan.predictions):
-                refresh_report()
-            for future in pending:
-                kind, name = jobs[future]
-                refresh = kind == "rom" and future.status != "error"
-                try:   # the finished task's follow-ups are queued before its worker is handed the next task
-                    if future.status == "error":
-                        echo(f"{kind} {name}: failed: {future.exception()}")
-                        continue
-                    result = future.result()
-                    if kind == "fom":
-                        fom_table.add(plan.fom[name], result)
-                        if result["failure"]:
-                            failed_fom.add(name)
-                        submit_ready_models()
-                    elif kind == "model":
-                        current.add(name)
-                        echo(f"model {name}: trained in {result['seconds']:.1f} s (cross-validation "
-                             f"{result['cv_seconds']:.1f} s, fit {result['fit_seconds']:.2f} s), r_f = {result['modes']}")
-                        submit_ready_predictions()
-                        continue
-                    else:
-                        p = next(p for p in plan.predictions if p.name == name)
-                        rom_table.add(p.run, {"model": p.model, "reference": p.reference,
-                                              "switch_time": p.switch_time,
-                                              **result})
-                    echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
-                         f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
-                finally:
-                    dispatch()
-                if refresh:
-                    refresh_report()
+            campaign.run(client)
     finally:
         if cluster is not None:
             cluster.close()
     echo(f"campaign runs finished in {time.perf_counter() - started:.0f} s")
-    return write_campaign_report(plan, out, fom_dir, rom_dir, _failures(plan, fom_table, rom_table), echo)
+    return write_campaign_report(plan, out, campaign.fom_dir, campaign.rom_dir, campaign.failures(), echo)
+
+
+class CampaignRun:
+    """The state of one campaign run and a handler per task kind: FOM-FOM runs (``fom``), trainings (``model``)
+    and ROM-FOM runs (``rom``).
+
+    Priorities: models, then the FOM runs they train on, the ROM-FOM runs in the campaign file's order whenever
+    their models trained, the other FOM runs.
+    """
+
+    def __init__(self, plan: Plan, out: Path, echo: Callable[[str], None]):
+        self.plan, self.out, self.echo = plan, out, echo
+        scene = scene_fingerprint(plan.scene)
+        self.fom_table = SweepTable(out / "fom" / TABLE, setting_keys(list(plan.fom.values())), scene)
+        self.rom_table = SweepTable(out / "rom" / TABLE, ["model", "reference", "switch_time"], scene)
+        self.fom_dir = {name: out / "fom" / "runs" / run.name for name, run in plan.fom.items()}
+        self.rom_dir = {p.name: out / "rom" / "runs" / p.run.name for p in plan.predictions}
+        self.sources = {name: [str(self.fom_dir[run] / "results.h5") for run in spec["runs"]]
+                        for name, spec in plan.models.items()}
+        self.current = {name for name, spec in plan.models.items()      # models trained with today's configuration
+                        if _model_is_current(spec["path"], self._model_key(name))}
+        self.failed_fom: set[str] = set()
+        self.queued: set[str] = set()        # models and predictions queued (or given up on)
+        self.report_due = False              # a ROM-FOM run finished since the last interim report
+        self.scheduler: Scheduler | None = None
+
+    def _model_key(self, name: str) -> dict:
+        return _model_key(self.sources[name], str(self.plan.rom_config), self.plan.models[name]["set"])
+
+    def prepare(self, retry_failed: bool) -> None:
+        """Name the runs, forget those of stale models (and, with ``retry_failed``, the failed ones, whose
+        directories are kept beside as ``<run>.failed-<time>``), adopt runs that finished without a row."""
+        plan, fom_table, rom_table = self.plan, self.fom_table, self.rom_table
+        names = self.out / "rom" / "predictions.json"     # which prediction each run of the ROM table is
+        known = json.loads(names.read_text()) if names.is_file() else {}
+        names.write_text(json.dumps({**known, **{p.run.name: p.name for p in plan.predictions}}, indent=1) + "\n")
+        rom_table.forget({p.run.name for p in plan.predictions if p.model not in self.current})   # retrained below
+        if retry_failed:
+            for table, named, folder in ((rom_table, {p.name: p.run for p in plan.predictions}, self.rom_dir),
+                                         (fom_table, plan.fom, self.fom_dir)):
+                failed_runs = {name: run for name, run in named.items()
+                               if table.done.get(run.name, {}).get("failure")}
+                for name in failed_runs:
+                    _set_aside(folder[name], "failed")
+                table.forget({run.name for run in failed_runs.values()})
+        _adopt_finished(plan, fom_table, rom_table, self.fom_dir, self.rom_dir, self.current, self.echo)
+        self.failed_fom = {name for name, run in plan.fom.items() if fom_table.done.get(run.name, {}).get("failure")}
+
+    def run(self, client: Any) -> None:
+        """Queue every task whose inputs exist, then run until every task has finished."""
+        self.scheduler = Scheduler(client, {"fom": self.on_fom, "model": self.on_model, "rom": self.on_rom},
+                                   self.on_error)
+        self.queue_models()
+        trained_on = {run for spec in self.plan.models.values() for run in spec["runs"]}
+        for name, run in self.plan.fom.items():
+            if run.name not in self.fom_table.done:
+                _set_aside(self.fom_dir[name], _why_again(self.fom_dir[name]))
+                self.scheduler.submit("fom", name, run_one, str(self.plan.scene), list(run.overrides),
+                                      str(self.fom_dir[name]), priority=2 if name in trained_on else 0)
+        self.queue_predictions()
+        if any(p.run.name in self.rom_table.done for p in self.plan.predictions):
+            self.refresh_report()
+        self.scheduler.run(after=self.refresh_report_if_due)
+
+    def queue_models(self) -> None:
+        """Queue every model whose FOM runs have finished (or give it up if one failed before its data ended)."""
+        assert self.scheduler is not None
+        for name, spec in self.plan.models.items():
+            if name in self.current or name in self.queued:
+                continue
+            short = [run for run in spec["runs"] if run in self.failed_fom and
+                     _end_time(self.fom_dir[run]) < _training_end(self.plan.rom_config, spec["set"])]
+            if short:
+                self.echo(f"model {name}: not trained, FOM run {short[0]} failed before the end of the training data")
+                self.queued.add(name)
+            elif all(self.plan.fom[run].name in self.fom_table.done for run in spec["runs"]):
+                self.queued.add(name)
+                self.scheduler.submit("model", name, train_model, self.sources[name], str(self.plan.rom_config),
+                                      spec["set"], str(spec["path"]), priority=3)
+
+    def queue_predictions(self) -> None:
+        """Queue every ROM-FOM run whose model is current and whose reference has not failed."""
+        assert self.scheduler is not None
+        for i, p in enumerate(self.plan.predictions):
+            if p.name in self.queued or p.run.name in self.rom_table.done or p.model not in self.current:
+                continue
+            self.queued.add(p.name)
+            if p.reference in self.failed_fom:
+                self.echo(f"rom {p.name}: not run, its reference {p.reference} failed")
+                continue
+            model = self.plan.models[p.model]["path"]
+            _set_aside(self.rom_dir[p.name], _why_again(self.rom_dir[p.name]))
+            if p.fmu and (not p.fmu.is_file() or p.fmu.stat().st_mtime_ns < model.stat().st_mtime_ns):
+                self.echo(f"wrote {export_fmu(model, p.fmu)}")
+            self.scheduler.submit("rom", p.name, run_one, str(self.plan.scene), list(p.run.overrides),
+                                  str(self.rom_dir[p.name]), priority=1, order=i)   # in the campaign file's order
+
+    def on_fom(self, name: str, result: dict) -> None:
+        self.fom_table.add(self.plan.fom[name], result)
+        if result["failure"]:
+            self.failed_fom.add(name)
+        self.queue_models()
+        self._echo_run("fom", name, result)
+
+    def on_model(self, name: str, result: dict) -> None:
+        self.current.add(name)
+        self.echo(f"model {name}: trained in {result['seconds']:.1f} s (cross-validation {result['cv_seconds']:.1f} "
+                  f"s, fit {result['fit_seconds']:.2f} s), r_f = {result['modes']}")
+        self.queue_predictions()
+
+    def on_rom(self, name: str, result: dict) -> None:
+        p = next(p for p in self.plan.predictions if p.name == name)
+        self.rom_table.add(p.run, {"model": p.model, "reference": p.reference, "switch_time": p.switch_time,
+                                   **result})
+        self._echo_run("rom", name, result)
+        self.report_due = True
+
+    def on_error(self, kind: str, name: str, error: BaseException) -> None:
+        self.echo(f"{kind} {name}: failed: {error}")
+
+    def _echo_run(self, kind: str, name: str, result: dict) -> None:
+        self.echo(f"{kind} {name}: {result['failure'] or 'converged'}, {result['windows_converged']} windows, "
+                  f"{result['mean_iterations']:.3f} iterations per window, {result['wall_seconds']:.0f} s")
+
+    def failures(self) -> dict[str, str]:
+        return _failures(self.plan, self.fom_table, self.rom_table)
+
+    def refresh_report_if_due(self) -> None:
+        if self.report_due:
+            self.report_due = False
+            self.refresh_report()
+
+    def refresh_report(self) -> None:
+        """The report so far, over the ROM-FOM runs and references finished: a side product, the runs go on
+        whatever it says."""
+        done = {name for name, run in self.plan.fom.items() if run.name in self.fom_table.done} | \
+               {p.name for p in self.plan.predictions if p.run.name in self.rom_table.done}
+        try:
+            write_campaign_report(self.plan, self.out, self.fom_dir, self.rom_dir, self.failures(), lambda line: None,
+                                  done)
+        except (CosimError, OSError) as exc:    # the file system's no included, as the command line had it
+            self.echo(f"warning: the interim report failed (the runs go on): {exc}")
 
 
 def ran_after_model(run_dir: Path, model: Path) -> bool:
