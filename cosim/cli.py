@@ -19,11 +19,27 @@ def _serve_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bind", default="tcp://127.0.0.1:*", help="address to bind (default: loopback, any port)")
     parser.add_argument("--name", help="component name used in messages")
     parser.add_argument("--parent-pid", type=int, help="exit when this process is no longer the parent")
+    parser.add_argument("--curve", metavar="DIR", help="CURVE on, with the server key of DIR (from `cosim keys DIR`); "
+                        "only the clients whose public keys are in DIR/clients are answered; needed for a "
+                        "non-loopback --bind")
 
 
 def _serve(args: argparse.Namespace) -> int:
     from cosim.server import serve
-    return serve(args.entry, args.bind, args.name, args.parent_pid)
+    return serve(args.entry, args.bind, args.name, args.parent_pid, args.curve)
+
+
+def _keys_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("dir", help="the key directory to create (existing keys are never overwritten)")
+
+
+def _keys(args: argparse.Namespace) -> int:
+    from cosim.curve import make_keys
+    for path in make_keys(args.dir):
+        print(f"wrote {path}")
+    print(f"the serving machine needs {args.dir}/server.key_secret and {args.dir}/clients/; the coupler's machine "
+          f"{args.dir}/client.key_secret and {args.dir}/server.key")
+    return 0
 
 
 def commands() -> dict[str, Command]:
@@ -31,8 +47,15 @@ def commands() -> dict[str, Command]:
     found = {"serve": Command(
         "serve one component over ZeroMQ", _serve_arguments, _serve,
         "Serve one component (a class of the component contract) over ZeroMQ, as the coupler launches each "
-        "component; by hand, to couple a component the scene names by address. Binds to loopback only.",
-        "cosim serve my_solid:MySolid --bind tcp://127.0.0.1:5555")}
+        "component; by hand, to couple a component the scene names by address (components.NAME.address). Binds "
+        "to loopback only, unless CURVE is on (--curve DIR; the scene then sets components.NAME.curve = DIR).",
+        "cosim serve my_solid:MySolid --bind tcp://0.0.0.0:5555 --curve keys"),
+             "keys": Command(
+        "make CURVE key pairs for remote components", _keys_arguments, _keys,
+        "Make a server and a client CURVE key pair (pyzmq's zmq.auth) in a new directory, the client authorised "
+        "by the server: `cosim serve ... --curve DIR` on the machine that serves a component, and "
+        "components.NAME.curve = DIR in the coupler's scene.",
+        "cosim keys keys")}
     for point in sorted(entry_points(group=GROUP), key=lambda p: p.name):
         found.setdefault(point.name, point.load())
     return found

@@ -18,7 +18,7 @@ import zmq
 
 from cosim import protocol, stop
 from cosim.component import MESH_PREFIX, Variable
-from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, NonFiniteOutput, ProtocolError
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimError, NonFiniteOutput, ProtocolError
 from cosim.launcher import ComponentProcess
 
 LIVENESS_SLICE_SECONDS = 0.05
@@ -28,14 +28,24 @@ class ComponentProxy:
     """Talks to one served component; raises typed errors that name it."""
 
     def __init__(self, name: str, endpoint: str, *, process: ComponentProcess | None = None,
-                 timeout: float = 60.0, context: zmq.Context | None = None):
+                 timeout: float = 60.0, context: zmq.Context | None = None, curve: str = ""):
         self.name = name
         self.endpoint = endpoint
         self.process = process
         self.timeout = timeout
+        self.curve = curve      # a key directory: the connection is CURVE-authenticated and encrypted
         self._socket = (context or zmq.Context.instance()).socket(zmq.DEALER)
         self._socket.setsockopt(zmq.LINGER, 0)
         self._socket.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
+        self._monitor: zmq.Socket | None = None
+        self._refused = ""      # why the CURVE handshake failed, once it has
+        if curve:
+            from cosim.curve import connect_with_curve
+            try:
+                self._monitor = connect_with_curve(self._socket, curve)
+            except CosimError as exc:
+                self._socket.close(linger=0)
+                raise ComponentError(name, str(exc)) from None
         self._socket.connect(endpoint)
         self._ids = itertools.count(1)
         self._pending: tuple[int, str] | None = None
@@ -51,28 +61,49 @@ class ComponentProxy:
 
     # --- transport --------------------------------------------------------
     def send(self, op: str, args: Mapping[str, Any] | None = None,
-             arrays: Mapping[str, np.ndarray] | None = None) -> None:
-        """Send a request without waiting (see ``receive``)."""
+             arrays: Mapping[str, np.ndarray] | None = None, timeout: float | None = None) -> None:
+        """Send a request without waiting for its reply (see ``receive``); ``timeout``: how long it may wait for a
+        connection to queue on."""
         if self._pending is not None:
             raise ComponentError(self.name, f"request '{op}' sent while '{self._pending[1]}' is unanswered")
         request_id = next(self._ids)
         frames = protocol.encode({"op": op, "id": request_id, "args": dict(args or {})}, arrays)
         self._sent_at = time.perf_counter()
-        self._socket.send_multipart(frames, copy=False)
+        try:
+            self._socket.send_multipart(frames, flags=zmq.NOBLOCK, copy=False)
+        except zmq.Again:       # no connection to queue on (a remote server gone, or one that refused this client)
+            self._wait(zmq.POLLOUT, op, self.timeout if timeout is None else timeout)
+            self._socket.send_multipart(frames, copy=False)
         self._pending = (request_id, op)
+
+    def _wait(self, event: int, op: str, limit: float) -> None:
+        """Wait until the socket can ``event`` (POLLIN, POLLOUT); meanwhile stop on Ctrl-C, on the component's
+        death and on a failed CURVE handshake, and after ``limit`` seconds."""
+        deadline = time.monotonic() + limit
+        while not self._socket.poll(LIVENESS_SLICE_SECONDS * 1000, event):
+            try:
+                stop.check()
+                self._check_alive()
+                if self._refused:
+                    raise ComponentError(self.name, self._refused)
+                if self._monitor is not None:
+                    from cosim.curve import handshake_failure
+                    try:
+                        handshake_failure(self._monitor, self.name, self.endpoint, self.curve)
+                    except ComponentError as exc:
+                        self._refused = exc.detail      # no reconnection follows a refusal: every later call fails
+                        raise
+                if time.monotonic() > deadline:
+                    raise ComponentTimeout(self.name, op, limit)
+            except ComponentError:
+                self._pending = None
+                raise
 
     def receive(self, timeout: float | None = None) -> tuple[dict, dict[str, np.ndarray], float]:
         """Result, arrays and compute seconds of the pending request."""
         assert self._pending is not None, "receive without send"
         request_id, op = self._pending
-        limit = self.timeout if timeout is None else timeout
-        deadline = time.monotonic() + limit
-        while not self._socket.poll(LIVENESS_SLICE_SECONDS * 1000):
-            stop.check()
-            self._check_alive()
-            if time.monotonic() > deadline:
-                self._pending = None
-                raise ComponentTimeout(self.name, op, limit)
+        self._wait(zmq.POLLIN, op, self.timeout if timeout is None else timeout)
         frames = self._socket.recv_multipart(copy=False)
         roundtrip = time.perf_counter() - self._sent_at
         self._pending = None
@@ -96,7 +127,7 @@ class ComponentProxy:
 
     def call(self, op: str, args: Mapping[str, Any] | None = None,
              arrays: Mapping[str, np.ndarray] | None = None, timeout: float | None = None) -> tuple[dict, dict]:
-        self.send(op, args, arrays)
+        self.send(op, args, arrays, timeout)
         result, out, _ = self.receive(timeout)
         return result, out
 
@@ -178,6 +209,9 @@ class ComponentProxy:
         self.call("shutdown", {"token": token} if token else None, timeout=timeout)
 
     def close(self) -> None:
+        if self._monitor is not None:
+            self._socket.disable_monitor()
+            self._monitor.close(linger=0)
         self._socket.close(linger=0)
 
     def output_names(self) -> list[str]:

@@ -21,6 +21,7 @@ from cosim.errors import SceneError
 from cosim.schema import (
     AnyTable,
     Choice,
+    FilePath,
     OpenTable,
     PluginChoice,
     Positive,
@@ -35,6 +36,7 @@ BACKEND = {"entry": "", "switch_time": 0.0}
 COMPONENT = {
     "entry": "",
     "address": "",
+    "curve": FilePath(),
     "sections": [],
     "parameters": AnyTable(),
     "record": False,
@@ -111,6 +113,8 @@ MEANINGS = {
     "component.entry": "the component's class, \"package.module:Class\", started as a local process (a module next "
                        "to the scene is found)",
     "component.address": "or the address of a component started by hand with `cosim serve`",
+    "component.curve": "with address: a key directory from `cosim keys` (its client.key_secret and server.key); "
+                       "the connection is CURVE-authenticated and encrypted, as `cosim serve --curve` serves it",
     "component.sections": "the scene's model sections handed to the component's instantiate (the tube: "
                           "[\"tube\", \"inlet\"])",
     "component.parameters": "the component's own parameters, checked against its class's parameter_schema",
@@ -324,6 +328,9 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
             raise SceneError(f"{source}: components.{name} needs exactly one of 'entry' or 'address'")
         if spec["address"]:
             _address(spec["address"], f"components.{name}.address", source)
+        if spec["curve"] and not spec["address"]:
+            raise SceneError(f"{source}: 'components.{name}.curve' is set, but CURVE is for a component served by "
+                             f"hand: set 'components.{name}.address' too")
         for section in spec["sections"]:
             if section not in raw:
                 raise SceneError(f"{source}: components.{name}.sections names '{section}', "

@@ -93,29 +93,36 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-def check_bind_address(address: str) -> None:
-    """Refuse an unknown transport, and a TCP bind to anything but loopback (remote binding needs CURVE keys)."""
+def check_bind_address(address: str, curve: bool = False) -> None:
+    """Refuse an unknown transport, and a TCP bind to anything but loopback without CURVE."""
     transport, sep, _ = address.partition("://")
     if not sep or transport not in TRANSPORTS:
         raise CosimError(f"bind address '{address}' is not of the form tcp://HOST:PORT or ipc://PATH "
                          "(transports are lower case)")
-    if transport != "tcp":
+    if transport != "tcp" or curve:
         return
     if not is_loopback(address[len("tcp://"):].rsplit(":", 1)[0].strip("[]")):
-        raise CosimError(f"refusing to bind '{address}': only loopback addresses are served "
-                         "(a non-loopback address needs CURVE keys, which this build does not set up)")
+        raise CosimError(f"refusing to bind '{address}' without CURVE: a non-loopback address is served only with "
+                         "--curve DIR (keys from `cosim keys DIR`)")
 
 
-def bind_socket(bind: str, max_bytes: int = protocol.MAX_MESSAGE_BYTES) -> zmq.Socket:
-    """A ROUTER bound to ``bind`` that drops any frame over ``max_bytes`` before allocating it."""
+def bind_socket(bind: str, max_bytes: int = protocol.MAX_MESSAGE_BYTES, curve: str | None = None) -> zmq.Socket:
+    """A ROUTER bound to ``bind`` that drops any frame over ``max_bytes`` before allocating it; with ``curve`` (a
+    key directory) a CURVE server with its key."""
     socket: zmq.Socket = zmq.Context.instance().socket(zmq.ROUTER)
     socket.setsockopt(zmq.LINGER, 1000)
     socket.setsockopt(zmq.MAXMSGSIZE, max_bytes)
     try:
+        if curve:
+            from cosim.curve import curve_server
+            curve_server(socket, curve)
         socket.bind(bind)
     except zmq.ZMQError as exc:
         socket.close()
         raise CosimError(f"cannot bind '{bind}': {exc}") from None
+    except CosimError:
+        socket.close()
+        raise
     return socket
 
 
@@ -206,21 +213,33 @@ def run_idle(component: Component) -> None:
         component.idle_interval = None
 
 
-def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None = None) -> int:
-    """Serve ``entry`` on ``bind`` until shutdown; returns the exit code."""
-    check_bind_address(bind)
+def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None = None,
+          curve: str | None = None) -> int:
+    """Serve ``entry`` on ``bind`` until shutdown (with ``curve``, a key directory: CURVE on); returns the exit
+    code."""
+    check_bind_address(bind, curve=bool(curve))
     with stop.handling_stops():   # SIGTERM (the launcher's stop) ends the loop: atexit and finally blocks run
-        return _serve(entry, bind, name, parent_pid)
+        return _serve(entry, bind, name, parent_pid, curve)
 
 
-def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None) -> int:
+def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curve: str | None) -> int:
     component = load_entry(entry)()
     if name:
         component.name = name
     server = ComponentServer(component, os.environ.pop(TOKEN_VARIABLE, ""))
-    socket = bind_socket(bind)
+    authenticator = None
+    if curve:     # the handler that checks client keys runs before the socket takes any connection
+        from cosim.curve import start_authenticator
+        authenticator = start_authenticator(curve)
+    try:
+        socket = bind_socket(bind, curve=curve)
+    except CosimError:
+        if authenticator is not None:
+            authenticator.stop()
+        raise
     endpoint = socket.getsockopt_string(zmq.LAST_ENDPOINT)
-    sys.stdout.write(json.dumps({"endpoint": endpoint, "pid": os.getpid(), "name": component.name}) + "\n")
+    sys.stdout.write(json.dumps({"endpoint": endpoint, "pid": os.getpid(), "name": component.name,
+                                 "curve": bool(curve)}) + "\n")
     sys.stdout.flush()
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # later prints go to the log, not the handshake pipe
     poller = zmq.Poller()
@@ -247,3 +266,5 @@ def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None) -> i
                 return 0
     finally:
         socket.close()
+        if authenticator is not None:
+            authenticator.stop()

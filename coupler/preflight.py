@@ -23,6 +23,12 @@ def check_parameters(scene: Scene) -> None:
     """Every component's parameters, and its backends' tables, against their declared schemas; raises
     ``SceneError`` naming the key."""
     for name, spec in scene["components"].items():
+        if spec["curve"]:
+            from cosim.curve import check_client_keys
+            try:
+                check_client_keys(spec["curve"])
+            except CosimError as exc:
+                raise SceneError(f"{scene.source}: 'components.{name}.curve': {exc}") from None
         if not spec["entry"]:
             continue
         try:

@@ -104,7 +104,8 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) ->
             endpoint = launcher.handshake(process)
         else:
             endpoint = backend.address
-        backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"])
+        curve = spec["curve"] if process is None else ""    # a launched component is on loopback, never CURVE
+        backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"], curve=curve)
         if process is None:
             backend.client.pid = int(backend.client.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
 
@@ -281,7 +282,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                     host = b.address or socket.gethostname()
                     store.add_component(b.name, b.client.pid, host, b.entry or b.address, b.client.endpoint,
                                         participant=b.participant, kind=b.kind, start_time=b.start_time,
-                                        **placement(b))
+                                        curve=bool(b.client.curve), **placement(b))
                     b.client.instantiate(b.parameters)
                     store.write_description(b.name, [asdict(v) for v in b.client.variables.values()],
                                             b.client.meshes)

@@ -137,3 +137,15 @@ def test_flap_speedup_side_by_side_small(capsys):
     ratio = result["row"]["total_speedup"] / result["row"]["total_speedup_bound"]
     assert len(both["pairs"]) == 2
     assert f"ratio {ratio:.1%} (pairs: {ratio:.1%}, {ratio:.1%})" in capsys.readouterr().out
+
+
+def test_curve_roundtrip_benchmark_small(capsys):
+    from benchmarks import curve_roundtrip
+    results = curve_roundtrip.main(["--small"])
+    text = capsys.readouterr().out
+    assert "plain TCP (baseline)" in text and "CURVE - plain" in text
+    for name in ("plain TCP", "CURVE"):
+        assert set(results[name]) == {"ping, no data", "tube solid step, 101 values each way", "ping carrying 1 MB"}
+        assert all(t.samples == 30 and 0 < t.q1 <= t.median <= t.q3 for t in results[name].values())
+    # encrypting a megabyte costs more than a round trip without data
+    assert results["CURVE"]["ping carrying 1 MB"].median > results["plain TCP"]["ping, no data"].median

@@ -1,0 +1,140 @@
+"""Remote components behind CURVE: key directories, a served tube solid over an authenticated, encrypted
+connection giving the local run's results, and clients the server does not know refused at once."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.cli import main
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from coupler.run import run_scene
+from tests.conftest import ROOT, TUBE_SCENE
+
+SHORT = ["time.end=0.5"]
+
+
+@pytest.fixture(scope="module")
+def keys(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("curve") / "keys"
+    assert main(["keys", str(folder)]) == 0
+    return folder
+
+
+@contextmanager
+def served(entry: str, bind: str, curve: Path, prefix: tuple[str, ...] = ()):
+    """``cosim serve ENTRY --bind BIND --curve DIR`` by hand, as a user starts it on another machine; yields its
+    handshake line (endpoint, pid) and stops it at the end."""
+    process = subprocess.Popen([*prefix, sys.executable, "-m", "cosim", "serve", entry, "--bind", bind,
+                                "--curve", str(curve)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    try:
+        assert process.stdout is not None
+        line = process.stdout.readline()       # the server prints its handshake once it is bound
+        assert line, process.stderr.read() if process.stderr else ""
+        yield json.loads(line)
+    finally:
+        if process.poll() is None:
+            process.terminate()
+        process.wait(timeout=10)
+
+
+def remote(endpoint: str, curve: Path) -> list[str]:
+    return ["components.solid.entry=''", f"components.solid.address='{endpoint}'", f"components.solid.curve='{curve}'",
+            "components.solid.startup_timeout=10.0"]
+
+
+def test_keys_are_made_once_and_never_overwritten(keys, capsys):
+    assert sorted(p.name for p in keys.iterdir()) == ["client.key", "client.key_secret", "clients", "server.key",
+                                                      "server.key_secret"]
+    assert [p.name for p in (keys / "clients").iterdir()] == ["client.key"]
+    assert (keys / "server.key_secret").stat().st_mode & 0o077 == 0            # secrets readable by their owner only
+    assert main(["keys", str(keys)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "keys are never overwritten" in err and "server.key" in err
+
+
+def test_a_curve_served_solid_couples_the_tube_to_the_local_run_s_results(keys, tmp_path):
+    run_scene(load_scene(TUBE_SCENE, SHORT), tmp_path / "local", progress=False)
+    with served("solid_component.tube:TubeSolid", "tcp://127.0.0.1:*", keys) as handshake:
+        assert handshake["curve"] is True
+        run_scene(load_scene(TUBE_SCENE, [*SHORT, *remote(handshake["endpoint"], keys)]), tmp_path / "remote",
+                  progress=False)
+    with RunResults(tmp_path / "local" / "results.h5") as local, RunResults(tmp_path / "remote" / "results.h5") as far:
+        np.testing.assert_array_equal(far.windows.iterations, local.windows.iterations)
+        for name, values in local.fields().items():
+            assert far.fields()[name].tobytes() == values.tobytes(), name
+        solid = far.component("solid").attributes
+        assert solid["host"] == handshake["endpoint"] and bool(solid["curve"]) is True
+        assert bool(local.component("solid").attributes["curve"]) is False
+
+
+def test_a_client_the_server_does_not_list_is_refused_at_once_naming_the_component(keys, tmp_path, capsys):
+    stranger = tmp_path / "stranger"
+    assert main(["keys", str(stranger)]) == 0
+    shutil.copy(keys / "server.key", stranger / "server.key.own")
+    (stranger / "server.key").unlink()
+    (stranger / "server.key.own").rename(stranger / "server.key")       # the right server, an unknown client key
+    with served("solid_component.tube:TubeSolid", "tcp://127.0.0.1:*", keys) as handshake:
+        started = time.monotonic()
+        code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet",
+                     *[arg for item in [*SHORT, *remote(handshake["endpoint"], stranger)] for arg in ("--set", item)]])
+        elapsed = time.monotonic() - started
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert "component 'solid'" in err and "refused this client's CURVE key" in err, err
+    assert elapsed < 10.0      # the handshake's failure, not the 10 s start-up timeout
+
+
+def test_without_curve_keys_a_scene_or_a_bind_beyond_loopback_is_refused(keys, tmp_path, capsys):
+    assert main(["serve", "solid_component.tube:TubeSolid", "--bind", "tcp://0.0.0.0:5555"]) == 2
+    assert "refusing to bind 'tcp://0.0.0.0:5555' without CURVE" in capsys.readouterr().err
+    code = main(["check", str(TUBE_SCENE), "--set", "components.solid.entry=''", "--set",
+                 "components.solid.address='tcp://127.0.0.1:5555'", "--set", f"components.solid.curve='{tmp_path}'"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "'components.solid.curve'" in err and "client.key_secret" in err, err
+    code = main(["check", str(TUBE_SCENE), "--set", f"components.solid.curve='{keys}'"])
+    assert code == 2 and "set 'components.solid.address' too" in capsys.readouterr().err
+
+
+@contextmanager
+def namespace(name: str, host: str, peer: str):
+    """A network namespace holding ``peer``'s end of a veth pair whose other end has ``host`` here."""
+    commands = [["ip", "netns", "add", name], ["ip", "link", "add", f"{name}0", "type", "veth", "peer", "name",
+                                                f"{name}1"],
+                ["ip", "link", "set", f"{name}1", "netns", name], ["ip", "addr", "add", f"{host}/24", "dev", f"{name}0"],
+                ["ip", "link", "set", f"{name}0", "up"],
+                ["ip", "netns", "exec", name, "ip", "addr", "add", f"{peer}/24", "dev", f"{name}1"],
+                ["ip", "netns", "exec", name, "ip", "link", "set", f"{name}1", "up"],
+                ["ip", "netns", "exec", name, "ip", "link", "set", "lo", "up"]]
+    try:
+        for command in commands:
+            if subprocess.run(command, capture_output=True).returncode != 0:
+                pytest.skip(f"cannot make a network namespace here ({' '.join(command)} failed)")
+        yield
+    finally:
+        subprocess.run(["ip", "netns", "del", name], capture_output=True)
+        subprocess.run(["ip", "link", "del", f"{name}0"], capture_output=True)
+
+
+@pytest.mark.skipif(shutil.which("ip") is None, reason="needs iproute2 and root for a network namespace")
+def test_a_solid_served_in_another_network_namespace_couples_over_its_own_address(keys, tmp_path):
+    run_scene(load_scene(TUBE_SCENE, SHORT), tmp_path / "local", progress=False)
+    with namespace("cosimt", "10.231.7.1", "10.231.7.2"):
+        prefix = ("ip", "netns", "exec", "cosimt")
+        with served("solid_component.tube:TubeSolid", "tcp://10.231.7.2:*", keys, prefix) as handshake:
+            assert handshake["endpoint"].startswith("tcp://10.231.7.2:")
+            run_scene(load_scene(TUBE_SCENE, [*SHORT, *remote(handshake["endpoint"], keys)]), tmp_path / "far",
+                      progress=False)
+    with RunResults(tmp_path / "local" / "results.h5") as local, RunResults(tmp_path / "far" / "results.h5") as far:
+        for name, values in local.fields().items():
+            assert far.fields()[name].tobytes() == values.tobytes(), name
