@@ -166,6 +166,19 @@ class Component:
     def restore_state(self, state: Any) -> None:
         raise ComponentError(self.name, "cannot get and set state")
 
+    def checkpoint(self) -> Any:
+        """Everything a new process of this component needs to go on from here, after the last window, as a state
+        tree (``cosim.checkpoint``: arrays, numbers, strings, lists and dicts; no pickle). By default the state
+        ``save_state`` returns; a component with more between windows than ``do_step`` rolls back (a warm start,
+        a history) overrides it."""
+        if not self.can_get_and_set_state:
+            raise ComponentError(self.name, "cannot checkpoint: it implements neither checkpoint nor save_state")
+        return self.save_state()
+
+    def restore_checkpoint(self, state: Any) -> None:
+        """Go on from a ``checkpoint`` of an earlier process (after ``exit_initialization_mode``)."""
+        self.restore_state(state)
+
     def get_state(self) -> int:
         handle = self._next_handle
         self._next_handle += 1

@@ -200,6 +200,14 @@ class ComponentProxy:
     def free_state(self, handle: int) -> None:
         self.call("free_state", {"handle": handle})
 
+    def checkpoint(self) -> tuple[str, dict[str, np.ndarray]]:
+        """The component's checkpoint: a JSON document and its arrays (``cosim.checkpoint``)."""
+        result, arrays = self.call("checkpoint")
+        return str(result["document"]), arrays
+
+    def restore_checkpoint(self, document: str, arrays: Mapping[str, np.ndarray]) -> None:
+        self.call("restore_checkpoint", {"document": document}, arrays)
+
     def terminate(self) -> dict[str, np.ndarray]:
         return {k: np.array(v) for k, v in self.call("terminate")[1].items()}
 

@@ -111,6 +111,42 @@ class ResultsStore:
             self.path.unlink(missing_ok=True)
             raise
 
+    @classmethod
+    def resume(cls, path: str | Path, lengths: Mapping[str, int], windows: int) -> ResultsStore:
+        """The results file of a run going on from a checkpoint: every growing dataset cut back to its length at
+        the checkpoint (``lengths``, from ``lengths()`` then), those made after it removed."""
+        store = cls.__new__(cls)
+        store.path = Path(path)
+        try:
+            store.file = h5py.File(store.path, "r+")
+        except OSError as exc:
+            raise CosimError(f"cannot open '{store.path}' to go on with it: {exc}") from None
+        store._columns = {}
+        grown: list[str] = []
+        store.file.visititems(lambda name, item: grown.append(name) if isinstance(item, h5py.Dataset)
+                              and item.maxshape[0] is None else None)
+        for name in grown:
+            if name not in lengths:
+                del store.file[name]
+                continue
+            if store.file[name].shape[0] < lengths[name]:
+                store.file.close()
+                raise CosimError(f"'{store.path}': dataset '{name}' holds {store.file[name].shape[0]} rows, fewer "
+                                 f"than the checkpoint's {lengths[name]}")
+            store._columns[name] = _GrowingDataset.reopen(store.file[name], lengths[name])
+        missing = sorted(set(lengths) - set(store._columns))
+        if missing:
+            store.file.close()
+            raise CosimError(f"'{store.path}' lacks dataset '{missing[0]}' that the checkpoint counts")
+        store._windows_written = windows
+        store.file.attrs["windows_completed"] = windows
+        store.file.flush()
+        return store
+
+    def lengths(self) -> dict[str, int]:
+        """Rows of every growing dataset (a checkpoint's record of where the file stood)."""
+        return {name: column.length for name, column in self._columns.items()}
+
     # --- growable datasets ----------------------------------------------------
     def _append(self, name: str, rows: np.ndarray) -> None:
         column = self._columns.get(name)
@@ -361,6 +397,19 @@ class _GrowingDataset:
         self.dataset = file.create_dataset(name, data=rows, maxshape=(None, *self.row_shape),
                                            chunks=(self.chunk_rows, *self.row_shape))
         self.length = len(rows)
+
+    @classmethod
+    def reopen(cls, dataset: h5py.Dataset, length: int) -> _GrowingDataset:
+        """A dataset of an existing file, cut to ``length`` rows."""
+        column = cls.__new__(cls)
+        column.name, column.row_shape, column.dtype = dataset.name.lstrip("/"), dataset.shape[1:], dataset.dtype
+        column.chunk_rows = dataset.chunks[0]
+        column.chunk_bytes = column.chunk_rows * max(1, int(np.prod(column.row_shape, dtype=np.int64))) \
+            * dataset.dtype.itemsize
+        column.dataset = dataset
+        dataset.resize(length, axis=0)
+        column.length = length
+        return column
 
     @staticmethod
     def first_bytes(rows: np.ndarray) -> int:

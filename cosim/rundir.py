@@ -23,7 +23,7 @@ from cosim.errors import CosimError
 
 LOCK = ".lock"
 STATUS = "status.json"
-RUN_FILES = ("results.h5", "run.png", STATUS)
+RUN_FILES = ("results.h5", "run.png", STATUS, "checkpoint.npz")
 RUN_FOLDERS = ("logs",)
 
 
@@ -34,18 +34,23 @@ class RunDirectoryError(CosimError):
 class RunDirectory:
     """Context manager holding ``path`` for one run."""
 
-    def __init__(self, path: str | Path, overwrite: bool = False, status_interval: float = 0.5):
+    def __init__(self, path: str | Path, overwrite: bool = False, status_interval: float = 0.5, resume: bool = False):
         if not str(path).strip():
             raise RunDirectoryError("the output directory (--out) is empty; name a directory")
         self.path = Path(path)
         self.overwrite = overwrite
+        self.resume = resume      # the directory's run goes on from its checkpoint
         self.status_interval = status_interval
         self._lock: int | None = None
         self._last_status = 0.0
 
     def __enter__(self) -> RunDirectory:
         fd = hold(self.path, "run")
-        if (self.path / "results.h5").exists():
+        if self.resume:
+            if not (self.path / "results.h5").exists():
+                os.close(fd)
+                raise RunDirectoryError(f"'{self.path}' holds no run to resume (no results.h5)")
+        elif (self.path / "results.h5").exists():
             if not self.overwrite:
                 os.close(fd)
                 raise RunDirectoryError(f"'{self.path}' already holds a run ({describe_run(self.path)}); "

@@ -73,7 +73,8 @@ SCHEMA: dict[str, Any] = {
         "acceleration": PluginChoice("none"),
     },
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
-               "plots": []},   # a scene's own run plots: names of cosim.run_plots entry points
+               "plots": [],   # a scene's own run plots: names of cosim.run_plots entry points
+               "checkpoint_every": Value(0, low=0)},
 }
 LISTS = {"exchange": EXCHANGE}
 # what each key means, for the scene reference (docs/reference/scene.md, written by the scene reference generator;
@@ -82,6 +83,9 @@ MEANINGS = {
     "name": "a name for the scene, recorded in the results",
     "case": "the case the scene belongs to: `cosim report` adds the report plots and figures its case package "
             "registers under that name (`tube`, `double_flap`)",
+    "output.checkpoint_every": "write a checkpoint (checkpoint.npz next to results.h5) every this many windows, and "
+                               "when the run is stopped by Ctrl-C or SIGTERM; `cosim run --resume` goes on from the "
+                               "last one (0: none)",
     "time.start": "the start of the first time window [s]",
     "time.end": "the end of the last time window [s]; end - start must be a multiple of dt",
     "time.dt": "the time window (coupling time step) [s]",

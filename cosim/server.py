@@ -27,6 +27,7 @@ import numpy as np
 import zmq
 
 from cosim import protocol, stop
+from cosim.checkpoint import pack, unpack
 from cosim.component import Component
 from cosim.errors import ComponentError, CosimError, ProtocolError
 from cosim.launcher import TOKEN_VARIABLE
@@ -146,10 +147,16 @@ class ComponentServer:
             "get_state": lambda a, arr: {"handle": c.get_state()},
             "set_state": lambda a, arr: c.set_state(a["handle"]),
             "free_state": lambda a, arr: c.free_state(a["handle"]),
+            "checkpoint": self._checkpoint,
+            "restore_checkpoint": lambda a, arr: c.restore_checkpoint(unpack(json.loads(a["document"]), arr)),
             "terminate": lambda a, arr: c.terminate(),
             "ping": lambda a, arr: {"pid": os.getpid()},
             "shutdown": self._shutdown,
         }
+
+    def _checkpoint(self, args: dict, arrays: dict) -> dict[str, Any]:
+        document, state_arrays = pack(self.component.checkpoint())
+        return {"document": json.dumps(document), **state_arrays}
 
     def _shutdown(self, args: dict, arrays: dict) -> None:
         if self.token and not hmac.compare_digest(str(args.get("token", "")), self.token):

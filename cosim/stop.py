@@ -32,6 +32,11 @@ def _raise(signum: int) -> None:
     raise SystemExit(128 + signum)
 
 
+def pending() -> bool:
+    """Whether a stop was asked for and not yet raised (a run writes its checkpoint before it stops)."""
+    return _requested is not None
+
+
 def check() -> None:
     """Raise the stop that was asked for, if any."""
     global _requested

@@ -37,7 +37,8 @@ def _run(args: argparse.Namespace) -> int:
     from coupler.run import run_scene
 
     scene = load_scene(args.scene, args.set or [])
-    summary = run_scene(scene, args.out, progress=not args.quiet, overwrite=args.overwrite)
+    summary = run_scene(scene, args.out, progress=not args.quiet, overwrite=args.overwrite,
+                        resume=getattr(args, "resume", False))
     unconverged = f" ({summary.unconverged} did not converge)" if summary.unconverged else ""
     print(f"{summary.windows} windows{unconverged}, {summary.iterations} coupling iterations "
           f"(mean {summary.mean_iterations:.3f} per window), wall {summary.wall_seconds:.2f} s; "
@@ -106,11 +107,19 @@ def _check(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_arguments(parser: argparse.ArgumentParser) -> None:
+    _arguments(parser)
+    parser.add_argument("--resume", action="store_true",
+                        help="go on with the run in --out from its last checkpoint (output.checkpoint_every), with the "
+                             "same scene and --set overrides; results.h5 keeps the windows before it")
+
+
 run = Command(
-    "run a scene", _arguments, _run,
+    "run a scene", _run_arguments, _run,
     "Couple the scene's components over its time windows and write DIR/results.h5 (every window, every "
     "coupling iteration's residual, the recorded calls), DIR/status.json and DIR/run.png. A directory that "
-    "holds another run is refused unless --overwrite (never one in progress).",
+    "holds another run is refused unless --overwrite (never one in progress). With output.checkpoint_every set, "
+    "the run writes DIR/checkpoint.npz as it goes, and --resume goes on from it.",
     "cosim run scenes/tube_fom.toml --out runs/fom_mu1 --set inlet.f=0.9 --set inlet.h=4")
 check = Command(
     "validate a scene without running it", _check_arguments, _check,

@@ -32,6 +32,7 @@ from coupler.mapping import make_mapping
 from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
+from coupler.restart import read_checkpoint_for, restore_checkpoint, write_checkpoint
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant
 
@@ -216,14 +217,16 @@ def prepare(scene: Scene) -> int:
     return n_windows
 
 
-def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False) -> RunSummary:
-    """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run."""
-    directory = RunDirectory(out_dir, overwrite)     # refuses an empty name before it would mean "."
+def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False,
+              resume: bool = False) -> RunSummary:
+    """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run. With
+    ``resume``, go on with the run in ``out_dir`` from its checkpoint (``output.checkpoint_every``)."""
+    directory = RunDirectory(out_dir, overwrite, resume=resume)     # refuses an empty name before it would mean "."
     out_dir = directory.path
     n_windows = prepare(scene)
     start, dt = scene["time"]["start"], scene["time"]["dt"]
     with directory:
-        summary = _run(scene, directory, start, dt, n_windows, progress)
+        summary = _run(scene, directory, start, dt, n_windows, progress, resume)
         # under the lock: no other run may take the directory over while its plots are drawn
         from cosim.plots import plot_run
         plot_run(out_dir / "results.h5", out_dir / "run.png", scene["output"])
@@ -257,17 +260,27 @@ def run_plot_hooks(scene: Scene) -> list:
 
 
 def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windows: int,
-         progress: bool) -> RunSummary:
+         progress: bool, resume: bool = False) -> RunSummary:
     out_dir = directory.path
+    saved: tuple[dict, dict] | None = None
     try:
-        store = ResultsStore(out_dir / "results.h5", scene.text)
-        store.set_attributes(scene_resolved=json.dumps(scene.data))
+        if resume:
+            saved = read_checkpoint_for(scene, out_dir)
+            store = ResultsStore.resume(out_dir / "results.h5", saved[0]["results"], saved[0]["windows"])
+        else:
+            store = ResultsStore(out_dir / "results.h5", scene.text)
+            store.set_attributes(scene_resolved=json.dumps(scene.data))
     except OSError as exc:
         error = f"cannot create '{out_dir / 'results.h5'}': {exc.strerror or exc}"
         directory.status("failed", force=True, windows_total=n_windows, windows_completed=0, error=error)
         raise CosimError(error) from None
     wall_start = time.perf_counter()
     windows = iterations = unconverged = warned = 0
+    if saved is not None:
+        counts = saved[0]
+        windows, iterations, unconverged, warned = (counts["windows"], counts["iterations"], counts["unconverged"],
+                                                     counts["warned"])
+    every = scene["output"]["checkpoint_every"]
     state = "failed"
     directory.status("starting", force=True, windows_total=n_windows, windows_completed=0)
     backends = plan_backends(scene)
@@ -284,8 +297,9 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                                         participant=b.participant, kind=b.kind, start_time=b.start_time,
                                         curve=bool(b.client.curve), **placement(b))
                     b.client.instantiate(b.parameters)
-                    store.write_description(b.name, [asdict(v) for v in b.client.variables.values()],
-                                            b.client.meshes)
+                    if saved is None:
+                        store.write_description(b.name, [asdict(v) for v in b.client.variables.values()],
+                                                b.client.meshes)
                     b.client.enter_initialization_mode(start, start + n_windows * dt)
                     b.client.exit_initialization_mode()
                 recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
@@ -293,11 +307,16 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 participants = participants_of(backends)
                 scheme = build_scheme(scene, participants, recorders)
                 check_plot(scene["output"], scheme.values)
-                store.write_initial(scheme.values)
+                if saved is None:
+                    store.write_initial(scheme.values)
+                else:
+                    restore_checkpoint(saved, backends, scheme)
                 bar = _progress(n_windows, progress)
+                if bar is not None and windows:
+                    bar.update(windows)
                 phase = ""
                 try:
-                    for window in range(n_windows):
+                    for window in range(windows, n_windows):
                         t = start + window * dt
                         window_start = time.perf_counter()
                         result = scheme.advance(t, dt)
@@ -319,6 +338,10 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                             _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar)
                         directory.status("running", windows_total=n_windows, windows_completed=windows,
                                          time=result.time)
+                        if every and (windows % every == 0 or stop.pending()) and windows < n_windows:
+                            write_checkpoint(out_dir, scheme, backends, store,
+                                             {"windows": windows, "iterations": iterations,
+                                              "unconverged": unconverged, "warned": warned, "time": result.time})
                         stop.check()       # Ctrl-C or SIGTERM: stop here, between two windows
                         if bar is not None:
                             bar.update(1)

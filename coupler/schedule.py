@@ -11,6 +11,7 @@ the map changed)."""
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -53,6 +54,20 @@ class BackendSchedule:
         self.repeats_steps = any(proxy.repeats_steps for _, proxy in self.stages)
         self._sent: ComponentProxy | None = None
         self._served: ComponentProxy | None = None   # the backend whose outputs the last call returned
+        self.backend_changed = False
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """What the schedule carries between windows: the windows that fell back, and the backend that served
+        the last call (a change of backend at the next call tells the acceleration its map changed)."""
+        return {"fallback_windows": set(self.fallback_windows),
+                "served": None if self._served is None else self._served.name}
+
+    def restore_checkpoint_state(self, state: Mapping[str, Any]) -> None:
+        backends = {proxy.name: proxy for _, proxy in self.stages}
+        if self.fallback is not None:
+            backends[self.fallback.name] = self.fallback
+        self.fallback_windows = set(state["fallback_windows"])
+        self._served = None if state["served"] is None else backends[state["served"]]
         self.backend_changed = False
 
     def active(self, t: float) -> ComponentProxy:

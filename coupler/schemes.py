@@ -11,10 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TypeGuard
+from typing import Any, TypeGuard
 
 import numpy as np
 
+from cosim.checkpoint import object_state, restore_object
 from cosim.errors import (
     ComponentDied,
     ComponentError,
@@ -94,6 +95,29 @@ class CouplingScheme:
         self.predictor = predictor
         self._next_start: dict[str, np.ndarray] | None = None   # the acceleration's estimate for the next window
         self._state: dict[str, int] = {}
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """Everything the scheme carries from one window to the next, as a state tree (``cosim.checkpoint``): the
+        window counter, the data values, the extrapolation's history, the predictor's start, the acceleration's
+        columns or Jacobian, the measures' and the backend schedules' state. Taken between windows."""
+        return {"window": self.window, "values": self.values, "next_start": self._next_start,
+                "extrapolation": object_state(self._extrapolation), "acceleration": object_state(self.acceleration),
+                "measures": [object_state(m) for m in self.measures],
+                "schedules": {p.name: p.checkpoint_state() for p in (self.first, self.second)
+                              if isinstance(p, BackendSchedule)}}
+
+    def restore_checkpoint_state(self, state: Mapping[str, Any]) -> None:
+        """Go on from ``checkpoint_state`` of an earlier run of the same scene (after ``initialize``)."""
+        self.window = state["window"]
+        self.values = dict(state["values"])
+        self._next_start = state["next_start"]
+        restore_object(self._extrapolation, state["extrapolation"])
+        restore_object(self.acceleration, state["acceleration"])
+        for measure, measure_state in zip(self.measures, state["measures"]):
+            restore_object(measure, measure_state)
+        for p in (self.first, self.second):
+            if isinstance(p, BackendSchedule):
+                p.restore_checkpoint_state(state["schedules"][p.name])
 
     def sent_by(self, proxy) -> list[str]:
         """Names of the data items ``proxy`` produces."""

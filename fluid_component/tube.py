@@ -107,6 +107,17 @@ class TubeFluid(Component):
         t, v, p, a = state
         self.t, self.v, self.p, self.a = t, v.copy(), p.copy(), a.copy()
 
+    def checkpoint(self) -> Any:
+        """The rolled-back state, the last input and Newton's warm start (the last solve, kept across windows)."""
+        return {"state": self.save_state(), "section": self.section.copy(), "guess": list(self._guess),
+                "newton_iterations": self.newton_iterations}
+
+    def restore_checkpoint(self, state: Any) -> None:
+        self.restore_state(state["state"])
+        self.section = state["section"]
+        self._guess = tuple(state["guess"])
+        self.newton_iterations = state["newton_iterations"]
+
     # --- numerics -------------------------------------------------------------
     def _build_pattern(self) -> None:
         """Row and column indices of the Jacobian's nonzeros (v_k at 2k, p_k at 2k+1)."""

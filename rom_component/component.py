@@ -40,6 +40,9 @@ ROM_HELP = {
                  "the caches (the machine evicts them within milliseconds); changes no result",
 }
 TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
+# what a checkpoint carries over: everything a call changes that a later call or terminate reads
+CHECKPOINTED = ("force", "displacement", "trust_values", "_last_reduced", "_calls_in_window", "_window_time", "_times",
+                "_reduced", "_dt", "_margin", "keep_warm_calls", "keep_warm_seconds")
 FLOAT64 = np.dtype(np.float64)
 
 
@@ -195,6 +198,18 @@ class RomSolid(Component):
         assert self._window_time is not None and self._last_reduced is not None   # a window has been served
         self._times.append(self._window_time + self._dt)
         self._reduced.append(self._last_reduced.copy())    # the served call's buffer is rewritten by the next
+
+    def checkpoint(self) -> Any:
+        """The last call's input, outputs and trust, the window's call count, and the converged history that
+        ``terminate`` rebuilds the full field from."""
+        state = {name: getattr(self, name) for name in CHECKPOINTED if hasattr(self, name)}
+        return {name: np.array(value) if isinstance(value, np.ndarray) else value for name, value in state.items()}
+
+    def restore_checkpoint(self, state: Any) -> None:
+        for name, value in state.items():
+            if name not in CHECKPOINTED:
+                raise ComponentError(self.name, f"checkpoint holds '{name}', which this ROM component does not keep")
+            setattr(self, name, value)
 
     def terminate(self) -> dict[str, np.ndarray]:
         """Reduced displacements of every converged window and the full field rebuilt from them."""

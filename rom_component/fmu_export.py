@@ -56,7 +56,7 @@ def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
     cosimulation = ET.SubElement(root, "CoSimulation", {
         "modelIdentifier": MODEL_IDENTIFIER, "needsExecutionTool": "false",
         "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
-        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "false", "providesDirectionalDerivative": "false"})
+        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
     ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": SOURCE.name})
     categories = ET.SubElement(root, "LogCategories")
     for name, text in LOG_CATEGORIES.items():

@@ -80,6 +80,8 @@ class FmuSolid(Component):
                                             f"{'without' if md.coSimulation is None else 'with'} Co-Simulation; "
                                             "an FMI 2.0 Co-Simulation FMU is needed")
         self.stateful = prm["stateful"]
+        self.path = path
+        self.can_serialize = bool(md.coSimulation.canSerializeFMUstate)
         if self.stateful and not md.coSimulation.canGetAndSetFMUstate:
             raise ComponentError(self.name, f"FMU '{path}' cannot get and set its state (stateful = true)")
         self.inputs = self._group(md, "input")
@@ -241,6 +243,28 @@ class FmuSolid(Component):
 
     def restore_state(self, state: Any) -> None:
         self.slave.setFMUState(state)
+
+    def checkpoint(self) -> Any:
+        """The FMU's own serialised state (``fmi2SerializeFMUstate``) and its time."""
+        if not self.can_serialize:
+            raise ComponentError(self.name, f"FMU '{self.path}' cannot serialise its state (canSerializeFMUstate is "
+                                            "false): a run with it cannot be checkpointed")
+        state = self.slave.getFMUState()
+        try:
+            serialized = self.slave.serializeFMUstate(state)
+        finally:
+            self.slave.freeFMUState(state)
+        return {"fmu_state": np.frombuffer(bytes(serialized), dtype=np.uint8).copy()}
+
+    def restore_checkpoint(self, state: Any) -> None:
+        if not self.can_serialize:
+            raise ComponentError(self.name, f"FMU '{self.path}' cannot serialise its state (canSerializeFMUstate is "
+                                            "false)")
+        restored = self.slave.deSerializeFMUstate(state["fmu_state"].tobytes())
+        try:
+            self.slave.setFMUState(restored)
+        finally:
+            self.slave.freeFMUState(restored)
 
     def terminate(self) -> dict[str, np.ndarray]:
         self.slave.terminate()

@@ -79,6 +79,13 @@ class TubeSolid(Component):
     def do_step(self, t: float, dt: float) -> None:
         self.section = math.pi * self.radius(self.pressure) ** 2
 
+    def checkpoint(self) -> Any:
+        """Quasi-static: the last input and output are all it holds."""
+        return {"pressure": np.array(self.pressure), "section": np.array(self.section)}
+
+    def restore_checkpoint(self, state: Any) -> None:
+        self.pressure, self.section = state["pressure"], state["section"]
+
     def stress(self, eps: np.ndarray) -> np.ndarray:
         """The stress-strain law."""
         return np.where(np.abs(eps) < self.eps0, self.E_small * eps,

@@ -23,7 +23,7 @@
  * fused multiply-add, and the binary needs no libm. With GCC or clang the long sums run on vector
  * types (four rows of the encoder at once, sixteen outputs of the decoder at once); each lane does
  * the scalar code's operations in its order, so -DSOLID_ROM_SCALAR builds give the same bits.
- * The ROM is stateless; an FMU state is a copy of inputs, outputs and time. The FMI 2.0
+ * The ROM is stateless; an FMU state is a copy of inputs, outputs and time, and serialises to bytes. The FMI 2.0
  * Co-Simulation state machine is enforced; a call out of turn returns fmi2Error with a message.
  */
 #if defined(__clang__)
@@ -807,14 +807,72 @@ static fmi2Status unsupported(fmi2Component c, const char *function) {
     FAIL(inst, "%s is not supported by this FMU", function);
 }
 
+/* A serialised state: "CSROMST1", n_in and n_out (int32), the time and the inputs and outputs (doubles), in the
+ * machine's byte order: a checkpoint is read back by the same FMU on the same kind of machine. */
+static const char STATE_MAGIC[8] = {'C', 'S', 'R', 'O', 'M', 'S', 'T', '1'};
+
+static size_t serialized_size(const Instance *inst) {
+    return sizeof STATE_MAGIC + 2 * sizeof(int32_t) + sizeof(double) * (1 + (size_t)inst->model.n_in
+                                                                            + (size_t)inst->model.n_out);
+}
+
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *size) {
-    (void)s; (void)size; return unsupported(c, "fmi2SerializedFMUstateSize");
+    INSTANCE(c);
+    REQUIRE(inst, ANY, "fmi2SerializedFMUstateSize");
+    if (s == NULL || !owns_state(inst, (const State *)s)) FAIL(inst, "fmi2SerializedFMUstateSize: not a state of this instance");
+    if (size == NULL) FAIL(inst, "fmi2SerializedFMUstateSize: NULL size pointer");
+    *size = serialized_size(inst);
+    return fmi2OK;
 }
+
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte bytes[], size_t size) {
-    (void)s; (void)bytes; (void)size; return unsupported(c, "fmi2SerializeFMUstate");
+    const State *state = (const State *)s;
+    char *out = (char *)bytes;
+    int32_t sizes[2];
+    INSTANCE(c);
+    REQUIRE(inst, ANY, "fmi2SerializeFMUstate");
+    if (state == NULL || !owns_state(inst, state)) FAIL(inst, "fmi2SerializeFMUstate: not a state of this instance");
+    if (bytes == NULL || size != serialized_size(inst))
+        FAIL(inst, "fmi2SerializeFMUstate: a buffer of %zu bytes is needed", serialized_size(inst));
+    sizes[0] = inst->model.n_in;
+    sizes[1] = inst->model.n_out;
+    memcpy(out, STATE_MAGIC, sizeof STATE_MAGIC);
+    out += sizeof STATE_MAGIC;
+    memcpy(out, sizes, sizeof sizes);
+    out += sizeof sizes;
+    memcpy(out, &state->time, sizeof(double));
+    out += sizeof(double);
+    memcpy(out, state->inputs, sizeof(double) * (size_t)inst->model.n_in);
+    out += sizeof(double) * (size_t)inst->model.n_in;
+    memcpy(out, state->outputs, sizeof(double) * (size_t)inst->model.n_out);
+    return fmi2OK;
 }
+
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate *s) {
-    (void)bytes; (void)size; (void)s; return unsupported(c, "fmi2DeSerializeFMUstate");
+    const char *in = (const char *)bytes;
+    int32_t sizes[2];
+    State *state;
+    fmi2FMUstate handle = NULL;
+    INSTANCE(c);
+    REQUIRE(inst, ANY, "fmi2DeSerializeFMUstate");
+    if (bytes == NULL || s == NULL) FAIL(inst, "fmi2DeSerializeFMUstate: NULL argument");
+    if (size != serialized_size(inst) || memcmp(in, STATE_MAGIC, sizeof STATE_MAGIC) != 0)
+        FAIL(inst, "fmi2DeSerializeFMUstate: not a serialised state of this FMU (%zu bytes)", size);
+    memcpy(sizes, in + sizeof STATE_MAGIC, sizeof sizes);
+    if (sizes[0] != inst->model.n_in || sizes[1] != inst->model.n_out)
+        FAIL(inst, "fmi2DeSerializeFMUstate: a state of %d inputs and %d outputs, this FMU has %d and %d",
+             (int)sizes[0], (int)sizes[1], (int)inst->model.n_in, (int)inst->model.n_out);
+    handle = (*s != NULL && owns_state(inst, (const State *)*s)) ? *s : NULL;
+    if (fmi2GetFMUstate(c, &handle) != fmi2OK) return fmi2Error;    /* a state of this instance to fill */
+    state = (State *)handle;
+    in += sizeof STATE_MAGIC + sizeof sizes;
+    memcpy(&state->time, in, sizeof(double));
+    in += sizeof(double);
+    memcpy(state->inputs, in, sizeof(double) * (size_t)inst->model.n_in);
+    in += sizeof(double) * (size_t)inst->model.n_in;
+    memcpy(state->outputs, in, sizeof(double) * (size_t)inst->model.n_out);
+    *s = handle;
+    return fmi2OK;
 }
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown[], size_t nUnknown,
                                         const fmi2ValueReference vKnown[], size_t nKnown, const fmi2Real dvKnown[],

@@ -1,0 +1,145 @@
+"""Checkpoints and ``cosim run --resume``: a resumed run is the uninterrupted one, bit for bit."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim import stop
+from cosim.checkpoint import CheckpointError, object_state, pack, restore_object, unpack
+from cosim.cli import main
+from cosim.results import ResultsStore, RunResults
+from cosim.scene import load_scene
+from coupler.run import run_scene
+from tests.conftest import ROOT, TUBE_SCENE, wait_for, windows_done
+from tests.test_rom_integration import END, TRAIN_END, fom, model  # noqa: F401  (the module's fixtures)
+
+LONG = ["time.end=30.0", "output.checkpoint_every=10"]     # 300 windows, about 2 s
+
+
+def identical(a: Path, b: Path) -> None:
+    """Two runs' results files hold the same datasets with the same bits (windows, fields, residuals, recorded
+    calls, what components handed back), timings apart."""
+    import h5py
+
+    def datasets(path: Path) -> dict[str, bytes]:
+        found: dict[str, bytes] = {}
+        with h5py.File(path / "results.h5", "r") as f:
+            f.visititems(lambda name, item: found.__setitem__(name, item[()].tobytes())
+                         if isinstance(item, h5py.Dataset) and "seconds" not in name else None)
+        return found
+
+    x, y = datasets(a), datasets(b)
+    assert sorted(x) == sorted(y)
+    assert [name for name in x if x[name] != y[name]] == []
+    with RunResults(a / "results.h5") as run:
+        assert len(run.windows.iterations) > 0
+
+
+def test_state_trees_round_trip_through_json_and_arrays():
+    tree = {"x": np.arange(5.0), "n": 3, "f": 0.1 + 0.2, "nan": float("nan"), "s": "text", "none": None,
+            "t": (np.ones(2), 2), "d": deque([np.zeros(1)], maxlen=3), "set": {0.5, 0.25}, "flag": np.bool_(True),
+            "nested": {"__odd__": [np.int64(7), np.float64(1e-300)]}, "i": np.arange(3, dtype=np.int32)}
+    document, arrays = pack(tree)
+    import json
+    back = unpack(json.loads(json.dumps(document)), arrays)
+    assert back["x"].tobytes() == tree["x"].tobytes() and back["i"].dtype == np.int32
+    assert back["f"] == tree["f"] and np.isnan(back["nan"]) and back["s"] == "text" and back["none"] is None
+    assert isinstance(back["t"], tuple) and back["t"][1] == 2 and isinstance(back["d"], deque) and back["d"].maxlen == 3
+    assert back["set"] == {0.5, 0.25} and back["flag"] is True and back["nested"] == {"__odd__": [7, 1e-300]}
+    with pytest.raises(CheckpointError, match="state 'state.bad' is of type object, which a checkpoint cannot hold"):
+        pack({"bad": object()})
+    with pytest.raises(CheckpointError, match="array of Python objects"):
+        pack({"o": np.array([None], dtype=object)})
+
+    class Inner:
+        def __init__(self):
+            self.values = [np.ones(2)]
+
+    class Outer:
+        def __init__(self):
+            self.inner, self.members, self.k = Inner(), [Inner(), Inner()], 1
+
+    source, target = Outer(), Outer()
+    source.inner.values, source.members[1].values, source.k = [np.full(2, 3.0)], [np.zeros(3)], 5
+    restore_object(target, unpack(*pack(object_state(source))))
+    assert target.k == 5 and target.inner.values[0][0] == 3.0 and target.members[1].values[0].shape == (3,)
+
+
+def test_a_run_killed_in_a_window_resumes_from_its_checkpoint_bit_for_bit(tmp_path):
+    """SIGKILL of the coupler in the middle of a window, then ``cosim run --resume``."""
+    run_scene(load_scene(TUBE_SCENE, LONG), tmp_path / "whole", progress=False)
+    command = [sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(tmp_path / "cut"), "--quiet",
+               *[arg for item in LONG for arg in ("--set", item)]]
+    process = subprocess.Popen(command, cwd=ROOT)
+    try:
+        wait_for(lambda: windows_done(tmp_path / "cut") >= 45 or process.poll() is not None, "45 windows")
+        process.send_signal(signal.SIGKILL)
+        process.wait(timeout=10)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == -signal.SIGKILL
+    with RunResults(tmp_path / "cut" / "results.h5") as cut:
+        assert 40 <= len(cut.windows.iterations) < 300     # killed midway, after a checkpoint
+    done = subprocess.run([*command, "--resume"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    identical(tmp_path / "whole", tmp_path / "cut")
+    with RunResults(tmp_path / "cut" / "results.h5") as resumed:
+        assert resumed.attributes["checkpoints_written"] >= 1 and resumed.attributes["checkpoint_bytes"] > 0
+
+
+def stopped_at(window: int, monkeypatch) -> None:
+    """Ask the run to stop (as Ctrl-C does) once it has written ``window`` windows."""
+    append = ResultsStore.append_window
+
+    def append_then_stop(self, *args, **kwargs):
+        append(self, *args, **kwargs)
+        if self._windows_written == window:
+            stop._requested = signal.SIGINT
+    monkeypatch.setattr(ResultsStore, "append_window", append_then_stop)
+
+
+@pytest.mark.parametrize("backend, stop_window", [("rom", 58), ("rom", 66), ("fmu", 66)])
+def test_a_rom_fom_run_stopped_before_or_after_its_switch_resumes_bit_for_bit(model, tmp_path, monkeypatch,  # noqa: F811
+                                                                             backend, stop_window):
+    """Ctrl-C writes a checkpoint after the window in flight; the ROM (or its FMU) serves from 6 s on."""
+    served = {"rom": f"components.solid.rom.model={model}"}
+    if backend == "fmu":
+        fmu = tmp_path / "solid_rom.fmu"
+        assert main(["export-fmu", str(model), "--out", str(fmu)]) == 0
+        served = {"fmu": f"components.solid.fmu.path={fmu}"}
+    overrides = [f"time.end={END}", f"components.solid.backend={backend}", served[backend],
+                 f"components.solid.{backend}.switch_time={TRAIN_END}", "output.checkpoint_every=7"]
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "whole", progress=False)
+    with monkeypatch.context() as patch:
+        stopped_at(stop_window, patch)
+        with pytest.raises(KeyboardInterrupt):
+            run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False)
+    with RunResults(tmp_path / "cut" / "results.h5") as cut:
+        assert len(cut.windows.iterations) == stop_window
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False, resume=True)
+    identical(tmp_path / "whole", tmp_path / "cut")
+
+
+def test_resume_refuses_another_scene_and_a_run_without_a_checkpoint(tmp_path, capsys):
+    run_scene(load_scene(TUBE_SCENE, ["time.end=1.0"]), tmp_path / "plain", progress=False)
+    assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "plain"), "--quiet", "--set", "time.end=1.0",
+                 "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "no checkpoint" in err and "output.checkpoint_every" in err, err
+    with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
+        stopped_at(4, patch)
+        run_scene(load_scene(TUBE_SCENE, ["time.end=1.0", "output.checkpoint_every=2"]), tmp_path / "cut",
+                  progress=False)
+    assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "cut"), "--quiet", "--set", "time.end=1.0",
+                 "--set", "output.checkpoint_every=2", "--set", "inlet.h=5", "--resume"]) == 2
+    assert "was run with another scene" in capsys.readouterr().err
+    assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "none"), "--quiet", "--resume"]) == 2
+    assert "holds no run to resume" in capsys.readouterr().err
