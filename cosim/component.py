@@ -94,12 +94,18 @@ class Component:
     def can_get_and_set_state(self) -> bool:
         return type(self).save_state is not Component.save_state
 
+    @property
+    def can_checkpoint(self) -> bool:
+        """Whether ``checkpoint`` gives what a new process needs to go on (its own, or ``save_state``'s)."""
+        return type(self).checkpoint is not Component.checkpoint or self.can_get_and_set_state
+
     def describe(self) -> dict[str, Any]:
         """Name, variables, meshes (as arrays ``mesh:<name>``) and capabilities."""
         description: dict[str, Any] = {
             "name": self.name,
             "variables": [asdict(v) for v in self.variables()],
             "can_get_and_set_state": self.can_get_and_set_state,
+            "can_checkpoint": self.can_checkpoint,
             "repeats_steps": self.repeats_steps,
         }
         for name, nodes in self.meshes().items():

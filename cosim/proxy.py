@@ -52,6 +52,7 @@ class ComponentProxy:
         self.variables: dict[str, Variable] = {}
         self.meshes: dict[str, np.ndarray] = {}
         self.can_get_and_set_state = False
+        self.can_checkpoint = False
         self.repeats_steps = False
         self.warnings: list[str] = []   # delivered with replies, taken by the coupler
         self.pid: int | None = process.pid if process else None
@@ -157,6 +158,7 @@ class ComponentProxy:
                 raise ComponentError(self.name, f"variable '{variable.name}' has {variable.shape[0]} nodes, "
                                                 f"but mesh '{variable.mesh}' has {len(nodes)}")
         self.can_get_and_set_state = bool(result.get("can_get_and_set_state"))
+        self.can_checkpoint = bool(result.get("can_checkpoint"))
         self.repeats_steps = bool(result.get("repeats_steps"))
         return result
 

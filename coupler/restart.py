@@ -50,6 +50,14 @@ def write_checkpoint(out_dir: Path, scheme: Any, backends: list, store: ResultsS
     return path
 
 
+def resumable(out_dir: str | Path) -> bool:
+    """Whether the run in ``out_dir`` stopped midway (Ctrl-C, SIGTERM, a killed coupler) after a checkpoint."""
+    from cosim.rundir import read_status
+    out_dir = Path(out_dir)
+    return ((out_dir / FILE).is_file() and (out_dir / "results.h5").is_file()
+            and read_status(out_dir).get("state") in ("interrupted", "died"))
+
+
 def read_checkpoint_for(scene: Scene, out_dir: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The checkpoint of the run in ``out_dir``, checked against ``scene`` and this installation's versions."""
     import h5py

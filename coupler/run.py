@@ -302,6 +302,12 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                                                 b.client.meshes)
                     b.client.enter_initialization_mode(start, start + n_windows * dt)
                     b.client.exit_initialization_mode()
+                if every:
+                    refusing = [b for b in backends if not b.client.can_checkpoint]
+                    if refusing:
+                        raise SceneError(f"{scene.source}: 'output.checkpoint_every' is {every}, but component "
+                                         f"'{refusing[0].name}' ({refusing[0].entry or refusing[0].address}) cannot "
+                                         "checkpoint its state")
                 recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
                              for n, s in scene["components"].items() if s["record"]}
                 participants = participants_of(backends)

@@ -160,7 +160,8 @@ def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
 
 
 def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, Any]:
-    """Run one variant (on a Dask worker); a row of the sweep table, whatever happened."""
+    """Run one variant (on a Dask worker); a row of the sweep table, whatever happened. A run in ``out_dir`` that
+    stopped midway after a checkpoint is resumed."""
     from cosim.errors import (
         ComponentError,
         ConvergenceError,
@@ -170,12 +171,23 @@ def run_one(scene_path: str, overrides: list[str], out_dir: str) -> dict[str, An
         StalledError,
     )
     from cosim.scene import load_scene
+    from coupler.restart import resumable
     from coupler.run import run_scene
 
     started = time.perf_counter()
     failure, message, failed_residuals = "", "", []   # type: str, str, list[float]
     try:
-        run_scene(load_scene(scene_path, overrides), out_dir, progress=False, overwrite=True)
+        scene = load_scene(scene_path, overrides)
+        resumed = False
+        if resumable(out_dir):     # a run stopped midway goes on from its checkpoint
+            from cosim.checkpoint import CheckpointError
+            try:
+                run_scene(scene, out_dir, progress=False, resume=True)
+                resumed = True
+            except CheckpointError:          # another scene or other versions: it runs again from its start
+                pass
+        if not resumed:
+            run_scene(scene, out_dir, progress=False, overwrite=True)
     except NonFiniteOutput as exc:
         failure, message = "non-finite", str(exc)
     except DivergenceError as exc:

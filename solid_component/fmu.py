@@ -244,6 +244,10 @@ class FmuSolid(Component):
     def restore_state(self, state: Any) -> None:
         self.slave.setFMUState(state)
 
+    @property
+    def can_checkpoint(self) -> bool:
+        return bool(getattr(self, "can_serialize", False))
+
     def checkpoint(self) -> Any:
         """The FMU's own serialised state (``fmi2SerializeFMUstate``) and its time."""
         if not self.can_serialize:

@@ -357,3 +357,42 @@ def test_a_second_campaign_into_a_directory_in_use_is_refused(tmp_path):
     assert done.stderr.strip() == (f"cosim campaign: error: '{out}' is in use by a campaign in progress "
                                    f"(pid {os.getpid()}); choose another --out")
     assert not (out / "fom").exists()
+
+
+def test_a_campaign_stopped_midway_goes_on_from_its_runs_checkpoints(tmp_path):
+    """Ctrl-C in the campaign's terminal (its process group): its FOM run loses at most checkpoint_every windows."""
+    import signal
+
+    from cosim.results import RunResults
+    from tests.conftest import wait_for, windows_done
+    plan = tmp_path / "campaign.toml"
+    plan.write_text(f"""scene = "{ROOT}/scenes/tube_fom.toml"
+rom_config = "{ROOT}/scenes/tube_rom.toml"
+predictions = []
+[fom]
+mu1 = ["time.end=120.0", "output.checkpoint_every=10"]
+[models]
+""")
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "cosim", "campaign", str(plan), "--out", str(out), "--workers",
+                                "1"], cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        run_dir = wait_for(lambda: next((out / "fom" / "runs").glob("run-*"), None) if (out / "fom" / "runs").is_dir()
+                           else None, "the FOM run's directory")
+        wait_for(lambda: windows_done(run_dir) >= 45 or process.poll() is not None, "45 windows of the FOM run")
+        os.killpg(process.pid, signal.SIGINT)
+        process.wait(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    with RunResults(run_dir) as cut:
+        kept = len(cut.windows.iterations)
+        walls = cut.windows.wall_seconds.copy()
+    assert 40 <= kept < 1200
+    done = campaign(plan, out, workers=1)
+    assert done.returncode == 0, done.stderr
+    with RunResults(run_dir) as whole:
+        assert len(whole.windows.iterations) == 1200
+        checkpointed = kept - kept % 10 if kept % 10 else kept      # the windows up to the last checkpoint stay
+        assert whole.windows.wall_seconds[:checkpointed].tobytes() == walls[:checkpointed].tobytes()

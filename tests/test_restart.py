@@ -143,3 +143,27 @@ def test_resume_refuses_another_scene_and_a_run_without_a_checkpoint(tmp_path, c
     assert "was run with another scene" in capsys.readouterr().err
     assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "none"), "--quiet", "--resume"]) == 2
     assert "holds no run to resume" in capsys.readouterr().err
+
+
+def test_a_sweep_s_run_stopped_midway_goes_on_from_its_checkpoint(tmp_path, monkeypatch):
+    from coupler.sweep import run_one
+    overrides = ["time.end=3.0", "output.checkpoint_every=4"]
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "whole", progress=False)
+    with pytest.raises(KeyboardInterrupt), monkeypatch.context() as patch:
+        stopped_at(10, patch)
+        run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False)
+    with RunResults(tmp_path / "cut") as cut:
+        first_walls = cut.windows.wall_seconds[:10].copy()
+    row = run_one(str(TUBE_SCENE), overrides, str(tmp_path / "cut"))
+    assert row["failure"] == "" and row["windows_converged"] == 30
+    identical(tmp_path / "whole", tmp_path / "cut")
+    with RunResults(tmp_path / "cut") as resumed:      # the first 10 windows were kept, not run again
+        assert resumed.windows.wall_seconds[:10].tobytes() == first_walls.tobytes()
+
+
+def test_checkpoints_asked_of_a_component_that_cannot_give_one_are_refused_before_the_first_window(tmp_path, capsys):
+    scene = ROOT / "examples" / "spring_wall" / "scene.toml"
+    assert main(["run", str(scene), "--out", str(tmp_path / "run"), "--quiet", "--set", "output.checkpoint_every=5"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "'output.checkpoint_every' is 5, but component 'solid'" in err, err
+    assert "cannot checkpoint its state" in err

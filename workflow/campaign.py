@@ -43,6 +43,7 @@ import numpy as np
 from cosim.errors import CosimError, SceneError
 from cosim.scene import read_toml
 from cosim.schema import AnyTable, Required, validate
+from coupler.restart import resumable
 from coupler.sweep import (
     TABLE,
     SweepRun,
@@ -271,7 +272,8 @@ class CampaignRun:
         trained_on = {run for spec in self.plan.models.values() for run in spec["runs"]}
         for name, run in self.plan.fom.items():
             if run.name not in self.fom_table.done:
-                _set_aside(self.fom_dir[name], _why_again(self.fom_dir[name]))
+                if not resumable(self.fom_dir[name]):      # a run stopped after a checkpoint goes on from it
+                    _set_aside(self.fom_dir[name], _why_again(self.fom_dir[name]))
                 self.scheduler.submit("fom", name, run_one, str(self.plan.scene), list(run.overrides),
                                       str(self.fom_dir[name]), priority=2 if name in trained_on else 0)
         self.queue_predictions()
@@ -306,7 +308,8 @@ class CampaignRun:
                 self.echo(f"rom {p.name}: not run, its reference {p.reference} failed")
                 continue
             model = self.plan.models[p.model]["path"]
-            _set_aside(self.rom_dir[p.name], _why_again(self.rom_dir[p.name]))
+            if not (resumable(self.rom_dir[p.name]) and ran_after_model(self.rom_dir[p.name], model)):
+                _set_aside(self.rom_dir[p.name], _why_again(self.rom_dir[p.name]))
             if p.fmu and (not p.fmu.is_file() or p.fmu.stat().st_mtime_ns < model.stat().st_mtime_ns):
                 self.echo(f"wrote {export_fmu(model, p.fmu)}")
             self.scheduler.submit("rom", p.name, run_one, str(self.plan.scene), list(p.run.overrides),
