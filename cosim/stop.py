@@ -17,6 +17,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 _requested: int | None = None
+_deferred = 0            # inside ``deferred()``: ``check`` raises nothing (a second signal still stops at once)
 
 
 def _record(signum: int, frame: object) -> None:
@@ -37,10 +38,21 @@ def pending() -> bool:
     return _requested is not None
 
 
+@contextmanager
+def deferred() -> Iterator[None]:
+    """Work that a stop must not cut short (the checkpoint a stop asks for): ``check`` waits until it is done."""
+    global _deferred
+    _deferred += 1
+    try:
+        yield
+    finally:
+        _deferred -= 1
+
+
 def check() -> None:
-    """Raise the stop that was asked for, if any."""
+    """Raise the stop that was asked for, if any (not inside ``deferred``)."""
     global _requested
-    if _requested is not None:
+    if _requested is not None and not _deferred:
         signum, _requested = _requested, None
         _raise(signum)
 

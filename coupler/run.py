@@ -345,9 +345,10 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         directory.status("running", windows_total=n_windows, windows_completed=windows,
                                          time=result.time)
                         if every and (windows % every == 0 or stop.pending()) and windows < n_windows:
-                            write_checkpoint(out_dir, scheme, backends, store,
-                                             {"windows": windows, "iterations": iterations,
-                                              "unconverged": unconverged, "warned": warned, "time": result.time})
+                            with stop.deferred():    # a stop waits for the checkpoint it asked for
+                                write_checkpoint(out_dir, scheme, backends, store,
+                                                 {"windows": windows, "iterations": iterations,
+                                                  "unconverged": unconverged, "warned": warned, "time": result.time})
                         stop.check()       # Ctrl-C or SIGTERM: stop here, between two windows
                         if bar is not None:
                             bar.update(1)

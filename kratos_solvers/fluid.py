@@ -45,21 +45,30 @@ class KratosFluid(KratosComponent):
     input_name = "displacement"
     solve_label = "fluid solve"
 
+    part_name = "FluidModelPart"
+
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, FLUID_SCHEMA)
-        mesh, materials = self.prepare(prm, self._materials(prm["flow"]))
+        self._prm = prm
+        self._files = self.prepare(prm, self._materials(prm["flow"]))
+        self.build()
+        self.interface_nodes = node_coordinates(self.interface, 2)
+        self.input = np.zeros((len(self.interface_nodes), 2))   # the interface displacement
+
+    def build(self, import_settings: dict[str, Any] | None = None) -> None:
         import KratosMultiphysics as KM
         import KratosMultiphysics.MeshMovingApplication  # noqa: F401  (registers the mesh-motion solvers)
         from KratosMultiphysics.FluidDynamicsApplication.fluid_dynamics_analysis import FluidDynamicsAnalysis
+        project = self._project(self._prm, *self._files)
+        if import_settings is not None:
+            project["solver_settings"]["fluid_solver_settings"]["model_import_settings"] = import_settings
         self.model = KM.Model()
-        stage = FluidDynamicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
+        stage = FluidDynamicsAnalysis(self.model, kratos_parameters(project))
         self.stepped = SteppedStage(self.name, stage, self._solve_step)
-        part = self.model["FluidModelPart"]
-        self.interface = part.GetSubModelPart(prm["interface"]).Nodes
+        part = self.model[self.part_name]
+        self.interface = part.GetSubModelPart(self._prm["interface"]).Nodes
         self.volume = part.GetSubModelPart("FluidParts_FluidPart")
-        self.interface_nodes = node_coordinates(self.interface, 2)
         self.KM = KM
-        self.input = np.zeros((len(self.interface_nodes), 2))   # the interface displacement
 
     def _solve_step(self) -> bool:
         """The ALE solver's step, judged by the fluid's Newton alone.

@@ -49,27 +49,37 @@ class KratosSolid(KratosComponent):
     input_name = "force"
     solve_label = "Newton solve"
 
+    part_name = "Structure"
+
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, SOLID_SCHEMA)
-        mesh, materials = self.prepare(prm, self._materials(prm))
+        self._prm = prm
+        self._files = self.prepare(prm, self._materials(prm))
+        self.build()
+        part = self.model[self.part_name]
+        self.interface_nodes = node_coordinates(self.interface, 2)
+        self.field_nodes = node_coordinates(self.all_nodes, 2)
+        self.quads = np.array([[n.Id for n in e.GetNodes()] for e in part.Elements], dtype=np.int64)
+        self._node_index = {node.Id: i for i, node in enumerate(self.all_nodes)}
+        self.input = np.zeros((len(self.interface_nodes), 2))   # the interface force
+
+    def build(self, import_settings: dict[str, Any] | None = None) -> None:
         import KratosMultiphysics as KM
         import KratosMultiphysics.StructuralMechanicsApplication as SMA
         from KratosMultiphysics.StructuralMechanicsApplication.structural_mechanics_analysis import (
             StructuralMechanicsAnalysis,
         )
+        project = self._project(self._prm, *self._files)
+        if import_settings is not None:
+            project["solver_settings"]["model_import_settings"] = import_settings
         self.model = KM.Model()
-        stage = StructuralMechanicsAnalysis(self.model, kratos_parameters(self._project(prm, mesh, materials)))
+        stage = StructuralMechanicsAnalysis(self.model, kratos_parameters(project))
         self.stepped = SteppedStage(self.name, stage, static=True)
-        part = self.model["Structure"]
-        self.interface = part.GetSubModelPart(prm["interface"]).Nodes
-        self.clamped = part.GetSubModelPart(prm["clamped"]).Nodes
+        part = self.model[self.part_name]
+        self.interface = part.GetSubModelPart(self._prm["interface"]).Nodes
+        self.clamped = part.GetSubModelPart(self._prm["clamped"]).Nodes
         self.all_nodes = part.Nodes
-        self.interface_nodes = node_coordinates(self.interface, 2)
-        self.field_nodes = node_coordinates(self.all_nodes, 2)
-        self.quads = np.array([[n.Id for n in e.GetNodes()] for e in part.Elements], dtype=np.int64)
-        self._node_index = {node.Id: i for i, node in enumerate(self.all_nodes)}
         self.KM, self.SMA = KM, SMA
-        self.input = np.zeros((len(self.interface_nodes), 2))   # the interface force
 
     @staticmethod
     def _materials(prm: dict) -> dict:

@@ -136,6 +136,43 @@ class KratosComponent(Component):
     def input_variable(self) -> Any:
         raise NotImplementedError
 
+    def build(self, import_settings: dict[str, Any] | None = None) -> None:
+        """(Re)build the model, the stepped stage and the node references; ``import_settings``: the solver's
+        ``model_import_settings`` (default: the mesh file)."""
+        raise NotImplementedError
+
+    # --- checkpoints: Kratos's own restart serialisation of the model part ------------------------------------
+    part_name = ""              # the model part Kratos saves and loads
+    RESTART_LABEL = "checkpoint"
+
+    def checkpoint(self) -> Any:
+        """The model part serialised by Kratos (``FileSerializer``, its restart format: nodes with every buffered
+        solution step, elements with their own data, the process info), the stage's time, the input and counters.
+        The open window is finalised first, as the next window's first solve would."""
+        import KratosMultiphysics as KM
+        self.stepped.finish_window()
+        stem = Path(self._workdir.name) / f"restart_{self.RESTART_LABEL}"
+        serializer = KM.FileSerializer(str(stem), KM.SerializerTraceType.SERIALIZER_NO_TRACE)
+        serializer.Set(KM.Serializer.SHALLOW_GLOBAL_POINTERS_SERIALIZATION)   # as Kratos's RestartUtility
+        serializer.Save(self.part_name, self.model[self.part_name])
+        del serializer                                  # the file is complete once the serializer is gone
+        data = stem.with_suffix(".rest").read_bytes()
+        stem.with_suffix(".rest").unlink()
+        return {"rest": np.frombuffer(data, dtype=np.uint8).copy(), "time": self.stepped.stage.time,
+                "input": self.input.copy(), "solves": self.stepped.solves, "unconverged": self.stepped.unconverged}
+
+    def restore_checkpoint(self, state: Any) -> None:
+        """A new stage loaded from the serialised model part (Kratos's ``rest`` import), at the saved time."""
+        folder = Path(self._workdir.name)
+        (folder / f"restart_{self.RESTART_LABEL}.rest").write_bytes(state["rest"].tobytes())
+        self.stepped.finalize()
+        self.stepped = self.model = None
+        self.build({"input_type": "rest", "input_filename": str(folder / "restart"),
+                    "restart_load_file_label": self.RESTART_LABEL, "load_restart_files_from_folder": False})
+        self.stepped.stage.time = state["time"]
+        self.stepped.solves, self.stepped.unconverged = state["solves"], state["unconverged"]
+        self.input = state["input"]
+
     def readers(self) -> dict[str, Callable[[], np.ndarray]]:
         raise NotImplementedError
 

@@ -304,3 +304,26 @@ def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_p
         from rom_component.projected import ProjectedSolid
         ProjectedSolid().instantiate({"mesh": str(MESHES / "solid.mdpa"), "model": str(model),
                                       "project": "all", "time": {"end": 1.0, "dt": DT}})
+
+
+@needs_kratos
+def test_a_double_flap_run_resumes_from_kratos_s_own_restart_serialisation(tmp_path, monkeypatch):
+    """Kratos's fluid and solid checkpoint through Kratos's serializer. The resumed run repeats the uninterrupted
+    one's coupling iterations; its fields differ at round-off, as Kratos rebuilds its system on load (measured:
+    docs/restart.md)."""
+    from tests.test_restart import stopped_at
+    overrides = [f"time.end={6 * DT!r}", "output.checkpoint_every=2"]
+    run_scene(load_scene(SCENE, overrides), tmp_path / "whole", progress=False)
+    with monkeypatch.context() as patch:
+        stopped_at(3, patch)
+        with pytest.raises(KeyboardInterrupt):
+            run_scene(load_scene(SCENE, overrides), tmp_path / "cut", progress=False)
+    from cosim.checkpoint import read
+    assert read(tmp_path / "cut" / "checkpoint.npz")[0]["windows"] == 3     # a Kratos checkpoint outlasts the stop
+    run_scene(load_scene(SCENE, overrides), tmp_path / "cut", progress=False, resume=True)
+    with RunResults(tmp_path / "whole") as whole, RunResults(tmp_path / "cut") as cut:
+        np.testing.assert_array_equal(cut.windows.iterations, whole.windows.iterations)
+        for name, values in whole.fields().items():
+            assert cut.fields()[name][:3].tobytes() == values[:3].tobytes()      # before the stop: the same run
+            scale = np.abs(values).max()
+            assert np.abs(cut.fields()[name] - values).max() <= 1e-9 * scale, name

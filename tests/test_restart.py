@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cosim import stop
-from cosim.checkpoint import CheckpointError, object_state, pack, restore_object, unpack
+from cosim.checkpoint import CheckpointError, object_state, pack, read, restore_object, unpack
 from cosim.cli import main
 from cosim.results import ResultsStore, RunResults
 from cosim.scene import load_scene
@@ -124,6 +124,7 @@ def test_a_rom_fom_run_stopped_before_or_after_its_switch_resumes_bit_for_bit(mo
             run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False)
     with RunResults(tmp_path / "cut" / "results.h5") as cut:
         assert len(cut.windows.iterations) == stop_window
+    assert read(tmp_path / "cut" / "checkpoint.npz")[0]["windows"] == stop_window    # the stop's own checkpoint
     run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False, resume=True)
     identical(tmp_path / "whole", tmp_path / "cut")
 
