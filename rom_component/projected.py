@@ -109,5 +109,17 @@ class ProjectedSolid(Component):
         values[self.output_name] = u.reshape(shape)
         return {name: values[name] for name in names}
 
+    @property
+    def can_checkpoint(self) -> bool:
+        return bool(getattr(self, "inner", None)) and self.inner.can_checkpoint
+
+    def checkpoint(self) -> Any:
+        """The wrapped solid's checkpoint and the last force and projection flag."""
+        return {"inner": self.inner.checkpoint(), "force": self.force, "active": self._active}
+
+    def restore_checkpoint(self, state: Any) -> None:
+        self.inner.restore_checkpoint(state["inner"])
+        self.force, self._active = state["force"], state["active"]
+
     def terminate(self) -> dict[str, np.ndarray]:
         return self.inner.terminate()
