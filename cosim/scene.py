@@ -83,9 +83,9 @@ MEANINGS = {
     "name": "a name for the scene, recorded in the results",
     "case": "the case the scene belongs to: `cosim report` adds the report plots and figures its case package "
             "registers under that name (`tube`, `double_flap`)",
-    "output.checkpoint_every": "write a checkpoint (checkpoint.npz next to results.h5) every this many windows, and "
-                               "when the run is stopped by Ctrl-C or SIGTERM; `cosim run --resume` goes on from the "
-                               "last one (0: none)",
+    "output.checkpoint_every": "write a checkpoint (checkpoint.npz next to results.h5) every this many windows (0: "
+                               "only when Ctrl-C or SIGTERM stops the run, if every component can checkpoint); "
+                               "`cosim run --resume` goes on from the last one",
     "time.start": "the start of the first time window [s]",
     "time.end": "the end of the last time window [s]; end - start must be a multiple of dt",
     "time.dt": "the time window (coupling time step) [s]",

@@ -344,7 +344,10 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                             _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar)
                         directory.status("running", windows_total=n_windows, windows_completed=windows,
                                          time=result.time)
-                        if every and (windows % every == 0 or stop.pending()) and windows < n_windows:
+                        # a checkpoint every `every` windows, and when a stop is asked for (even without `every`, if
+                        # every component can give one): the stopped run can go on with --resume
+                        stopping = stop.pending() and all(b.client.can_checkpoint for b in backends)
+                        if ((every and windows % every == 0) or stopping) and windows < n_windows:
                             with stop.deferred():    # a stop waits for the checkpoint it asked for
                                 write_checkpoint(out_dir, scheme, backends, store,
                                                  {"windows": windows, "iterations": iterations,

@@ -18,7 +18,7 @@ from cosim.cli import main
 from cosim.results import RunResults
 from cosim.scene import load_scene
 from coupler.run import run_scene
-from tests.conftest import ROOT, TUBE_SCENE
+from tests.conftest import ROOT, TUBE_SCENE, wait_for
 
 SHORT = ["time.end=0.5"]
 
@@ -138,3 +138,28 @@ def test_a_solid_served_in_another_network_namespace_couples_over_its_own_addres
     with RunResults(tmp_path / "local" / "results.h5") as local, RunResults(tmp_path / "far" / "results.h5") as far:
         for name, values in local.fields().items():
             assert far.fields()[name].tobytes() == values.tobytes(), name
+
+
+def test_a_remote_component_that_disappears_stops_the_run_within_its_timeout_naming_it(keys, tmp_path, capsys):
+    """The launcher's guarantees for a component it did not launch: no hang, a named one-line failure."""
+    with served("solid_component.tube:TubeSolid", "tcp://127.0.0.1:*", keys) as handshake:
+        out = tmp_path / "run"
+        overrides = ["time.end=200.0", *remote(handshake["endpoint"], keys), "components.solid.timeout=2.0"]
+        import threading
+
+        from cosim.rundir import read_status
+        result: dict[str, int] = {}
+        runner = threading.Thread(target=lambda: result.setdefault("code", main(
+            ["run", str(TUBE_SCENE), "--out", str(out), "--quiet", *[a for o in overrides for a in ("--set", o)]])))
+        runner.start()
+        wait_for(lambda: int(read_status(out).get("windows_completed", 0)) >= 20, "20 windows of the run")
+        subprocess.run(["kill", "-9", str(handshake["pid"])], check=True)       # the remote host goes away
+        gone = time.monotonic()
+        runner.join(timeout=30)
+        assert not runner.is_alive()
+        elapsed = time.monotonic() - gone
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert result["code"] == 2 and "component 'solid'" in err and "no reply to 'step' within 2 s" in err, err
+    assert elapsed < 10.0
+    with RunResults(out / "results.h5") as run:
+        assert len(run.windows.iterations) >= 20            # every window before is kept

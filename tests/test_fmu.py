@@ -306,3 +306,20 @@ def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
         assert mine <= unpacked_folders()        # SIGKILL: no process can clean up after itself ...
         FmuSolid().instantiate({"path": str(fmu)})   # ... the next FMU instance does
         wait_for(lambda: not mine & unpacked_folders(), "the killed instance's folder to go")
+
+
+def test_an_fmu_that_cannot_serialise_its_state_is_named_when_checkpointed(models, tmp_path):
+    path = models["rbf"][1]
+    component = FmuSolid()
+    component.instantiate({"path": str(path)})
+    component.enter_initialization_mode(0.0, 1.0)
+    component.exit_initialization_mode()
+    assert component.can_checkpoint and component.describe()["can_checkpoint"]
+    state = component.checkpoint()
+    component.restore_checkpoint(state)              # the exported FMU serialises its state (magic, sizes checked)
+    assert state["fmu_state"][:8].tobytes() == b"CSROMST1"
+    component.can_serialize = False                  # as an FMU whose modelDescription says it cannot
+    assert not component.describe()["can_checkpoint"]
+    with pytest.raises(ComponentError, match=r"FMU '.*rbf.fmu' cannot serialise its state \(canSerializeFMUstate"):
+        component.checkpoint()
+    component.terminate()

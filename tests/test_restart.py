@@ -168,3 +168,14 @@ def test_checkpoints_asked_of_a_component_that_cannot_give_one_are_refused_befor
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "'output.checkpoint_every' is 5, but component 'solid'" in err, err
     assert "cannot checkpoint its state" in err
+
+
+def test_a_run_without_periodic_checkpoints_still_checkpoints_when_stopped(tmp_path, monkeypatch):
+    overrides = ["time.end=3.0"]
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "whole", progress=False)
+    with pytest.raises(KeyboardInterrupt), monkeypatch.context() as patch:
+        stopped_at(12, patch)
+        run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False)
+    assert read(tmp_path / "cut" / "checkpoint.npz")[0]["windows"] == 12
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False, resume=True)
+    identical(tmp_path / "whole", tmp_path / "cut")
