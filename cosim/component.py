@@ -25,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from cosim.errors import ComponentError
+from cosim.errors import ComponentError, SceneError
+from cosim.schema import validate
 
 CAUSALITIES = ("input", "output", "local", "parameter")
 
@@ -118,6 +119,14 @@ class Component:
 
     def take_warnings(self) -> list[str]:
         return self.__dict__.pop("_warnings", [])
+
+    def validated(self, parameters: Mapping[str, Any]) -> dict[str, Any]:
+        """``parameters`` checked against ``parameter_schema``, defaults filled in; a bad one is a
+        ``ComponentError`` naming this component and the key."""
+        try:
+            return validate(parameters, self.parameter_schema or {})
+        except SceneError as exc:
+            raise ComponentError(self.name, str(exc)) from None
 
     # --- life cycle -----------------------------------------------------
     def instantiate(self, parameters: Mapping[str, Any]) -> None:

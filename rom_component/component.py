@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
-from cosim.errors import ComponentError, CosimError, SceneError
-from cosim.schema import Choice, FilePath, Value, validate
+from cosim.errors import ComponentError, CosimError
+from cosim.schema import Choice, FilePath, Value
 from rom_component.persistence import load
 
 ARITHMETIC = ("reproducible", "compiled", "fast")   # compiled: the FMU's C code in-process, same results
@@ -54,10 +54,7 @@ class RomSolid(Component):
     parameter_help = ROM_HELP
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
-        try:
-            prm = validate(parameters, ROM_SCHEMA)
-        except SceneError as exc:
-            raise ComponentError(self.name, str(exc)) from None
+        prm = self.validated(parameters)
         if not prm["model"]:
             raise ComponentError(self.name, "parameter 'model' (path of the trained .npz) is not set")
         try:

@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from cosim.component import Component, Variable, check_inputs
-from cosim.errors import ComponentError, SceneError
-from cosim.schema import FilePath, validate
+from cosim.errors import ComponentError
+from cosim.schema import FilePath
 
 FMU_SCHEMA = {"path": FilePath(), "stateful": False}
 FMU_HELP = {"path": "any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)",
@@ -58,10 +58,7 @@ class FmuSolid(Component):
     parameter_help = FMU_HELP
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
-        try:
-            prm = validate(parameters, FMU_SCHEMA)
-        except SceneError as exc:
-            raise ComponentError(self.name, str(exc)) from None
+        prm = self.validated(parameters)
         if not prm["path"]:
             raise ComponentError(self.name, "parameter 'path' (the FMU file) is not set")
         path = Path(prm["path"])
