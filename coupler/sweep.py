@@ -344,7 +344,7 @@ def _run_sweep(scene_path: str, runs: list[SweepRun], out: Path, workers: int, s
     from dask.distributed import Client, LocalCluster, as_completed
 
     cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                  host="127.0.0.1", dashboard_address=None)
+                                                  host="127.0.0.1", dashboard_address="127.0.0.1:0")
     bar = _progress(len(runs), len(runs) - len(pending), progress)
     try:
         with Client(scheduler or cluster) as client:

@@ -207,7 +207,7 @@ def _run_campaign(plan: Plan, out: Path, workers: int, scheduler: str | None, ec
     from dask.distributed import Client, LocalCluster
     campaign.prepare(retry_failed)
     cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                  host="127.0.0.1", dashboard_address=None)
+                                                  host="127.0.0.1", dashboard_address="127.0.0.1:0")
     try:
         with Client(scheduler or cluster) as client:
             campaign.run(client)
