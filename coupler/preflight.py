@@ -29,18 +29,22 @@ def check_parameters(scene: Scene) -> None:
                 check_client_keys(spec["curve"])
             except CosimError as exc:
                 raise SceneError(f"{scene.source}: 'components.{name}.curve': {exc}") from None
-        if not spec["entry"]:
-            continue
-        try:
-            # found as its process finds it: a module next to the scene is loaded from its file
-            schema = getattr(load_entry(spec["entry"], [scene.folder]), "parameter_schema", None)
-        except EntryImportError:
-            continue                     # its own process will say what is missing
-        except CosimError as exc:
-            raise SceneError(f"{scene.source}: 'components.{name}.entry': {exc}") from None
+        schema = _schema_of(scene, spec["entry"], f"components.{name}.entry") if spec["entry"] else None
         if schema is not None:
             _check(scene, name, schema)
     check_backends(scene)
+
+
+def _schema_of(scene: Scene, entry: str, where: str) -> dict | None:
+    """The ``parameter_schema`` of the class ``entry`` names (None: it declares none, or only its own process can
+    import it, and will say what is missing). The class is found as its process finds it: a module next to the
+    scene is loaded from its file."""
+    try:
+        return getattr(load_entry(entry, [scene.folder]), "parameter_schema", None)
+    except EntryImportError:
+        return None
+    except CosimError as exc:
+        raise SceneError(f"{scene.source}: '{where}': {exc}") from None
 
 
 def check_backends(scene: Scene) -> None:
@@ -54,12 +58,7 @@ def check_backends(scene: Scene) -> None:
             if spec["backend"] != kind and not given:
                 continue
             where = f"components.{name}.{kind}"
-            try:
-                schema = getattr(load_entry(table["entry"], [scene.folder]), "parameter_schema", None)
-            except EntryImportError:
-                continue                     # its own process will say what is missing
-            except CosimError as exc:
-                raise SceneError(f"{scene.source}: '{where}.entry': {exc}") from None
+            schema = _schema_of(scene, table["entry"], f"{where}.entry")
             if schema is None:
                 continue
             for key in given:
