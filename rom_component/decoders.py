@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from cosim.schema import Value
-from rom_component.manifold import fit_quadratic_manifold, quadratic_terms
+from rom_component.manifold import fit_quadratic_manifold, product_derivative, quadratic_index, quadratic_terms
 from rom_component.parts import DECODERS, Decoder
 from rom_component.pod import centred_pod
 
@@ -31,6 +31,10 @@ class PodDecoder(Decoder):
 
     def inverse_transform(self, Z: np.ndarray) -> np.ndarray:
         return Z @ self.components_.T + self.mean_
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        """The modes Phi: the decoder is affine."""
+        return self.components_
 
     def online_arrays(self, K: slice | np.ndarray = slice(None)) -> dict[str, np.ndarray]:
         """A and base of u_G = base + A u~ on the rows ``K`` (the served output), the full field's mean and modes."""
@@ -60,6 +64,10 @@ class QuadraticManifoldDecoder(PodDecoder):
 
     def inverse_transform(self, Z: np.ndarray) -> np.ndarray:
         return super().inverse_transform(Z) + quadratic_terms(Z) @ self.manifold_.T
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        """Phi + Phi_bar dq/dz, with d(z_i z_j)/dz = z_j e_i + z_i e_j."""
+        return self.components_ + self.manifold_ @ product_derivative(z, *quadratic_index(len(z)))
 
     def online_arrays(self, K: slice | np.ndarray = slice(None)) -> dict[str, np.ndarray]:
         return {**super().online_arrays(K), "B": np.ascontiguousarray(self.manifold_[K]), "Phi_bar": self.manifold_}

@@ -75,6 +75,10 @@ class PodEncoder(Encoder):
     def transform(self, F: np.ndarray) -> np.ndarray:
         return self.scaling_((np.atleast_2d(F) - self.mean_) @ self.components_)
 
+    def jacobian(self) -> np.ndarray:
+        """E of x = E f - e: the modes divided by the scaling, (r_f, N_f)."""
+        return (self.components_ / self.scaling_.scale).T
+
     def online_arrays(self) -> dict[str, np.ndarray]:
         """E and e of x = E f - e, the mean and modes, and every singular value."""
         scale, shift = self.scaling_.scale, self.scaling_.shift

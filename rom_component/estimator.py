@@ -101,6 +101,13 @@ class SolidRom(RegressorMixin, BaseEstimator):
         U = self.decoder_.inverse_transform(self.reduced_predict(F))
         return U[:, 0] if self.single_output_ else U
 
+    def jacobian(self, f: np.ndarray) -> np.ndarray:
+        """d predict / d f at one force vector ``f``, in closed form (decoder, regressor, encoder): (N_u, N_f)."""
+        check_is_fitted(self)
+        x = self.encoder_.transform(np.asarray(f, dtype=np.float64)[None, :])[0]
+        z = self.regressor_.predict(x[None, :])[0]
+        return self.decoder_.jacobian(z) @ (self.regressor_.jacobian(x) @ self.encoder_.jacobian())
+
     def online_arrays(self, interface_index: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """Arrays of the online interface path; ``interface_index`` selects u_G = K u (default: all)."""
         K = slice(None) if interface_index is None else np.asarray(interface_index)

@@ -22,6 +22,20 @@ def quadratic_terms(Z: np.ndarray) -> np.ndarray:
     return Z[:, i] * Z[:, j]
 
 
+def product_derivative(z: np.ndarray, *index: np.ndarray) -> np.ndarray:
+    """d/dz of the products prod_k z[index[k]] (one term per entry of the index arrays): (terms, len(z))."""
+    terms, n = len(index[0]), len(z)
+    D = np.zeros((terms, n))
+    rows = np.arange(terms)
+    for k in range(len(index)):      # the product rule over the (two or three) factors
+        others = np.ones(terms)
+        for m in range(len(index)):
+            if m != k:
+                others = others * z[index[m]]
+        np.add.at(D, (rows, index[k]), others)
+    return D
+
+
 def fit_quadratic_manifold(Z: np.ndarray, residual: np.ndarray, regularization: float) -> tuple[np.ndarray, np.ndarray]:
     """Phi_bar (N, r(r+1)/2) and an offset c (N,) with residual ~ c + Phi_bar q(z).
 

@@ -61,6 +61,10 @@ class Encoder(Part):
         """The online path's arrays E, e of x = E f - e (``rom_component.online``), and what plots need."""
         raise NotImplementedError
 
+    def jacobian(self) -> np.ndarray:
+        """d transform / d f, (r_f, N_f): an encoder is affine."""
+        raise NotImplementedError
+
 
 class Regressor(Part):
     """The encoder's coordinates (m, r_f) to the decoder's (m, r_u)."""
@@ -80,6 +84,10 @@ class Regressor(Part):
         """The online path's H (and centres or term indices)."""
         raise NotImplementedError
 
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """d predict / d x at one input ``x`` (r_f,), in closed form: (r_u, r_f)."""
+        raise NotImplementedError
+
 
 class Decoder(Part):
     """Reduced displacements (m, r_u) to the field (m, N_u)."""
@@ -96,6 +104,10 @@ class Decoder(Part):
 
     def online_arrays(self, K: slice | np.ndarray = slice(None)) -> dict[str, np.ndarray]:
         """The online path's A, base (and B) on the field's rows ``K``, and the full field's modes."""
+        raise NotImplementedError
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        """d inverse_transform / d z at one reduced displacement ``z`` (r_u,): (N_u, r_u)."""
         raise NotImplementedError
 
 

@@ -18,7 +18,7 @@ from scipy.spatial.distance import cdist
 from scipy.special import xlogy
 
 from cosim.schema import Choice, Value
-from rom_component.manifold import quadratic_index
+from rom_component.manifold import product_derivative, quadratic_index
 from rom_component.parts import REGRESSORS, Regressor
 
 POLY_METHODS = ("lasso-bic", "ridge")
@@ -77,6 +77,13 @@ class RbfRegression(Regressor):
     def predict(self, X: np.ndarray) -> np.ndarray:
         kernel = thin_plate_kernel(cdist(X, self.centres_, "sqeuclidean"))
         return kernel @ self.weights_ + self.tail_[0] + X @ self.tail_[1:]
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """sum_i w_i (log d2_i + 1) (x - c_i)^T + the linear tail: d/dx of 0.5 d2 log d2 is (log d2 + 1)(x - c)."""
+        offsets = x[None, :] - self.centres_
+        d2 = np.einsum("ij,ij->i", offsets, offsets)
+        slope = np.where(d2 > 0, np.log(np.where(d2 > 0, d2, 1.0)) + 1.0, 0.0)
+        return self.weights_.T @ (slope[:, None] * offsets) + self.tail_[1:].T
 
     def online_arrays(self) -> dict[str, np.ndarray]:
         """Centres and H = [0.5 w; tail on x; constant]^T for u~ = H [d2 log d2, x, 1]."""
@@ -185,6 +192,12 @@ class PolynomialRegression(Regressor):
     def predict(self, X: np.ndarray) -> np.ndarray:
         Phi = (self.features(X) - self.feature_mean_) / self.feature_scale_
         return Phi @ self.coefficients_ * self.y_scale_ + self.y_mean_
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """The terms' derivatives (product rule) through the fitted coefficients and scalings."""
+        D = np.vstack([product_derivative(x, self.quad_i_, self.quad_j_),
+                       product_derivative(x, self.cube_i_, self.cube_j_, self.cube_k_), np.eye(len(x))])
+        return (self.coefficients_ * self.y_scale_).T @ (D / self.feature_scale_[:, None])
 
     def online_arrays(self) -> dict[str, np.ndarray]:
         """H for u~ = H [q(x), x, 1] with feature and output scaling folded in."""

@@ -354,3 +354,20 @@ def test_a_curve_hidden_under_a_bit_identical_one_says_so_in_the_legend():
         labels = [t.get_text() for t in ax.get_legend().get_texts()]
         assert labels == ["rom", "fmu (identical to rom: hidden under it)", "rom_rf10"]
     plt.close(fig)
+
+
+@pytest.mark.parametrize("regressor, decoder", [("rbf", "linear"), ("rbf", "quadratic"),
+                                                ({"type": "poly", "cubic_modes": 2}, "linear"),
+                                                ({"type": "poly", "method": "ridge", "cross_modes": 2}, "quadratic")])
+def test_the_closed_form_jacobian_matches_central_differences(regressor, decoder):
+    """d u / d f through decoder, regressor and encoder, against central differences of predict (error O(h^2))."""
+    F, U = smooth_data()
+    model = solid_rom(3, 4, regressor, decoder).fit(F, U, windows=np.arange(len(F)) // 4)
+    f = F[7] + 0.3 * (F[8] - F[7])          # between snapshots: the RBF's kernel is smooth there
+    J = model.jacobian(f)
+    assert J.shape == (U.shape[1], F.shape[1])
+    h = 1e-5 * np.linalg.norm(F.std(axis=0))
+    steps = h * np.eye(F.shape[1])
+    differences = (model.predict(f + steps) - model.predict(f - steps)).T / (2 * h)
+    assert np.linalg.norm(J - differences) <= 1e-6 * np.linalg.norm(J)
+    assert np.linalg.norm(J) > 0
