@@ -69,8 +69,10 @@ SCHEMA: dict[str, Any] = {
         "extrapolation_order": Value(0, low=0, high=2),
         # the first iterate of a window: "none" (the last window's values, extrapolated by extrapolation_order)
         # or "acceleration" (the acceleration's update from the last window's converged iteration)
-        "predictor": Choice("none", ("none", "acceleration")),
+        "predictor": Choice("none", ("none", "acceleration", "surrogate")),
         "acceleration": PluginChoice("none"),
+        # the online interface surrogate (checked by the coupler against its own settings)
+        "surrogate": AnyTable(),
     },
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
                "plots": [],   # a scene's own run plots: names of cosim.run_plots entry points
@@ -99,7 +101,9 @@ MEANINGS = {
     "coupling.extrapolation_order": "the first iterate of a window from the last windows' values: 0 repeats the last "
                                     "value, 1 linear, 2 quadratic",
     "coupling.predictor": "'acceleration': a window starts from the acceleration's update of the last window's "
-                          "converged iteration instead (extrapolation_order must be 0)",
+                          "converged iteration instead (extrapolation_order must be 0); 'surrogate': from the "
+                          "fixed point of the online surrogate (coupling.surrogate, below)",
+    "coupling.surrogate": "the online interface surrogate: a table with start_window turns it on (its keys below)",
     "coupling.acceleration": "the acceleration: a registered acceleration's name or table (below), with `data`, "
                              "the exchanged data it accelerates",
     "coupling.convergence": "`[[coupling.convergence]]`: one convergence measure per table (below); a window has "

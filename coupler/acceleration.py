@@ -408,3 +408,93 @@ class IQNIMVJ(IQNILS):
         self.windows_since_restart += 1
         if self.restart_windows and self.windows_since_restart >= self.restart_windows:
             self.jacobian, self.windows_since_restart = None, 0
+
+
+CORRECTIONS = ("secant", "none")
+
+
+@ACCELERATIONS.register("iqn-surrogate")
+class IQNSurrogate(IQNILS):
+    """IQN-ILS whose inverse Jacobian has the coupled surrogate's as its prior (IQN-ILSM, as CoCoNuT).
+
+    With M = (J_S - I)^-1 from the surrogate's Jacobian J_S of H (``coupler.surrogate``) at the iterate, the
+    inverse Jacobian of the residual is N = M + (dX - M V) V^+ (dX = W - V: the iterates' differences), which
+    maps every column of V exactly as the secant equations ask and falls back to M elsewhere; the update is
+    x - N r. With M = -I it is IQN-ILS. ``correction = "none"`` takes the surrogate's Newton step x - M r alone.
+    Before the surrogate is trained, and for the rest of a window in which a surrogate step made the residual
+    worse, the update is IQN-ILS's (the surrogate may cost iterations, never the criterion).
+    """
+
+    SETTINGS = {**IQNILS.SETTINGS, "correction": Choice("secant", CORRECTIONS)}
+    HELP = {**IQNILS.HELP,
+            "correction": "'secant': the surrogate's inverse Jacobian corrected by the secant columns (IQN-ILSM); "
+                          "'none': the surrogate's Newton step alone"}
+
+    def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
+                 filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
+                 on_map_change: str = "drop-span", correction: str = "secant",
+                 block_sizes: list[int] | None = None) -> None:
+        super().__init__(initial_relaxation, max_used_iterations, reused_time_windows, filter, filter_limit,
+                         stale_step_ratio, on_map_change, block_sizes)
+        self.correction = correction
+        self.surrogate: Any = None      # set by the scheme: jacobian(x, y) and current (x, y)
+        self._plain = False             # this window fell back to IQN-ILS
+        self._surrogate_step = False    # the last update was the surrogate's
+        self.surrogate_updates = 0
+        self.fallback_windows = 0
+
+    def start_window(self) -> None:
+        super().start_window()
+        self._plain = self._surrogate_step = False
+
+    def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
+        worse = self.iteration >= 1 and float(np.linalg.norm(x_tilde - x)) > self._last_norm
+        if self._surrogate_step and worse and not self._plain:
+            self._plain = True
+            self.fallback_windows += 1
+        super().observe(x, x_tilde)
+
+    def _prior(self) -> np.ndarray | None:
+        """J_S - I at the current iterate, or None (no surrogate, or it is not in use in this window)."""
+        if self._plain or self.surrogate is None or self.surrogate.current is None:
+            return None
+        J = self.surrogate.jacobian(*self.surrogate.current)
+        if J is None or J.shape != (self.x.size, self.x.size) or not np.isfinite(J).all():
+            return None
+        J[np.diag_indices_from(J)] -= 1.0
+        return J
+
+    def next_iterate(self) -> np.ndarray:
+        prior = self._prior()
+        self._surrogate_step = prior is not None
+        if prior is None:
+            return super().next_iterate()
+        from scipy.linalg import LinAlgError, lu_factor, lu_solve
+        try:
+            lu = lu_factor(prior, check_finite=False)
+        except (LinAlgError, ValueError):
+            self._surrogate_step = False
+            return super().next_iterate()
+        r = self.x_tilde - self.x
+        step = lu_solve(lu, r, check_finite=False)          # M r
+        V, W, origin = self._columns()
+        while V and self.correction == "secant":
+            Vm = np.stack(V, axis=1)
+            weighted = Vm if self._weights is None else Vm * self._weights[:, None]
+            Q, R = np.linalg.qr(weighted)
+            bad = self._filtered_column(R, weighted)
+            if bad is not None:
+                self._remove(origin[bad])
+                V, W, origin = self._columns()
+                continue
+            c = solve_triangular(R, Q.T @ (r if self._weights is None else r * self._weights), check_finite=False)
+            dX = np.stack(W, axis=1) - Vm
+            step = step + (dX - lu_solve(lu, Vm, check_finite=False)) @ c      # + (dX - M V) V^+ r
+            self.columns_used = len(V)
+            break
+        if self._drop_previous:
+            while len(self._windows) > 1:
+                self._windows.pop()
+            self._drop_previous = False
+        self.surrogate_updates += 1
+        return self.x - step

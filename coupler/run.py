@@ -19,6 +19,8 @@ from collections import Counter
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import numpy as np
+
 from cosim import stop
 from cosim.errors import ComponentError, CosimError, SceneError
 from cosim.launcher import Launcher
@@ -35,6 +37,7 @@ from coupler.recording import CallRecorder
 from coupler.restart import read_checkpoint_for, restore_checkpoint, write_checkpoint
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant
+from coupler.surrogate import InterfaceSurrogate, load_model_class
 
 
 @dataclass
@@ -181,10 +184,41 @@ def build_scheme(scene: Scene, proxies: dict[str, Participant],
     scheme = scheme_class(participants, exchanges, measures, None, coupling["acceleration"]["data"],
                           coupling["max_iterations"], coupling["on_max_iterations"],
                           coupling["extrapolation_order"], recorders, coupling["divergence_factor"],
-                          coupling["predictor"])
+                          coupling["predictor"], make_surrogate(coupling))
     scheme.initialize()
     scheme.acceleration = make_acceleration(coupling["acceleration"], scheme.block_sizes(scheme.accelerated))
+    if hasattr(scheme.acceleration, "surrogate"):
+        scheme.acceleration.surrogate = scheme.surrogate
     return scheme
+
+
+def make_surrogate(coupling: dict) -> InterfaceSurrogate | None:
+    """The online interface surrogate of a resolved ``coupling`` table, or None without one."""
+    settings = coupling["surrogate"]
+    if not settings.get("start_window"):
+        return None
+    try:
+        model_class = load_model_class(settings["model_type"])
+    except KeyError as exc:
+        raise SceneError(f"'coupling.surrogate.model_type': {exc.args[0]}") from None
+    model = settings["model"]
+    try:
+        model_class(model)       # its settings are checked now, not in the training thread
+    except (ValueError, SceneError) as exc:
+        raise SceneError(str(exc)) from None
+    return InterfaceSurrogate(settings, settings["static"] == coupling["participants"][0], lambda: model_class(model))
+
+
+def surrogate_attributes(scheme: CouplingScheme) -> dict[str, float | int]:
+    """What the online surrogate did and cost, for the results file's attributes."""
+    surrogate, acceleration = scheme.surrogate, scheme.acceleration
+    errors = surrogate.secant_errors
+    return {"surrogate_trainings": surrogate.trainings, "surrogate_training_seconds": surrogate.training_seconds,
+            "surrogate_waiting_seconds": surrogate.waiting_seconds, "surrogate_call_seconds": surrogate.call_seconds,
+            "surrogate_predictions": surrogate.predictions,
+            "surrogate_updates": getattr(acceleration, "surrogate_updates", 0),
+            "surrogate_fallback_windows": getattr(acceleration, "fallback_windows", 0),
+            "surrogate_secant_error_median": float(np.median(errors)) if errors else float("nan")}
 
 
 def check_precision(measures: list[dict], precision: dict[str, float]) -> None:
@@ -376,12 +410,16 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 raise
             finally:
                 _shutdown([b.proxy for b in backends if b.proxy is not None])
+                if scheme is not None and scheme.surrogate is not None:
+                    scheme.surrogate.close()
     finally:
         wall = time.perf_counter() - wall_start
         fallback = sum(len(p.fallback_windows) for p in (participants or {}).values()
                        if isinstance(p, BackendSchedule))
         store.set_attributes(wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged,
                              component_warnings=warned, rom_fallback_windows=fallback)
+        if scheme is not None and scheme.surrogate is not None:
+            store.set_attributes(**surrogate_attributes(scheme))
         store.close()
         if state == "finished":
             directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,

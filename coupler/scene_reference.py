@@ -16,6 +16,8 @@ from coupler.acceleration import ACCELERATIONS
 from coupler.convergence import MEASURES
 from coupler.mapping import MAPPINGS
 from coupler.schemes import SCHEMES
+from coupler.surrogate import HELP as SURROGATE_HELP
+from coupler.surrogate import SETTINGS as SURROGATE_SETTINGS
 
 HEADER = """# Scene reference
 
@@ -59,6 +61,9 @@ def page() -> str:
              "## `[[exchange]]`", "", "One table per exchanged variable.", "", *_table(EXCHANGE, "", "exchange."), "",
              "## `[[coupling.convergence]]`", "", MEANINGS["coupling.convergence"], "",
              *plugins(MEASURES, "Convergence measures", "coupling.convergence.N"),
+             "## `coupling.surrogate`", "", "The online interface surrogate (docs: ROM-accelerated coupling). A table "
+             "with `start_window` turns it on in any serial-implicit scene.", "",
+             *table(SURROGATE_SETTINGS, SURROGATE_HELP, "coupling.surrogate.", "", "coupler.surrogate.HELP"), "",
              *plugins(ACCELERATIONS, "Accelerations", "coupling.acceleration"),
              *plugins(SCHEMES, "Coupling schemes", "coupling.scheme"),
              *plugins(MAPPINGS, "Mappings", "exchange.N.mapping"),

@@ -76,7 +76,7 @@ class CouplingScheme:
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
                  accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
                  extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None,
-                 divergence_factor: float = 1e3, predictor: str = "none"):
+                 divergence_factor: float = 1e3, predictor: str = "none", surrogate: Any = None):
         self.first, self.second = participants
         self.exchanges = list(exchanges)
         self.measures = list(measures)
@@ -95,13 +95,16 @@ class CouplingScheme:
         self.predictor = predictor
         self._next_start: dict[str, np.ndarray] | None = None   # the acceleration's estimate for the next window
         self._state: dict[str, int] = {}
+        self.surrogate = surrogate    # the online interface surrogate (coupler.surrogate), or None
 
     def checkpoint_state(self) -> dict[str, Any]:
         """Everything the scheme carries from one window to the next, as a state tree (``cosim.checkpoint``): the
         window counter, the data values, the extrapolation's history, the predictor's start, the acceleration's
         columns or Jacobian, the measures' and the backend schedules' state. Taken between windows."""
         return {"window": self.window, "values": self.values, "next_start": self._next_start,
-                "extrapolation": object_state(self._extrapolation), "acceleration": object_state(self.acceleration),
+                "extrapolation": object_state(self._extrapolation),
+                "acceleration": object_state(self.acceleration, skip=("surrogate",)),
+                "surrogate": self.surrogate.checkpoint_state() if self.surrogate is not None else None,
                 "measures": [object_state(m) for m in self.measures],
                 "schedules": {p.name: p.checkpoint_state() for p in (self.first, self.second)
                               if isinstance(p, BackendSchedule)}}
@@ -113,6 +116,8 @@ class CouplingScheme:
         self._next_start = state["next_start"]
         restore_object(self._extrapolation, state["extrapolation"])
         restore_object(self.acceleration, state["acceleration"])
+        if self.surrogate is not None:
+            self.surrogate.restore_checkpoint_state(state["surrogate"])
         for measure, measure_state in zip(self.measures, state["measures"]):
             restore_object(measure, measure_state)
         for p in (self.first, self.second):
@@ -141,7 +146,12 @@ class CouplingScheme:
     def _predicted(self) -> dict[str, np.ndarray]:
         """Data values for the first iteration: the last ones, accelerated data extrapolated."""
         values = dict(self.values)
-        if self._next_start is not None:
+        start = None
+        if self.predictor == "surrogate" and self.surrogate is not None:
+            start = self.surrogate.predict_start(self._stack(self.values, self.accelerated))
+        if start is not None:
+            values.update(self._split(start, self.accelerated))
+        elif self._next_start is not None:
             values.update(self._next_start)
             self._next_start = None
         else:
@@ -234,6 +244,8 @@ class CouplingScheme:
     def _begin_implicit_window(self) -> dict[str, np.ndarray]:
         """Save states, reset acceleration and measures; the first iterate's data values."""
         self._save_states()
+        if self.surrogate is not None:
+            self.surrogate.start_window()
         self.acceleration.start_window()
         for m in self.measures:
             m.start_window()
@@ -242,6 +254,8 @@ class CouplingScheme:
     def _end_implicit_window(self, values: dict[str, np.ndarray], t: float, iterations: int,
                              converged: bool) -> WindowResult:
         self.acceleration.end_window()
+        if self.surrogate is not None:
+            self.surrogate.end_window(converged)
         self._free_states()
         self.values = values
         return self._finish(t, iterations, converged)
@@ -340,8 +354,10 @@ class SerialImplicit(CouplingScheme):
             converged = all([m.measure(values[m.data], out_first[m.data] if m.data in forward else out_second[m.data])
                              for m in self.measures])
             values.update({k: out_first[k] for k in forward})
-            x = self._stack(values, accelerated)
-            self._observe(x, self._stack(out_second, accelerated))
+            x, x_tilde = self._stack(values, accelerated), self._stack(out_second, accelerated)
+            if self.surrogate is not None:
+                self.surrogate.observe(x, self._stack(out_first, forward), x_tilde)
+            self._observe(x, x_tilde)
             values.update({k: out_second[k] for k in feedback})
             if converged or iteration == self.max_iterations:
                 break

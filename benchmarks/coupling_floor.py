@@ -1,0 +1,132 @@
+"""What bounds the coupling iterations per window: an oracle start and a repeated iterate.
+
+Two measurements on any serial-implicit scene, each against the plain run in the same invocation:
+
+- ``oracle``: every window starts from the plain run's converged value of the accelerated data,
+  displaced by ``eps`` times that window's change (x0 = x*_n+1 - eps (x*_n+1 - x*_n)); with
+  ``--both`` the first participant's data start from its converged value too, so that the first
+  iteration's convergence check sees full-order values of the converged state. The iterations per
+  window against eps show how exact a predictor must be before the criterion lets a window end sooner.
+- ``repeat``: in every window the second iteration repeats the first's iterate (x1 = x0): the
+  change between the two full-order answers to the same input is the solvers' own noise (a solver
+  that restarts its step from its last iterate, not from the window's start, answers an input with
+  what its nonlinear solver left last time). It is given against the first residual and the
+  criterion's limit; the rest of the window is the plain acceleration's.
+
+Usage: python -m benchmarks.coupling_floor SCENE [--out DIR] [--set KEY=VALUE ...] [--eps 0 1e-3 ...]
+       [--both] [--repeat] [--small]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.common import fresh_directory, machine
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from coupler.acceleration import ACCELERATIONS, IQNILS
+from coupler.run import run_scene
+from coupler.schemes import CouplingScheme
+
+
+def run(scene_path: str, out: Path, overrides: list[str]) -> RunResults:
+    run_scene(load_scene(scene_path, overrides), out, progress=False)
+    return RunResults(out / "results.h5")
+
+
+def per_window(results: RunResults, skip: int) -> float:
+    return float(results.windows.iterations[skip:].mean())
+
+
+def oracle(scene_path: str, out: Path, overrides: list[str], eps_values: list[float], both: bool,
+           skip: int) -> list[tuple[str, float]]:
+    """Iterations per window with an oracle start at each eps (and the plain run's)."""
+    plain = run(scene_path, out / "plain", overrides)
+    converged = plain.fields()
+    rows = [("plain", per_window(plain, skip))]
+    original = CouplingScheme._predicted
+    for eps in eps_values:
+        def predicted(self, eps=eps):
+            values = original(self)
+            n = self.window       # this window's number (1-based): its converged values are row n - 1
+            if n <= skip:
+                return values
+            for name in converged:
+                if name in self.accelerated or both:
+                    target, before = converged[name][n - 1], converged[name][n - 2] if n >= 2 else converged[name][0]
+                    values[name] = target - eps * (target - before)
+            return values
+        CouplingScheme._predicted = predicted      # type: ignore[method-assign]
+        try:
+            rows.append((f"oracle eps={eps:g}" + (" (both)" if both else ""),
+                         per_window(run(scene_path, out / f"oracle_{eps:g}", overrides), skip)))
+        finally:
+            CouplingScheme._predicted = original    # type: ignore[method-assign]
+    return rows
+
+
+class RepeatProbe(IQNILS):
+    """IQN-ILS whose second iterate repeats the first: the change of the answers is the solvers' noise."""
+
+    noise: list[tuple[float, float]] = []    # (||H(x0) again - H(x0)||, ||H(x0) - x0||) per window
+
+    def start_window(self) -> None:
+        super().start_window()
+        self._first: tuple[np.ndarray, np.ndarray] | None = None
+
+    def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
+        if self.iteration == 1 and self._first is not None and np.array_equal(x, self._first[0]):
+            RepeatProbe.noise.append((float(np.linalg.norm(x_tilde - self._first[1])),
+                                      float(np.linalg.norm(self._first[1] - self._first[0]))))
+            self._r_previous = None         # the repeat's difference (noise alone) is no secant column
+        super().observe(x, x_tilde)
+
+    def next_iterate(self) -> np.ndarray:
+        if self.iteration == 1:
+            self._first = (self.x.copy(), self.x_tilde.copy())
+            return self.x.copy()
+        return super().next_iterate()
+
+
+def repeat(scene_path: str, out: Path, overrides: list[str]) -> np.ndarray:
+    """(noise, first residual) per window of a run whose second iterate repeats the first."""
+    if "probe-repeat" not in ACCELERATIONS.classes:
+        ACCELERATIONS.register("probe-repeat")(RepeatProbe)
+    RepeatProbe.noise = []
+    run(scene_path, out / "repeat", [*overrides, "coupling.acceleration.type=probe-repeat"])
+    return np.array(RepeatProbe.noise)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scene")
+    parser.add_argument("--out", help="a new directory for the runs (default: a fresh one under runs/bench/)")
+    parser.add_argument("--set", action="append", default=[], dest="overrides")
+    parser.add_argument("--eps", type=float, nargs="*", default=[0.0, 1e-4, 1e-3, 1e-2, 1e-1])
+    parser.add_argument("--both", action="store_true", help="the first participant's data start converged too")
+    parser.add_argument("--repeat", action="store_true", help="measure the solvers' noise instead")
+    parser.add_argument("--skip", type=int, default=10, help="windows left out of the means (the start-up)")
+    args = parser.parse_args(argv)
+    out = Path(args.out) if args.out else fresh_directory("coupling_floor")
+    print(f"machine: {machine()}")
+    if args.repeat:
+        noise = repeat(args.scene, out, args.overrides)
+        noise = noise[args.skip:]
+        ratio = noise[:, 0] / noise[:, 1]
+        print("| windows | noise ||H(x0) again - H(x0)||: median (min, max) | first residual: median | ratio: median (max) |")
+        print("| --- | --- | --- | --- |")
+        print(f"| {len(noise)} | {np.median(noise[:, 0]):.3e} ({noise[:, 0].min():.2e}, {noise[:, 0].max():.2e}) | "
+              f"{np.median(noise[:, 1]):.3e} | {np.median(ratio):.2e} ({ratio.max():.2e}) |")
+        return
+    rows = oracle(args.scene, out, args.overrides, args.eps, args.both, args.skip)
+    print("| start | iterations per window |")
+    print("| --- | --- |")
+    for name, value in rows:
+        print(f"| {name} | {value:.3f} |")
+
+
+if __name__ == "__main__":
+    main()
