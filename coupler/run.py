@@ -215,7 +215,7 @@ def surrogate_attributes(scheme: CouplingScheme) -> dict[str, float | int]:
     errors = surrogate.secant_errors
     return {"surrogate_trainings": surrogate.trainings, "surrogate_training_seconds": surrogate.training_seconds,
             "surrogate_waiting_seconds": surrogate.waiting_seconds, "surrogate_call_seconds": surrogate.call_seconds,
-            "surrogate_predictions": surrogate.predictions,
+            "surrogate_predictions": surrogate.predictions, "surrogate_rejected_predictions": surrogate.rejected_predictions,
             "surrogate_updates": getattr(acceleration, "surrogate_updates", 0),
             "surrogate_fallback_windows": getattr(acceleration, "fallback_windows", 0),
             "surrogate_secant_error_median": float(np.median(errors)) if errors else float("nan")}

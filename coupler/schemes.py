@@ -146,16 +146,16 @@ class CouplingScheme:
     def _predicted(self) -> dict[str, np.ndarray]:
         """Data values for the first iteration: the last ones, accelerated data extrapolated."""
         values = dict(self.values)
-        start = None
-        if self.predictor == "surrogate" and self.surrogate is not None:
-            start = self.surrogate.predict_start(self._stack(self.values, self.accelerated))
-        if start is not None:
-            values.update(self._split(start, self.accelerated))
-        elif self._next_start is not None:
+        if self._next_start is not None:
             values.update(self._next_start)
             self._next_start = None
         else:
             values.update(self._split(self._extrapolation.predict(), self.accelerated))
+        if self.predictor == "surrogate" and self.surrogate is not None and self.accelerated:
+            plain = self._stack(values, self.accelerated)
+            start = self.surrogate.predict_start(self._stack(self.values, self.accelerated), plain)
+            if start is not None:
+                values.update(self._split(start, self.accelerated))
         return values
 
     def _predict_next_window(self, converged: bool) -> None:

@@ -124,6 +124,7 @@ class InterfaceSurrogate:
         self.call_seconds = 0.0          # predictor and Jacobians, in the coupling's thread
         self.trainings = 0
         self.predictions = 0
+        self.rejected_predictions = 0
 
     # --- what the scheme hands over ------------------------------------------------
     def observe(self, x: np.ndarray, y: np.ndarray, x_tilde: np.ndarray) -> None:
@@ -228,8 +229,11 @@ class InterfaceSurrogate:
         return J
 
     # --- the predictor -----------------------------------------------------------------
-    def predict_start(self, x_last: np.ndarray) -> np.ndarray | None:
-        """The next window's first iterate: the fixed point of the surrogate coupled map, or None."""
+    def predict_start(self, x_last: np.ndarray, plain: np.ndarray | None = None) -> np.ndarray | None:
+        """The next window's first iterate: the fixed point of the surrogate coupled map, or None.
+
+        None too when it lies further from the ``plain`` start (the scheme's own prediction) than the last window's
+        change of x: a prediction beyond that is the surrogate's error, not the flow's (``rejected_predictions``)."""
         factors = self._dynamic_factors()
         if not self.ready or factors is None or len(self._converged) < 2:
             return None
@@ -261,7 +265,14 @@ class InterfaceSurrogate:
             x = x - np.linalg.solve(Jg, g)
         self.call_seconds += time.perf_counter() - started
         if not np.isfinite(x).all():
+            self.rejected_predictions += 1
             return None
+        if plain is not None:
+            k = 1 if self.static_first else 0        # x is the dynamic block's output (flap) or its input (tube)
+            change = np.linalg.norm(history[0][k] - history[1][k])
+            if np.linalg.norm(x - plain) > change:
+                self.rejected_predictions += 1
+                return None
         self.predictions += 1
         return x
 
