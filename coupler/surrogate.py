@@ -46,10 +46,10 @@ SETTINGS: dict[str, Any] = {
     "static": "",
     "model_type": "rom",
     "model": AnyTable(),
-    "memory": Positive(20),
-    "rcond": Value(1e-2, low=0.0, high=1.0, low_open=True, high_open=True),
+    "memory": Positive(10),
+    "rcond": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
     "free_response_order": Value(1, low=0, high=2),
-    "predictor": True,
+    "predictor": False,
     "jacobian": True,
 }
 HELP = {
@@ -65,7 +65,9 @@ HELP = {
     "memory": "the windows whose sub-iteration differences fit the dynamic participant's response",
     "rcond": "singular values of the input differences below this fraction of the largest are not inverted",
     "free_response_order": "the extrapolation order of the dynamic participant's free response (the predictor)",
-    "predictor": "each window starts from the surrogate coupled map's fixed point",
+    "predictor": "each window starts from the surrogate coupled map's fixed point (coupling.predictor = "
+                 "\"surrogate\"); off by default: it cost iterations on both cases, while the scene's own "
+                 "predictor \"acceleration\" takes the surrogate quasi-Newton's step from the last converged iterate",
     "jacobian": "an IQN-ILS acceleration takes the surrogate's Jacobian as its prior (type iqn-surrogate)",
 }
 
