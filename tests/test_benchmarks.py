@@ -149,3 +149,18 @@ def test_curve_roundtrip_benchmark_small(capsys):
         assert all(t.samples == 30 and 0 < t.q1 <= t.median <= t.q3 for t in results[name].values())
     # encrypting a megabyte costs more than a round trip without data
     assert results["CURVE"]["ping carrying 1 MB"].median > results["plain TCP"]["ping, no data"].median
+
+
+def test_surrogate_coupling_benchmark_small(capsys):
+    """Plain and surrogate side by side on a short tube: both converge every window, the surrogate trained, the
+    table has every row, and the surrogate run's inlet pressure is within 1e-3 of the plain run's."""
+    from benchmarks import surrogate_coupling
+    results = surrogate_coupling.main(["tube", "--small"])
+    text = capsys.readouterr().out
+    assert "machine: " in text and "| fluid calls saved |" in text
+    plain, online = results["rows"]["plain"], results["rows"]["surrogate"]
+    assert plain["unconverged windows"] == online["unconverged windows"] == 0
+    assert plain["fluid calls"] == round(plain["iterations per window"] * plain["windows"])
+    assert online["surrogate training [s]"] > 0 and plain["surrogate training [s]"] == 0
+    pressure = float(re.search(r"\| inlet pressure, relative L2 \| \| ([0-9.e+-]+) \|", text).group(1))
+    assert pressure < 1e-3

@@ -60,3 +60,21 @@ def test_the_stability_matrix_gauss_seidel_converges_exactly_where_the_spectral_
         else:
             assert converged, row
     assert (tmp_path / "stability.png").stat().st_size > 20_000 and (tmp_path / "contraction.png").stat().st_size > 10_000
+
+
+def test_the_surrogate_quasi_newton_converges_wherever_iqn_ils_does(tmp_path, capsys):
+    """The stability matrix's acceptance for iqn-surrogate: on every (stiffness, dt) where IQN-ILS converges, the
+    surrogate quasi-Newton (its online surrogate in use from window 6) converges too."""
+    code = main(["stability", str(TUBE_SCENE), "--out", str(tmp_path), "--factors", "0.1,1,100", "--dts", "0.1,0.001",
+                 "--methods", "iqn-ils,iqn-surrogate", "--windows", "12", "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    with open(tmp_path / "sweep.csv", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    outcome = {}
+    for row in rows:
+        method = "iqn-surrogate" if "iqn-surrogate" in row["coupling.acceleration"] else "iqn-ils"
+        outcome[method, row["tube.stiffness_factor"], row["time.dt"]] = row["failure"] == ""
+    assert len(outcome) == 12
+    for (method, factor, dt), converged in outcome.items():
+        if method == "iqn-ils" and converged:
+            assert outcome["iqn-surrogate", factor, dt], (factor, dt)

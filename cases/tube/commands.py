@@ -14,8 +14,8 @@ def _stability_arguments(parser: argparse.ArgumentParser) -> None:
                         help="directory: sweep.csv, spectral.csv, stability.png, contraction.png, runs/")
     parser.add_argument("--factors", default="0.1,0.3,1,10,100", help="stiffness factors (default 0.1,0.3,1,10,100)")
     parser.add_argument("--dts", default="0.1,0.01,0.001", help="time steps (default 0.1,0.01,0.001)")
-    parser.add_argument("--methods", default="none,constant,aitken,iqn-ils,iqn-ils-reuse0,iqn-imvj",
-                        help="accelerations (default: all six)")
+    parser.add_argument("--methods", default="none,constant,aitken,iqn-ils,iqn-ils-reuse0,iqn-imvj,iqn-surrogate",
+                        help="accelerations (default: all seven; iqn-surrogate with the online surrogate from window 6)")
     parser.add_argument("--wall-law", default="linear", choices=["linear", "piecewise"],
                         help="the tube wall's law: 'linear' keeps the small-strain modulus at every strain, as the "
                              "theory assumes; 'piecewise' is the scene's (default linear)")

@@ -42,7 +42,10 @@ METHODS = {
     "iqn-ils": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=8}',
     "iqn-ils-reuse0": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=0}',
     "iqn-imvj": '{type="iqn-imvj", data=["section"], initial_relaxation=0.01}',
+    "iqn-surrogate": '{type="iqn-surrogate", data=["section"], initial_relaxation=0.01, reused_time_windows=8}',
 }
+# what a method needs besides its acceleration table: the online surrogate, trained on the first windows
+METHOD_SETTINGS = {"iqn-surrogate": ["coupling.surrogate={start_window=6, retrain_every=5}"]}
 MATRIX_KEYS = ["coupling.acceleration", "tube.stiffness_factor", "time.dt"]
 MATRIX_SETTINGS = ['coupling.convergence=[{data="section", type="relative", limit=1e-8}]',
                    "coupling.max_iterations=200"]
@@ -57,7 +60,8 @@ def matrix_runs(factors: list[float], dts: list[float], methods: list[str], wind
         for factor in factors:
             for dt in dts:
                 runs.append(SweepRun((*MATRIX_SETTINGS, f'tube.wall_law="{wall_law}"', *common,
-                                      f"coupling.acceleration={METHODS[method]}", f"tube.stiffness_factor={factor!r}",
+                                      f"coupling.acceleration={METHODS[method]}", *METHOD_SETTINGS.get(method, []),
+                                      f"tube.stiffness_factor={factor!r}",
                                       f"time.dt={dt!r}", f"time.end={windows * dt!r}")))
     return runs
 
