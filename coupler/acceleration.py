@@ -20,7 +20,7 @@ from collections import deque
 from typing import Any
 
 import numpy as np
-from scipy.linalg import solve_triangular
+from scipy.linalg import LinAlgError, lu_factor, lu_solve, solve_triangular
 
 from cosim.registry import Registry
 from cosim.schema import Choice, Positive, Value
@@ -454,29 +454,34 @@ class IQNSurrogate(IQNILS):
             self.fallback_windows += 1
         super().observe(x, x_tilde)
 
-    def _prior(self) -> np.ndarray | None:
-        """J_S - I at the current iterate, or None (no surrogate, or it is not in use in this window)."""
+    def _prior(self) -> Any:
+        """M: v -> (J_S - I)^-1 v at the current iterate, or None (no surrogate, or not in use in this window).
+
+        J_S = U G has thin factors (rank k), so M v = -(v + U (I_k - G U)^-1 G v) (Woodbury)."""
         if self._plain or self.surrogate is None or self.surrogate.current is None:
             return None
-        J = self.surrogate.jacobian(*self.surrogate.current)
-        if J is None or J.shape != (self.x.size, self.x.size) or not np.isfinite(J).all():
+        factors = self.surrogate.jacobian_factors(*self.surrogate.current)
+        if factors is None:
             return None
-        J[np.diag_indices_from(J)] -= 1.0
-        return J
+        U, G = factors
+        if U.shape[0] != self.x.size or G.shape[1] != self.x.size or not (np.isfinite(U).all() and np.isfinite(G).all()):
+            return None
+        inner = np.eye(U.shape[1]) - G @ U
+        try:
+            lu = lu_factor(inner, check_finite=False)
+        except (LinAlgError, ValueError):
+            return None
+        if not np.isfinite(lu[0]).all() or np.abs(np.diag(lu[0])).min() <= 1e-12 * np.abs(np.diag(lu[0])).max():
+            return None
+        return lambda v: -(v + U @ lu_solve(lu, G @ v, check_finite=False))
 
     def next_iterate(self) -> np.ndarray:
-        prior = self._prior()
-        self._surrogate_step = prior is not None
-        if prior is None:
-            return super().next_iterate()
-        from scipy.linalg import LinAlgError, lu_factor, lu_solve
-        try:
-            lu = lu_factor(prior, check_finite=False)
-        except (LinAlgError, ValueError):
-            self._surrogate_step = False
+        M = self._prior()
+        self._surrogate_step = M is not None
+        if M is None:
             return super().next_iterate()
         r = self.x_tilde - self.x
-        step = lu_solve(lu, r, check_finite=False)          # M r
+        step = M(r)
         V, W, origin = self._columns()
         while V and self.correction == "secant":
             Vm = np.stack(V, axis=1)
@@ -489,7 +494,7 @@ class IQNSurrogate(IQNILS):
                 continue
             c = solve_triangular(R, Q.T @ (r if self._weights is None else r * self._weights), check_finite=False)
             dX = np.stack(W, axis=1) - Vm
-            step = step + (dX - lu_solve(lu, Vm, check_finite=False)) @ c      # + (dX - M V) V^+ r
+            step = step + (dX - M(Vm)) @ c      # + (dX - M V) V^+ r
             self.columns_used = len(V)
             break
         if self._drop_previous:

@@ -81,6 +81,8 @@ class StaticModel(Protocol):
 
     def jacobian(self, f: np.ndarray) -> np.ndarray: ...
 
+    def jacobian_factors(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
 
 def load_model_class(name: str) -> Any:
     """The static model's class from its ``cosim.surrogate_models`` entry point."""
@@ -143,10 +145,11 @@ class InterfaceSurrogate:
                 self._jd = None
         self._last_dynamic = (np.array(dynamic[0]), np.array(dynamic[1]))
         if self.current is not None and self._previous_tilde is not None and self.ready:
-            J = self.jacobian(*self.current)      # the Jacobian at the last iterate, against this secant
-            if J is not None:
+            factors = self.jacobian_factors(*self.current)      # the Jacobian at the last iterate, against this secant
+            if factors is not None:
                 actual = x_tilde - self._previous_tilde
-                self.secant_errors.append(float(np.linalg.norm(J @ (x - self.current[0]) - actual)
+                predicted = factors[0] @ (factors[1] @ (x - self.current[0]))
+                self.secant_errors.append(float(np.linalg.norm(predicted - actual)
                                                 / max(float(np.linalg.norm(actual)), np.finfo(float).tiny)))
         self.current = (np.array(x), np.array(y))
         self._previous_tilde = np.array(x_tilde)
@@ -215,8 +218,10 @@ class InterfaceSurrogate:
             self._jd = (d_out @ (Vt[keep].T / s[keep]), U[:, keep].T)
         return self._jd
 
-    def jacobian(self, x: np.ndarray, y: np.ndarray) -> np.ndarray | None:
-        """dH/dx at the iterate x (y = first(x)): the static block's derivative and the dynamic block's model."""
+    def jacobian_factors(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """dH/dx at the iterate x (y = first(x)) as U @ G with thin factors: the static block's derivative (its
+        own factors) and the dynamic block's secant model, in the scheme's order; None before the surrogate is in
+        use."""
         factors = self._dynamic_factors()
         if not self.ready or factors is None:
             return None
@@ -224,11 +229,18 @@ class InterfaceSurrogate:
         started = time.perf_counter()
         A, B = factors
         if self.static_first:
-            J = A @ (B @ self.model.jacobian(x))          # J_D J_S(x)
+            left, right = self.model.jacobian_factors(x)      # J_D J_S(x) = A (B left) right
+            U, G = A @ (B @ left), right
         else:
-            J = (self.model.jacobian(y) @ A) @ B          # J_S(y) J_D
+            left, right = self.model.jacobian_factors(y)      # J_S(y) J_D = left (right A) B
+            U, G = left, (right @ A) @ B
         self.call_seconds += time.perf_counter() - started
-        return J
+        return U, G
+
+    def jacobian(self, x: np.ndarray, y: np.ndarray) -> np.ndarray | None:
+        """dH/dx at the iterate x as a matrix (or None)."""
+        factors = self.jacobian_factors(x, y)
+        return None if factors is None else factors[0] @ factors[1]
 
     # --- the predictor -----------------------------------------------------------------
     def predict_start(self, x_last: np.ndarray, plain: np.ndarray | None = None) -> np.ndarray | None:

@@ -103,10 +103,16 @@ class SolidRom(RegressorMixin, BaseEstimator):
 
     def jacobian(self, f: np.ndarray) -> np.ndarray:
         """d predict / d f at one force vector ``f``, in closed form (decoder, regressor, encoder): (N_u, N_f)."""
+        left, right = self.jacobian_factors(f)
+        return left @ right
+
+    def jacobian_factors(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The derivative at ``f`` as L (N_u, r_u) @ R (r_u, N_f): the decoder's, and the regressor's times the
+        encoder's (its rank is at most r_u)."""
         check_is_fitted(self)
         x = self.encoder_.transform(np.asarray(f, dtype=np.float64)[None, :])[0]
         z = self.regressor_.predict(x[None, :])[0]
-        return self.decoder_.jacobian(z) @ (self.regressor_.jacobian(x) @ self.encoder_.jacobian())
+        return self.decoder_.jacobian(z), self.regressor_.jacobian(x) @ self.encoder_.jacobian()
 
     def online_arrays(self, interface_index: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """Arrays of the online interface path; ``interface_index`` selects u_G = K u (default: all)."""

@@ -48,3 +48,8 @@ class RomResponse:
     def jacobian(self, f: np.ndarray) -> np.ndarray:
         assert self.rom is not None
         return self.rom.jacobian(f)
+
+    def jacobian_factors(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The derivative as two thin factors (decoder; regressor times encoder)."""
+        assert self.rom is not None
+        return self.rom.jacobian_factors(f)

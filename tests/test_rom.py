@@ -371,3 +371,11 @@ def test_the_closed_form_jacobian_matches_central_differences(regressor, decoder
     differences = (model.predict(f + steps) - model.predict(f - steps)).T / (2 * h)
     assert np.linalg.norm(J - differences) <= 1e-6 * np.linalg.norm(J)
     assert np.linalg.norm(J) > 0
+
+
+def test_the_jacobians_factors_are_thin_and_multiply_to_it():
+    F, U = smooth_data()
+    model = solid_rom(5, 3, {"type": "poly", "method": "ridge", "quadratic_modes": 2}).fit(F, U)
+    left, right = model.jacobian_factors(F[3])
+    assert left.shape == (U.shape[1], 3) and right.shape == (3, F.shape[1])
+    np.testing.assert_allclose(left @ right, model.jacobian(F[3]), rtol=1e-12, atol=1e-14)

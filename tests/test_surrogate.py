@@ -24,8 +24,8 @@ class FixedJacobian:
         self.J = J
         self.current: tuple[np.ndarray, np.ndarray] | None = (np.zeros(len(J)), np.zeros(len(J)))
 
-    def jacobian(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return self.J.copy()
+    def jacobian_factors(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.J.copy(), np.eye(len(self.J))
 
 
 def linear_problem(n: int = 12, seed: int = 3):
@@ -78,6 +78,9 @@ class LinearStatic:
 
     def jacobian(self, f):
         return self.coef[:-1].T.copy()
+
+    def jacobian_factors(self, f):
+        return self.jacobian(f), np.eye(len(f))
 
 
 def coupled_windows(surrogate: InterfaceSurrogate, S, D, forcing, windows: int, iterations: int = 4):
