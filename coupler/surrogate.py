@@ -41,8 +41,9 @@ MODELS = "cosim.surrogate_models"     # entry points: the static participant's m
 
 SETTINGS: dict[str, Any] = {
     "start_window": Value(0, low=0),
-    "retrain_every": Positive(50),
-    "training_lag": Value(1, low=1),
+    "retrain_every": Positive(10),
+    "training_windows": Value(50, low=0),
+    "training_lag": Value(2, low=1),
     "static": "",
     "model_type": "rom",
     "model": AnyTable(),
@@ -56,6 +57,7 @@ HELP = {
     "start_window": "the window from which the surrogate is used (0: no surrogate); it is first trained on the "
                     "calls of the windows before it",
     "retrain_every": "the static model is refitted on all calls so far every this many windows",
+    "training_windows": "the static model is fitted on the calls of this many last windows (0: all calls so far)",
     "training_lag": "a training started at the end of a window is taken into use this many windows later (the "
                     "coupling goes on meanwhile; it waits there if the training is not done)",
     "static": "the participant whose output is a function of its input alone (the solid), modelled by the ROM "
@@ -100,6 +102,7 @@ class InterfaceSurrogate:
         self.first_window = settings["start_window"]
         self.retrain_every = settings["retrain_every"]
         self.lag = settings["training_lag"]
+        self.training_windows = settings.get("training_windows", 0)
         self.memory = settings["memory"]
         self.rcond = settings["rcond"]
         self.order = settings["free_response_order"]
@@ -107,8 +110,8 @@ class InterfaceSurrogate:
         self._factory = model_factory
         self.model: StaticModel | None = None
         self._executor: ThreadPoolExecutor | None = None
-        self._training: tuple[int, int, Future] | None = None    # (window it is adopted at, calls, the fit)
-        self._model_calls = 0       # the calls the model in use was fitted on (the first ones)
+        self._training: tuple[int, tuple[int, int], Future] | None = None  # (window it is adopted at, calls, the fit)
+        self._model_calls = (0, 0)  # the calls the model in use was fitted on: [first, last)
         # the static participant's calls, and each call's window
         self._static_in: list[np.ndarray] = []
         self._static_out: list[np.ndarray] = []
@@ -123,7 +126,7 @@ class InterfaceSurrogate:
         self.secant_errors: list[float] = []   # |J dx - d H| / |d H| of each secant within a window
         self.window = 0
         # where the time goes, and what the surrogate did
-        self.training_seconds = 0.0      # in the training thread
+        self.training_seconds = 0.0      # the training thread's CPU time
         self.waiting_seconds = 0.0       # the coupling waiting for a training at its adoption window
         self.call_seconds = 0.0          # predictor and Jacobians, in the coupling's thread
         self.trainings = 0
@@ -185,19 +188,28 @@ class InterfaceSurrogate:
             self._executor = None
 
     # --- training ------------------------------------------------------------------
-    def _start_training(self, adopt_at: int | None = None, calls: int | None = None) -> None:
-        calls = len(self._static_in) if calls is None else calls
-        if calls < 3:
+    def _training_calls(self) -> tuple[int, int]:
+        """[first, last) of the calls a training starting now fits on."""
+        last = len(self._static_in)
+        if not self.training_windows:
+            return 0, last
+        oldest = self.window - self.training_windows
+        return next((i for i, w in enumerate(self._static_window) if w > oldest), last), last
+
+    def _start_training(self, adopt_at: int | None = None, calls: tuple[int, int] | None = None) -> None:
+        calls = self._training_calls() if calls is None else calls
+        if calls[1] - calls[0] < 3:
             return
-        inputs, outputs = np.array(self._static_in[:calls]), np.array(self._static_out[:calls])
-        windows = np.array(self._static_window[:calls])
+        chosen = slice(*calls)
+        inputs, outputs = np.array(self._static_in[chosen]), np.array(self._static_out[chosen])
+        windows = np.array(self._static_window[chosen])
         factory = self._factory
 
         def fit() -> tuple[StaticModel, float]:
-            started = time.process_time()      # this thread's CPU time
+            started = time.thread_time()      # this thread's CPU time
             model = factory()
             model.fit(inputs, outputs, windows)
-            return model, time.process_time() - started
+            return model, time.thread_time() - started
         if self._executor is None:
             self._executor = ThreadPoolExecutor(1, thread_name_prefix="surrogate-training")
         self._training = (self.window + self.lag if adopt_at is None else adopt_at, calls, self._executor.submit(fit))
@@ -294,15 +306,15 @@ class InterfaceSurrogate:
     def checkpoint_state(self) -> dict[str, Any]:
         """The calls and differences the surrogate has seen, its counters, and which calls its model and a pending
         training were fitted on; the models are refitted from those calls on restore (a fit is deterministic)."""
-        adopt_at, pending_calls = (self._training[0], self._training[1]) if self._training is not None else (0, 0)
+        adopt_at, pending_calls = (self._training[0], self._training[1]) if self._training is not None else (0, (0, 0))
         return {"static_in": np.array(self._static_in), "static_out": np.array(self._static_out),
                 "static_window": np.array(self._static_window, dtype=np.int64),
                 "pairs_window": np.array([p[0] for p in self._pairs], dtype=np.int64),
                 "pairs_in": np.array([p[1] for p in self._pairs]), "pairs_out": np.array([p[2] for p in self._pairs]),
                 "converged_in": np.array([c[0] for c in self._converged]),
                 "converged_out": np.array([c[1] for c in self._converged]),
-                "window": self.window, "model_calls": self._model_calls, "adopt_at": adopt_at,
-                "pending_calls": pending_calls,
+                "window": self.window, "model_calls": list(self._model_calls), "adopt_at": adopt_at,
+                "pending_calls": list(pending_calls),
                 "counters": [self.training_seconds, self.waiting_seconds, self.call_seconds, self.trainings,
                              self.predictions]}
 
@@ -315,13 +327,15 @@ class InterfaceSurrogate:
         self._converged = deque(zip(state["converged_in"], state["converged_out"]), maxlen=4)
         self.window = int(state["window"])
         self._jd = None
-        self._model_calls = int(state["model_calls"])
-        if self._model_calls:
-            n = self._model_calls
+        first, last = (int(i) for i in state["model_calls"])
+        self._model_calls = (first, last)
+        if last > first:
+            chosen = slice(first, last)
             self.model = self._factory()
-            self.model.fit(np.array(self._static_in[:n]), np.array(self._static_out[:n]),
-                           np.array(self._static_window[:n]))
-        if int(state["pending_calls"]):
-            self._start_training(int(state["adopt_at"]), int(state["pending_calls"]))
+            self.model.fit(np.array(self._static_in[chosen]), np.array(self._static_out[chosen]),
+                           np.array(self._static_window[chosen]))
+        pending = tuple(int(i) for i in state["pending_calls"])
+        if pending[1] > pending[0]:
+            self._start_training(int(state["adopt_at"]), (pending[0], pending[1]))
         (self.training_seconds, self.waiting_seconds, self.call_seconds, self.trainings,
          self.predictions) = state["counters"]
