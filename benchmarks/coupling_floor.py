@@ -7,6 +7,8 @@ Two measurements on any serial-implicit scene, each against the plain run in the
   ``--both`` the first participant's data start from its converged value too, so that the first
   iteration's convergence check sees full-order values of the converged state. The iterations per
   window against eps show how exact a predictor must be before the criterion lets a window end sooner.
+- ``predictability``: how well the plain run's converged accelerated data follow from earlier windows by
+  polynomial extrapolation (orders 0 to 4), as a fraction of the window's change (printed with ``oracle``).
 - ``repeat``: in every window the second iteration repeats the first's iterate (x1 = x0): the
   change between the two full-order answers to the same input is the solvers' own noise (a solver
   that restarts its step from its last iterate, not from the window's start, answers an input with
@@ -41,12 +43,34 @@ def per_window(results: RunResults, skip: int) -> float:
     return float(results.windows.iterations[skip:].mean())
 
 
+def predictability(results: RunResults, names: list[str], skip: int) -> list[tuple[int, float, float]]:
+    """How well each window's converged accelerated data follow from the earlier windows' by polynomial
+    extrapolation: (order, median, 90th percentile) of |prediction - x*_n| / |x*_n - x*_(n-1)|."""
+    from math import comb
+    fields = results.fields()
+    X = np.hstack([fields[name].reshape(len(fields[name]), -1) for name in names])
+    change = np.linalg.norm(np.diff(X, axis=0), axis=1)
+    rows = []
+    for order in range(5):
+        coefficients = [(-1) ** j * comb(order + 1, j + 1) for j in range(order + 1)]
+        n = np.arange(max(skip, order + 1), len(X))
+        prediction = sum(c * X[n - 1 - j] for j, c in enumerate(coefficients))
+        error = np.linalg.norm(prediction - X[n], axis=1) / np.maximum(change[n - 1], np.finfo(float).tiny)
+        rows.append((order, float(np.median(error)), float(np.quantile(error, 0.9))))
+    return rows
+
+
 def oracle(scene_path: str, out: Path, overrides: list[str], eps_values: list[float], both: bool,
            skip: int) -> list[tuple[str, float]]:
     """Iterations per window with an oracle start at each eps (and the plain run's)."""
     plain = run(scene_path, out / "plain", overrides)
     converged = plain.fields()
     rows = [("plain", per_window(plain, skip))]
+    accelerated = plain.scene["coupling"]["acceleration"]["data"] or sorted(converged)
+    print("| extrapolation order | error / the window's change: median | 90th percentile |")
+    print("| --- | --- | --- |")
+    for order, median, high in predictability(plain, accelerated, skip):
+        print(f"| {order} | {median:.3f} | {high:.3f} |")
     original = CouplingScheme._predicted
     for eps in eps_values:
         def predicted(self, eps=eps):
