@@ -60,6 +60,7 @@ class Run:
     full_field: tuple[np.ndarray, np.ndarray] | None = None   # (time, rows) rebuilt by the ROM
     initial: dict[str, np.ndarray] = field(default_factory=dict)  # data values before the first window
     fallback_windows: int = 0            # windows the solid FOM took over from a ROM out of its range
+    surrogate: dict[str, Any] = field(default_factory=dict)   # the online surrogate's attributes, if it had one
     trust: np.ndarray | None = None      # per window: the converged ROM call's excess beyond its training range
     model: dict[str, Any] = field(default_factory=dict)
 
@@ -76,7 +77,8 @@ class Run:
             run = cls(results.path, directory.name if directory.is_dir() else results.path.parent.name, results.scene,
                       windows.time, windows.iterations, float(results.attributes.get("wall_seconds", np.nan)),
                       results.fields(), windows.wall_seconds, components, initial=results.initial(),
-                      fallback_windows=int(results.attributes.get("rom_fallback_windows", 0)))
+                      fallback_windows=int(results.attributes.get("rom_fallback_windows", 0)),
+                      surrogate={k: v for k, v in results.attributes.items() if k.startswith("surrogate_")})
             for name in results.recorded():
                 calls = results.calls(name, converged_only=True)
                 if "rom_excess" in calls.outputs and len(calls.window) == len(windows):
@@ -203,14 +205,30 @@ def _as_in(scene: dict[str, Any], other: dict[str, Any], key: str) -> dict[str, 
     return {**copy, head: other[head]} if head in other else copy
 
 
+def without_surrogate(scene: dict[str, Any]) -> dict[str, Any]:
+    """The scene as its run would be without the online surrogate (``coupling.surrogate``): the surrogate changes
+    where iterations start and which steps they take, not what a window converges to, so a run with it is compared
+    with a reference without it."""
+    coupling = dict(scene.get("coupling", {}))
+    coupling.pop("surrogate", None)
+    acceleration = coupling.get("acceleration")
+    if isinstance(acceleration, dict) and acceleration.get("type") == "iqn-surrogate":
+        coupling["acceleration"] = {k: v for k, v in acceleration.items() if k != "correction"} | {"type": "iqn-ils"}
+    return {**scene, "coupling": coupling}
+
+
 def compare(run: Run, reference: Run) -> dict[str, Any]:
-    """The report's figures for ``run`` against ``reference`` (which must have run the same scene)."""
-    scene, moot = reference.scene, set()
-    different = scene_difference(run.scene, scene)
+    """The report's figures for ``run`` against ``reference`` (which must have run the same scene, but for the solid
+    backend and the online surrogate)."""
+    scene, moot = without_surrogate(reference.scene), set()
+    ours = without_surrogate(run.scene)
+    if ours["coupling"].get("predictor") == "surrogate":     # the surrogate's own predictor replaced the scene's
+        ours["coupling"]["predictor"] = scene.get("coupling", {}).get("predictor", "none")
+    different = scene_difference(ours, scene)
     while different in MOOT_FOR_REFERENCE and different not in moot and MOOT_FOR_REFERENCE[different](reference):
         moot.add(different)
-        scene = _as_in(scene, run.scene, different)
-        different = scene_difference(run.scene, scene)
+        scene = _as_in(scene, ours, different)
+        different = scene_difference(ours, scene)
     if different:
         raise SceneError(f"reference '{reference.path.parent}' ran another scene than '{run.path.parent}': "
                          f"{different} is {_lookup(reference.scene, different)!r} there and "
@@ -232,6 +250,8 @@ def compare(run: Run, reference: Run) -> dict[str, Any]:
         "model": run.model.get("params", {}),
         "rom_fallback_windows": run.fallback_windows,
     }
+    if run.surrogate:
+        result["surrogate"] = run.surrogate
     result["iterations_ratio"] = result["iterations"] / result["reference_iterations"]
     result["predicted_iterations_ratio"] = float(run.iterations[predicted].sum() / reference.iterations[predicted].sum())
     result["predicted_iterations_interval"] = iterations_interval(run.iterations[predicted],

@@ -347,3 +347,15 @@ def test_the_trust_value_inside_and_outside_a_known_envelope():
     assert excess == pytest.approx(0.25)
     corner = trust(np.array([1.0, 2.0]), envelope)[1]
     assert corner == pytest.approx(1.0)                           # the farthest training point defines distance 1
+
+
+def test_a_rom_fom_run_with_the_online_surrogate_is_reported_against_a_reference_without_it(fom, model, tmp_path):
+    """The surrogate changes the iterations, not the scene's solution: the report compares such a run with the plain
+    FOM-FOM reference and carries what the surrogate did."""
+    rom_run(tmp_path / "rom", model, TRAIN_END - 2.0, "coupling.surrogate.start_window=10",
+            "coupling.surrogate.predictor=true")
+    done = cosim("report", f"{tmp_path / 'rom'}={fom}", "--out", str(tmp_path / "report"))
+    assert done.returncode == 0, done.stderr
+    (row,) = json.loads((tmp_path / "report" / "report.json").read_text())["runs"]
+    assert row["surrogate"]["surrogate_trainings"] >= 1 and row["surrogate"]["surrogate_updates"] > 0
+    assert 0 < row["monitor_error"] < 5e-3
