@@ -179,3 +179,21 @@ def test_a_run_without_periodic_checkpoints_still_checkpoints_when_stopped(tmp_p
     assert read(tmp_path / "cut" / "checkpoint.npz")[0]["windows"] == 12
     run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False, resume=True)
     identical(tmp_path / "whole", tmp_path / "cut")
+
+
+@pytest.mark.parametrize("stop_window", [9, 23, 26])
+def test_a_run_with_the_online_surrogate_resumes_bit_for_bit(tmp_path, monkeypatch, stop_window):
+    """Stopped before the surrogate starts, with a training pending (started at window 22, in use at 24), and
+    after it: the resumed run refits the model in use from the checkpointed calls and starts the pending training
+    again, so it is the uninterrupted run, bit for bit."""
+    overrides = ["time.end=4", "tube.cells=40", "coupling.surrogate.start_window=12", "coupling.surrogate.retrain_every=6",
+                 "coupling.surrogate.training_windows=8", "output.checkpoint_every=5"]
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "whole", progress=False)
+    with monkeypatch.context() as patch:
+        stopped_at(stop_window, patch)
+        with pytest.raises(KeyboardInterrupt):
+            run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False)
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False, resume=True)
+    identical(tmp_path / "whole", tmp_path / "cut")
+    with RunResults(tmp_path / "whole" / "results.h5") as run:
+        assert run.attributes["surrogate_trainings"] >= 4 and run.attributes["surrogate_updates"] > 0
