@@ -422,21 +422,29 @@ class IQNSurrogate(IQNILS):
     maps every column of V exactly as the secant equations ask and falls back to M elsewhere; the update is
     x - N r. With M = -I it is IQN-ILS. ``correction = "none"`` takes the surrogate's Newton step x - M r alone.
     Before the surrogate is trained, and for the rest of a window in which a surrogate step made the residual
-    worse, the update is IQN-ILS's (the surrogate may cost iterations, never the criterion).
+    worse, the update is IQN-ILS's (the surrogate may cost iterations, never the criterion). A surrogate step longer
+    than ``max_step_ratio`` times IQN-ILS's step from the same iterate (or the residual, if longer) is not taken
+    (IQN-ILS's is): a stale surrogate's step can carry a solver out of its domain (the double flap's solid mesh
+    failed after one).
     """
 
-    SETTINGS = {**IQNILS.SETTINGS, "correction": Choice("secant", CORRECTIONS)}
+    SETTINGS = {**IQNILS.SETTINGS, "correction": Choice("secant", CORRECTIONS),
+                "max_step_ratio": Value(5.0, low=1.0)}
     HELP = {**IQNILS.HELP,
             "correction": "'secant': the surrogate's inverse Jacobian corrected by the secant columns (IQN-ILSM); "
-                          "'none': the surrogate's Newton step alone"}
+                          "'none': the surrogate's Newton step alone",
+            "max_step_ratio": "a surrogate step longer than this many times IQN-ILS's step from the same iterate (or "
+                              "the residual, if longer) is replaced by IQN-ILS's"}
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
-                 on_map_change: str = "drop-span", correction: str = "secant",
+                 on_map_change: str = "drop-span", correction: str = "secant", max_step_ratio: float = 5.0,
                  block_sizes: list[int] | None = None) -> None:
         super().__init__(initial_relaxation, max_used_iterations, reused_time_windows, filter, filter_limit,
                          stale_step_ratio, on_map_change, block_sizes)
         self.correction = correction
+        self.max_step_ratio = max_step_ratio
+        self.rejected_steps = 0
         self.surrogate: Any = None      # set by the scheme: jacobian(x, y) and current (x, y)
         self._plain = False             # this window fell back to IQN-ILS
         self._surrogate_step = False    # the last update was the surrogate's
@@ -477,9 +485,21 @@ class IQNSurrogate(IQNILS):
 
     def next_iterate(self) -> np.ndarray:
         M = self._prior()
-        self._surrogate_step = M is not None
+        self._surrogate_step = False
         if M is None:
             return super().next_iterate()
+        proposal = self._surrogate_proposal(M)
+        plain = super().next_iterate()        # IQN-ILS's update from the same columns (and its housekeeping)
+        reach = max(float(np.linalg.norm(plain - self.x)), float(np.linalg.norm(self.x_tilde - self.x)))
+        if np.linalg.norm(proposal - self.x) > self.max_step_ratio * reach:
+            self.rejected_steps += 1
+            return plain
+        self._surrogate_step = True
+        self.surrogate_updates += 1
+        return proposal
+
+    def _surrogate_proposal(self, M: Any) -> np.ndarray:
+        """x - N r with the surrogate's prior M and the secant columns (filtered as IQN-ILS filters them)."""
         r = self.x_tilde - self.x
         step = M(r)
         V, W, origin = self._columns()
@@ -495,11 +515,5 @@ class IQNSurrogate(IQNILS):
             c = solve_triangular(R, Q.T @ (r if self._weights is None else r * self._weights), check_finite=False)
             dX = np.stack(W, axis=1) - Vm
             step = step + (dX - M(Vm)) @ c      # + (dX - M V) V^+ r
-            self.columns_used = len(V)
             break
-        if self._drop_previous:
-            while len(self._windows) > 1:
-                self._windows.pop()
-            self._drop_previous = False
-        self.surrogate_updates += 1
         return self.x - step
