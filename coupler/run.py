@@ -218,6 +218,7 @@ def surrogate_attributes(scheme: CouplingScheme) -> dict[str, float | int]:
             "surrogate_predictions": surrogate.predictions, "surrogate_rejected_predictions": surrogate.rejected_predictions,
             "surrogate_updates": getattr(acceleration, "surrogate_updates", 0),
             "surrogate_fallback_windows": getattr(acceleration, "fallback_windows", 0),
+            "surrogate_rejected_steps": getattr(acceleration, "rejected_steps", 0),
             "surrogate_secant_error_median": float(np.median(errors)) if errors else float("nan")}
 
 

@@ -205,25 +205,29 @@ def _as_in(scene: dict[str, Any], other: dict[str, Any], key: str) -> dict[str, 
     return {**copy, head: other[head]} if head in other else copy
 
 
-def without_surrogate(scene: dict[str, Any]) -> dict[str, Any]:
-    """The scene as its run would be without the online surrogate (``coupling.surrogate``): the surrogate changes
-    where iterations start and which steps they take, not what a window converges to, so a run with it is compared
-    with a reference without it."""
+def without_surrogate(scene: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
+    """``scene`` as its run would be without the online surrogate (``coupling.surrogate``), for the comparison with
+    ``reference``: the surrogate changes where iterations start and which steps they take, not what a window
+    converges to. Its table goes, its quasi-Newton (``iqn-surrogate``) counts as the reference's acceleration with
+    the settings both have, and its predictor as the reference's."""
     coupling = dict(scene.get("coupling", {}))
     coupling.pop("surrogate", None)
-    acceleration = coupling.get("acceleration")
-    if isinstance(acceleration, dict) and acceleration.get("type") == "iqn-surrogate":
-        coupling["acceleration"] = {k: v for k, v in acceleration.items() if k != "correction"} | {"type": "iqn-ils"}
+    theirs = reference.get("coupling", {})
+    acceleration, their_acceleration = coupling.get("acceleration"), theirs.get("acceleration")
+    if isinstance(acceleration, dict) and acceleration.get("type") == "iqn-surrogate" and \
+            isinstance(their_acceleration, dict):
+        coupling["acceleration"] = {k: v for k, v in acceleration.items() if k in their_acceleration} | \
+            {"type": their_acceleration.get("type")}
+    if coupling.get("predictor") == "surrogate":
+        coupling["predictor"] = theirs.get("predictor", "none")
     return {**scene, "coupling": coupling}
 
 
 def compare(run: Run, reference: Run) -> dict[str, Any]:
     """The report's figures for ``run`` against ``reference`` (which must have run the same scene, but for the solid
     backend and the online surrogate)."""
-    scene, moot = without_surrogate(reference.scene), set()
-    ours = without_surrogate(run.scene)
-    if ours["coupling"].get("predictor") == "surrogate":     # the surrogate's own predictor replaced the scene's
-        ours["coupling"]["predictor"] = scene.get("coupling", {}).get("predictor", "none")
+    scene, moot = without_surrogate(reference.scene, reference.scene), set()
+    ours = without_surrogate(run.scene, reference.scene)
     different = scene_difference(ours, scene)
     while different in MOOT_FOR_REFERENCE and different not in moot and MOOT_FOR_REFERENCE[different](reference):
         moot.add(different)
