@@ -9,6 +9,8 @@ Two measurements on any serial-implicit scene, each against the plain run in the
   window against eps show how exact a predictor must be before the criterion lets a window end sooner.
 - ``predictability``: how well the plain run's converged accelerated data follow from earlier windows by
   polynomial extrapolation (orders 0 to 4), as a fraction of the window's change (printed with ``oracle``).
+- ``plain``: the plain run's data sizes, their change per window and the residual's median per iteration (also
+  printed with ``oracle``).
 - ``repeat``: in every window the second iteration repeats the first's iterate (x1 = x0): the
   change between the two full-order answers to the same input is the solvers' own noise (a solver
   that restarts its step from its last iterate, not from the window's start, answers an input with
@@ -16,7 +18,7 @@ Two measurements on any serial-implicit scene, each against the plain run in the
   criterion's limit; the rest of the window is the plain acceleration's.
 
 Usage: python -m benchmarks.coupling_floor SCENE [--out DIR] [--set KEY=VALUE ...] [--eps 0 1e-3 ...]
-       [--both] [--repeat] [--small]
+       [--both] [--repeat] [--plain]
 """
 
 from __future__ import annotations
@@ -60,12 +62,30 @@ def predictability(results: RunResults, names: list[str], skip: int) -> list[tup
     return rows
 
 
+def scales(results: RunResults, skip: int) -> list[str]:
+    """Each field's size and change per window, and the coupling residual's median over the iterations of a window."""
+    lines = ["| data | norm: mean | change per window: mean |", "| --- | --- | --- |"]
+    for name, values in results.fields().items():
+        flat = values[skip:].reshape(len(values[skip:]), -1)
+        lines.append(f"| {name} | {np.linalg.norm(flat, axis=1).mean():.4g} | "
+                     f"{np.linalg.norm(np.diff(flat, axis=0), axis=1).mean():.4g} |")
+    window, norm = results.residuals()
+    norm = norm[window > skip]
+    window = window[window > skip]
+    starts = np.r_[0, np.flatnonzero(np.diff(window)) + 1]
+    iteration = np.arange(len(window)) - np.repeat(starts, np.diff(np.r_[starts, len(window)]))
+    medians = [f"{np.median(norm[iteration == k]):.3g}" for k in range(4) if (iteration == k).any()]
+    lines += ["", f"coupling residual, median over the windows, iterations 1 to {len(medians)}: {', '.join(medians)}"]
+    return lines
+
+
 def oracle(scene_path: str, out: Path, overrides: list[str], eps_values: list[float], both: bool,
            skip: int) -> list[tuple[str, float]]:
     """Iterations per window with an oracle start at each eps (and the plain run's)."""
     plain = run(scene_path, out / "plain", overrides)
     converged = plain.fields()
     rows = [("plain", per_window(plain, skip))]
+    print("\n".join(scales(plain, skip)))
     accelerated = plain.scene["coupling"]["acceleration"]["data"] or sorted(converged)
     print("| extrapolation order | error / the window's change: median | 90th percentile |")
     print("| --- | --- | --- |")
@@ -132,10 +152,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--eps", type=float, nargs="*", default=[0.0, 1e-4, 1e-3, 1e-2, 1e-1])
     parser.add_argument("--both", action="store_true", help="the first participant's data start converged too")
     parser.add_argument("--repeat", action="store_true", help="measure the solvers' noise instead")
+    parser.add_argument("--plain", action="store_true", help="the plain run's scales and residuals only")
     parser.add_argument("--skip", type=int, default=10, help="windows left out of the means (the start-up)")
     args = parser.parse_args(argv)
     out = Path(args.out) if args.out else fresh_directory("coupling_floor")
     print(f"machine: {machine()}")
+    if args.plain:
+        plain = run(args.scene, out / "plain", args.overrides)
+        print("\n".join(scales(plain, args.skip)))
+        return
     if args.repeat:
         noise = repeat(args.scene, out, args.overrides)
         noise = noise[args.skip:]
