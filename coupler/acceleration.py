@@ -241,23 +241,12 @@ class IQNILS(Acceleration):
         r = self.x_tilde - self.x
         proposal = None
         while proposal is None:
-            V, W, origin = self._columns()
-            if not V:
-                self.columns_used = 0
+            fit = self._secant_fit(r)
+            if fit is None:
                 proposal = self.x + self.initial * r
                 break
-            Vm = np.stack(V, axis=1)
-            if self._weights is not None:
-                Vm = Vm * self._weights[:, None]
-            Q, R = np.linalg.qr(Vm)
-            bad = self._filtered_column(R, Vm)
-            if bad is not None:
-                self._remove(origin[bad])
-                continue
-            rhs = -(Q.T @ (r if self._weights is None else r * self._weights))
-            c = solve_triangular(R, rhs, check_finite=False)
-            self.columns_used = len(V)
-            proposal = self.x_tilde + np.stack(W, axis=1) @ c
+            c, _, W = fit
+            proposal = self.x_tilde + W @ c
             if self._stale(proposal, r):
                 self._forget_old_windows()
                 proposal = None
@@ -266,6 +255,25 @@ class IQNILS(Acceleration):
                 self._windows.pop()
             self._drop_previous = False
         return proposal
+
+    def _secant_fit(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """c minimising ||V c + r|| (weighted per block) over the columns left by the filters, and V and W as
+        matrices; None when there is no column."""
+        while True:
+            V, W, origin = self._columns()
+            if not V:
+                self.columns_used = 0
+                return None
+            Vm = np.stack(V, axis=1)
+            weighted = Vm if self._weights is None else Vm * self._weights[:, None]
+            Q, R = np.linalg.qr(weighted)
+            bad = self._filtered_column(R, weighted)
+            if bad is not None:
+                self._remove(origin[bad])
+                continue
+            rhs = -(Q.T @ (r if self._weights is None else r * self._weights))
+            self.columns_used = len(V)
+            return solve_triangular(R, rhs, check_finite=False), Vm, np.stack(W, axis=1)
 
     def _forget_old_windows(self) -> None:
         """The columns of earlier windows describe another regime (the wall switched branch, say): drop them."""
@@ -502,18 +510,8 @@ class IQNSurrogate(IQNILS):
         """x - N r with the surrogate's prior M and the secant columns (filtered as IQN-ILS filters them)."""
         r = self.x_tilde - self.x
         step = M(r)
-        V, W, origin = self._columns()
-        while V and self.correction == "secant":
-            Vm = np.stack(V, axis=1)
-            weighted = Vm if self._weights is None else Vm * self._weights[:, None]
-            Q, R = np.linalg.qr(weighted)
-            bad = self._filtered_column(R, weighted)
-            if bad is not None:
-                self._remove(origin[bad])
-                V, W, origin = self._columns()
-                continue
-            c = solve_triangular(R, Q.T @ (r if self._weights is None else r * self._weights), check_finite=False)
-            dX = np.stack(W, axis=1) - Vm
-            step = step + (dX - M(Vm)) @ c      # + (dX - M V) V^+ r
-            break
+        fit = self._secant_fit(r) if self.correction == "secant" else None
+        if fit is not None:
+            c, V, W = fit                         # c = -V^+ r
+            step = step - (W - V - M(V)) @ c      # + (dX - M V) V^+ r, dX = W - V
         return self.x - step
