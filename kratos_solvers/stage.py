@@ -61,8 +61,13 @@ class SteppedStage:
     def solver(self) -> Any:
         return self.stage._GetSolver()
 
-    def solve(self, t: float, dt: float) -> bool:
-        """Solve the window [t, t + dt] once more (the first call of a window advances to it)."""
+    def solve(self, t: float, dt: float, apply_input: Callable[[], None] | None = None) -> bool:
+        """Solve the window [t, t + dt] once more (the first call of a window advances to it).
+
+        ``apply_input`` writes the coupling input into the current step's values. It runs after the step is
+        advanced and predicted, right before each solve: written earlier, on a window's first call it would
+        land in the previous step's values, which Kratos clones into the new step, so the ALE fluid would see
+        no mesh motion between windows (the mesh velocity comes from the two steps' displacements)."""
         tolerance = 1e-9 * max(1.0, abs(t) + dt)
         if self.window_start is None or abs(t - self.window_start) > tolerance:
             if self.window_start is not None and t < self.window_start:
@@ -82,6 +87,8 @@ class SteppedStage:
             self.stage.InitializeSolutionStep()
             self.solver.Predict()
             self.window_start, self.window_end = t, t + dt
+        if apply_input is not None:
+            apply_input()
         converged = bool(self.solve_step())
         self.solves += 1
         self.unconverged += not converged
@@ -182,8 +189,7 @@ class KratosComponent(Component):
             self.input = np.array(values[self.input_name], dtype=np.float64)
 
     def do_step(self, t: float, dt: float) -> None:
-        set_nodal_vector(self.interface, self.input_variable(), self.input)
-        if not self.stepped.solve(t, dt):
+        if not self.stepped.solve(t, dt, lambda: set_nodal_vector(self.interface, self.input_variable(), self.input)):
             message = (f"Kratos's {self.solve_label} did not converge in {self.settings['max_iterations']} "
                        f"iterations (window starting at t = {t:g} s)")
             if self.settings["on_unconverged"] == "fail":
