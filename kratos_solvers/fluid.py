@@ -38,7 +38,11 @@ INLET, OUTLET = "AutomaticInlet2D_Inlet", "Outlet2D_Outlet"
 
 
 class KratosFluid(KratosComponent):
-    """Kratos FluidDynamicsAnalysis with the ``ale_fluid`` solver, one solve per coupling iteration."""
+    """Kratos FluidDynamicsAnalysis with the ``ale_fluid`` solver, one solve per coupling iteration.
+
+    The class attributes name the mesh's sub-model parts and the element; a case with other boundaries
+    or another inlet overrides them, ``inlet_moduli`` and the schema (``cases.mok.components``).
+    """
 
     name = "fluid"
     parameter_schema = FLUID_SCHEMA
@@ -46,9 +50,15 @@ class KratosFluid(KratosComponent):
     solve_label = "fluid solve"
 
     part_name = "FluidModelPart"
+    problem_name = "double_flap_fluid"
+    volume_part = "FluidParts_FluidPart"
+    inlet_part, outlet_part = INLET, OUTLET
+    walls: tuple[str, ...] = WALLS           # no slip, fixed mesh
+    slip_walls: tuple[str, ...] = ()         # slip, fixed mesh
+    element = "dvms"
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
-        prm = validate(parameters, FLUID_SCHEMA)
+        prm = validate(parameters, self.parameter_schema)
         self._prm = prm
         self._files = self.prepare(prm, self._materials(prm["flow"]))
         self.build()
@@ -67,7 +77,7 @@ class KratosFluid(KratosComponent):
         self.stepped = SteppedStage(self.name, stage, self._solve_step)
         part = self.model[self.part_name]
         self.interface = part.GetSubModelPart(self._prm["interface"]).Nodes
-        self.volume = part.GetSubModelPart("FluidParts_FluidPart")
+        self.volume = part.GetSubModelPart(self.volume_part)
         self.KM = KM
 
     def _solve_step(self) -> bool:
@@ -90,27 +100,37 @@ class KratosFluid(KratosComponent):
     @classmethod
     def _materials(cls, flow: dict) -> dict:
         return {"properties": [{
-            "model_part_name": "FluidModelPart.FluidParts_FluidPart", "properties_id": 1,
+            "model_part_name": f"FluidModelPart.{cls.volume_part}", "properties_id": 1,
             "Material": {"constitutive_law": {"name": "Newtonian2DLaw"},
                          "Variables": {"DENSITY": flow["density"], "DYNAMIC_VISCOSITY": cls.viscosity(flow)},
                          "Tables": None}}]}
 
     @staticmethod
-    def _project(prm: dict, mesh: Path, materials: Path) -> dict:
-        flow, tolerance, interface = prm["flow"], prm["tolerance"], prm["interface"]
+    def inlet_moduli(flow: dict) -> list[tuple[list, str]]:
+        """(time interval, velocity modulus as a Kratos expression of x, y, t) of the inlet, in order."""
         h = flow["channel_height"]
         profile = f"y*({h!r}-y)*{flow['profile_coefficient']!r}"
         ramp = flow["ramp_time"]
+        return [([0.0, ramp], f"0.5*(1-cos(pi*t/{ramp!r}))*{profile}"), ([ramp, "End"], profile)]
+
+    @classmethod
+    def _project(cls, prm: dict, mesh: Path, materials: Path) -> dict:
+        tolerance, interface = prm["tolerance"], prm["interface"]
+        walls, slip_walls = (*cls.walls, interface), cls.slip_walls
 
         def inlet(interval: list, modulus: str) -> dict:
             return {"python_module": "apply_inlet_process", "kratos_module": "KratosMultiphysics.FluidDynamicsApplication",
                     "process_name": "ApplyInletProcess",
-                    "Parameters": {"model_part_name": f"FluidModelPart.{INLET}", "variable_name": "VELOCITY",
+                    "Parameters": {"model_part_name": f"FluidModelPart.{cls.inlet_part}", "variable_name": "VELOCITY",
                                    "interval": interval, "modulus": modulus, "direction": "automatic_inwards_normal"}}
 
         def no_slip(part: str) -> dict:
             return {"python_module": "apply_noslip_process", "kratos_module": "KratosMultiphysics.FluidDynamicsApplication",
                     "process_name": "ApplyNoSlipProcess", "Parameters": {"model_part_name": f"FluidModelPart.{part}"}}
+
+        def slip(part: str) -> dict:
+            return {"python_module": "apply_slip_process", "kratos_module": "KratosMultiphysics.FluidDynamicsApplication",
+                    "process_name": "ApplySlipProcess", "Parameters": {"model_part_name": f"FluidModelPart.{part}"}}
 
         def fixed_mesh(part: str) -> dict:
             return {"python_module": "fix_vector_variable_process", "kratos_module": "KratosMultiphysics",
@@ -120,10 +140,10 @@ class KratosFluid(KratosComponent):
 
         outlet = {"python_module": "apply_outlet_process", "kratos_module": "KratosMultiphysics.FluidDynamicsApplication",
                   "process_name": "ApplyOutletProcess",
-                  "Parameters": {"model_part_name": f"FluidModelPart.{OUTLET}", "variable_name": "PRESSURE",
+                  "Parameters": {"model_part_name": f"FluidModelPart.{cls.outlet_part}", "variable_name": "PRESSURE",
                                  "constrained": True, "value": 0.0, "hydrostatic_outlet": False, "h_top": 0.0}}
         return {
-            "problem_data": {"problem_name": "double_flap_fluid", "parallel_type": "OpenMP", "echo_level": 0,
+            "problem_data": {"problem_name": cls.problem_name, "parallel_type": "OpenMP", "echo_level": 0,
                              "start_time": prm["time"]["start"], "end_time": prm["time"]["end"]},
             "solver_settings": {
                 "solver_type": "ale_fluid", "ale_boundary_parts": [interface],
@@ -135,19 +155,20 @@ class KratosFluid(KratosComponent):
                     "echo_level": 0, "compute_reactions": True, "maximum_iterations": prm["max_iterations"],
                     "relative_velocity_tolerance": tolerance, "absolute_velocity_tolerance": tolerance,
                     "relative_pressure_tolerance": tolerance, "absolute_pressure_tolerance": tolerance,
-                    "volume_model_part_name": "FluidParts_FluidPart",
-                    "skin_parts": [INLET, OUTLET, *WALLS, interface], "no_skin_parts": [],
+                    "volume_model_part_name": cls.volume_part,
+                    "skin_parts": [cls.inlet_part, cls.outlet_part, *walls, *slip_walls], "no_skin_parts": [],
                     "time_scheme": "bossak",
                     "time_stepping": {"automatic_time_step": False, "time_step": prm["time"]["dt"]},
-                    "formulation": {"element_type": "dvms", "use_orthogonal_subscales": False, "dynamic_tau": 1.0},
+                    "formulation": {"element_type": cls.element, "use_orthogonal_subscales": False, "dynamic_tau": 1.0},
                     "reform_dofs_at_each_step": False}},
             "processes": {
                 "initial_conditions_process_list": [],
                 "boundary_conditions_process_list": [
-                    inlet([0.0, ramp], f"0.5*(1-cos(pi*t/{ramp!r}))*{profile}"), inlet([ramp, "End"], profile),
-                    outlet, *[no_slip(p) for p in (*WALLS, interface)]],
+                    *[inlet(interval, modulus) for interval, modulus in cls.inlet_moduli(prm["flow"])],
+                    outlet, *[no_slip(p) for p in walls], *[slip(p) for p in slip_walls]],
                 "gravity": [],
-                "ale_boundary_conditions": [fixed_mesh(p) for p in (*WALLS, INLET, OUTLET, interface)]},
+                "ale_boundary_conditions": [fixed_mesh(p) for p in (*cls.walls, cls.inlet_part, cls.outlet_part,
+                                                                    *slip_walls, interface)]},
             "output_processes": {},
         }
 

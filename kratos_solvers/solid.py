@@ -1,10 +1,14 @@
-"""The double flap's solid: Kratos's static nonlinear solver behind the component contract.
+"""A Kratos solid behind the component contract: static (the double flap) or dynamic (Mok's wall).
 
-Total Lagrangian bilinear quadrilaterals, plane strain Neo-Hookean (``HyperElasticPlaneStrain2DLaw``),
-Newton on the residual to 1e-6, clamped base; the authors' settings (shared/scenes/double_flap.md).
-Input ``force`` (POINT_LOAD on the 265 interface nodes, (265, 2) N); output ``displacement``
-on the same nodes; local ``displacement_field`` on all 1805 nodes (recorded, not exchanged).
-A coupling iteration is repeated by solving the same step again (``repeats_steps``).
+Elements come from the mesh (total Lagrangian bilinear quadrilaterals in both cases); the material law
+is a parameter: plane strain Neo-Hookean (``HyperElasticPlaneStrain2DLaw``, the double flap's) or linear
+elastic plane stress. ``dynamics`` is ``static`` (Kratos's static solver, no history) or an implicit
+``newmark`` / ``bossak`` scheme (Kratos's dynamic solver: inertia, state from window to window). Newton
+on the residual to 1e-6, clamped base. Input ``force`` (POINT_LOAD on the interface nodes, (n, 2) N);
+output ``displacement`` on the same nodes; local ``displacement_field`` on all nodes, and the
+displacement of each named probe point (the node nearest it), recorded, not exchanged. A coupling
+iteration is repeated by solving the same step again from the last iterate (``repeats_steps``): the
+dynamic schemes update velocity and acceleration from the window's start values, which Kratos keeps.
 The linear solver is a parameter: the authors' ``sparse_qr`` or a fast direct one.
 Kratos is imported only here, in the component's own process.
 """
@@ -18,7 +22,8 @@ from typing import Any
 import numpy as np
 
 from cosim.component import Variable
-from cosim.schema import Choice, FilePath, Positive, Required, Value, validate
+from cosim.errors import ComponentError
+from cosim.schema import AnyTable, Choice, FilePath, Positive, Required, Value, validate
 from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, nodal_vector, node_coordinates
 
 LINEAR_SOLVERS = {
@@ -26,12 +31,16 @@ LINEAR_SOLVERS = {
     "sparse_lu": "LinearSolversApplication.sparse_lu",     # Eigen's SparseLU (fast, same displacements)
     "skyline_lu_factorization": "skyline_lu_factorization",
 }
+CONSTITUTIVE_LAWS = ("HyperElasticPlaneStrain2DLaw", "LinearElasticPlaneStress2DLaw", "LinearElasticPlaneStrain2DLaw")
 SOLID_SCHEMA = {
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
     "mesh": FilePath(required=True),       # the .mdpa file
     "young_modulus": Positive(10e6),
     "poisson_ratio": Value(0.3, low=0.0, high=0.5, high_open=True),
     "density": Positive(1000.0),           # unused by the static solver, required by the material
+    "constitutive_law": Choice("HyperElasticPlaneStrain2DLaw", CONSTITUTIVE_LAWS),
+    "dynamics": Choice("static", ("static", "newmark", "bossak")),
+    "probes": AnyTable(),                  # name = [x, y]: the displacement of the node nearest each, recorded
     "linear_solver": Choice("sparse_lu", tuple(LINEAR_SOLVERS)),
     "tolerance": Positive(1e-6),
     "max_iterations": Positive(25),
@@ -50,9 +59,10 @@ class KratosSolid(KratosComponent):
     solve_label = "Newton solve"
 
     part_name = "Structure"
+    problem_name = "double_flap_solid"
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
-        prm = validate(parameters, SOLID_SCHEMA)
+        prm = validate(parameters, self.parameter_schema)
         self._prm = prm
         self._files = self.prepare(prm, self._materials(prm))
         self.build()
@@ -61,7 +71,15 @@ class KratosSolid(KratosComponent):
         self.field_nodes = node_coordinates(self.all_nodes, 2)
         self.quads = np.array([[n.Id for n in e.GetNodes()] for e in part.Elements], dtype=np.int64)
         self._node_index = {node.Id: i for i, node in enumerate(self.all_nodes)}
+        self.probes = {name: self._probe_node(name, point) for name, point in prm["probes"].items()}
         self.input = np.zeros((len(self.interface_nodes), 2))   # the interface force
+
+    def _probe_node(self, name: str, point: Any) -> int:
+        """The index of the node nearest ``point`` (a probe), checked to be a point of the plane."""
+        if (not isinstance(point, list) or len(point) != 2
+                or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in point)):
+            raise ComponentError(self.name, f"probe '{name}' must be [x, y] in metres, got {point!r}")
+        return int(np.argmin(np.linalg.norm(self.field_nodes - np.asarray(point, dtype=float), axis=1)))
 
     def build(self, import_settings: dict[str, Any] | None = None) -> None:
         import KratosMultiphysics as KM
@@ -74,7 +92,7 @@ class KratosSolid(KratosComponent):
             project["solver_settings"]["model_import_settings"] = import_settings
         self.model = KM.Model()
         stage = StructuralMechanicsAnalysis(self.model, kratos_parameters(project))
-        self.stepped = SteppedStage(self.name, stage, static=True)
+        self.stepped = SteppedStage(self.name, stage, static=self._prm["dynamics"] == "static")
         part = self.model[self.part_name]
         self.interface = part.GetSubModelPart(self._prm["interface"]).Nodes
         self.clamped = part.GetSubModelPart(self._prm["clamped"]).Nodes
@@ -85,19 +103,22 @@ class KratosSolid(KratosComponent):
     def _materials(prm: dict) -> dict:
         return {"properties": [{
             "model_part_name": "Structure.Parts_Solid_Structure", "properties_id": 1,
-            "Material": {"constitutive_law": {"name": "HyperElasticPlaneStrain2DLaw"},
+            "Material": {"constitutive_law": {"name": prm["constitutive_law"]},
                          "Variables": {"DENSITY": prm["density"], "YOUNG_MODULUS": prm["young_modulus"],
                                        "POISSON_RATIO": prm["poisson_ratio"], "THICKNESS": 1.0},
                          "Tables": {}}}]}
 
-    @staticmethod
-    def _project(prm: dict, mesh: Path, materials: Path) -> dict:
+    @classmethod
+    def _project(cls, prm: dict, mesh: Path, materials: Path) -> dict:
         tolerance = prm["tolerance"]
+        dynamics = ({} if prm["dynamics"] == "static" else
+                    {"solver_type": "Dynamic", "time_integration_method": "implicit", "scheme_type": prm["dynamics"]})
         return {
-            "problem_data": {"problem_name": "double_flap_solid", "parallel_type": "OpenMP", "echo_level": 0,
+            "problem_data": {"problem_name": cls.problem_name, "parallel_type": "OpenMP", "echo_level": 0,
                              "start_time": prm["time"]["start"], "end_time": prm["time"]["end"]},
             "solver_settings": {
                 "solver_type": "Static", "model_part_name": "Structure", "domain_size": 2, "echo_level": 0,
+                **dynamics,
                 "analysis_type": "non_linear",
                 "model_import_settings": {"input_type": "mdpa", "input_filename": str(mesh)},
                 "material_import_settings": {"materials_filename": str(materials)},
@@ -124,7 +145,8 @@ class KratosSolid(KratosComponent):
         return [Variable("force", "input", 2 * n, "N", mesh="interface", components=2),
                 Variable("displacement", "output", 2 * n, "m", mesh="interface", components=2,
                          precision=self.settings["tolerance"]),
-                Variable("displacement_field", "local", 2 * m, "m", mesh="solid", components=2)]
+                Variable("displacement_field", "local", 2 * m, "m", mesh="solid", components=2),
+                *[Variable(name, "local", 2, "m") for name in self.probes]]
 
     def meshes(self) -> dict[str, np.ndarray]:
         return {"interface": self.interface_nodes, "solid": self.field_nodes}
@@ -133,8 +155,10 @@ class KratosSolid(KratosComponent):
         return self.SMA.POINT_LOAD
 
     def readers(self) -> dict[str, Callable[[], np.ndarray]]:
+        field = lambda: nodal_vector(self.all_nodes, self.KM.DISPLACEMENT, 2)
+        probes = {name: (lambda node=node: field()[node].copy()) for name, node in self.probes.items()}
         return {"displacement": lambda: nodal_vector(self.interface, self.KM.DISPLACEMENT, 2),
-                "displacement_field": lambda: nodal_vector(self.all_nodes, self.KM.DISPLACEMENT, 2)}
+                "displacement_field": field, **probes}
 
     def reactions(self) -> np.ndarray:
         """Reactions at the clamped base, (n_base, 2) N (for the equilibrium check)."""

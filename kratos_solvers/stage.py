@@ -129,7 +129,7 @@ class KratosComponent(Component):
     def prepare(self, settings: dict[str, Any], materials: dict[str, Any]) -> tuple[Path, Path]:
         """Checks shared by the Kratos components, Kratos's logging and threads, and a private folder
         holding the materials file; returns the mesh (without .mdpa) and the materials file."""
-        mesh = Path(settings["mesh"]).with_suffix("")
+        mesh = self.mesh_file(settings).with_suffix("")
         if not mesh.with_suffix(".mdpa").is_file():
             raise ComponentError(self.name, f"mesh '{mesh.with_suffix('.mdpa')}' does not exist")
         self.settings = settings
@@ -139,6 +139,10 @@ class KratosComponent(Component):
         path = Path(self._workdir.name) / "materials.json"
         path.write_text(json.dumps(materials))
         return mesh, path
+
+    def mesh_file(self, settings: dict[str, Any]) -> Path:
+        """The ``.mdpa`` file of the validated ``settings`` (a case that generates its mesh makes it here)."""
+        return Path(settings["mesh"])
 
     def input_variable(self) -> Any:
         raise NotImplementedError
