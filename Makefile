@@ -6,7 +6,7 @@
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-EXTRAS := .[test,lint,docs,rom,fmu,kratos,sweep]
+EXTRAS := .[test,lint,docs,rom,fmu,kratos,mesh,sweep]
 LOCK := constraints.txt
 
 .PHONY: demo demo-flap campaign test lint docs test-latest lock bench figures clean
