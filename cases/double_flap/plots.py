@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cases.last_window import plot_last_window
 from cosim.results import RunResults
 
 TIPS = {"left": (1.2, 0.28), "right": (1.52, 0.28)}
@@ -31,8 +32,6 @@ def run_plots(results: str | Path, out_dir: str | Path) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
-    from matplotlib.tri import Triangulation
 
     out_dir = Path(out_dir)
     with RunResults(results) as run:
@@ -57,26 +56,10 @@ def run_plots(results: str | Path, out_dir: str | Path) -> list[Path]:
     figure.savefig(written[-1], dpi=110)
     plt.close(figure)
 
-    fluid = next((f for f in finals.values() if "triangles" in f), None)
-    solid = next((f for f in finals.values() if "quads" in f), None)
-    if fluid is None:
-        return written
-    figure, axis = plt.subplots(figsize=(11, 3.2), constrained_layout=True)
-    speed = np.linalg.norm(fluid["velocity"], axis=1)
-    mesh = Triangulation(fluid["nodes"][:, 0], fluid["nodes"][:, 1], fluid["triangles"])
-    shading = axis.tripcolor(mesh, speed, shading="gouraud", cmap="viridis")
-    figure.colorbar(shading, ax=axis, label="fluid velocity magnitude [m/s]", pad=0.01)
-    if solid is not None:
-        deformed = solid["nodes"] + solid["displacement_field"]
-        axis.add_collection(PolyCollection(deformed[solid["quads"]], facecolor="0.85", edgecolor="0.4", lw=0.2))
     time = windows.time[-1] if len(windows) else 0.0
-    axis.set_title(f"last window, t = {time:g} s: deformed fluid mesh and solid")
-    axis.set_aspect("equal")
-    axis.set_xlabel("x [m]")
-    axis.set_ylabel("y [m]")
-    written.append(out_dir / "last_window.png")
-    figure.savefig(written[-1], dpi=130)
-    plt.close(figure)
+    picture = plot_last_window(finals, time, out_dir / "last_window.png")
+    if picture is not None:
+        written.append(picture)
     return written
 
 
