@@ -98,8 +98,11 @@ def run_peer(windows: int, mesh: dict) -> dict:
             wrapper.SolveSolutionStep = timed(wrapper.SolveSolutionStep, log)
         analysis.Initialize()
         structure = coupled.solver_wrappers["structure"]._analysis_stage.model["Structure"]
-        probes = {name: min(structure.Nodes, key=lambda n, p=point: (n.X0 - p[0]) ** 2 + (n.Y0 - p[1]) ** 2)
-                  for name, point in (("point_a", POINT_A), ("point_b", POINT_B))}
+
+        def nearest(point: tuple[float, float]):
+            return min(structure.Nodes, key=lambda n: (n.X0 - point[0]) ** 2 + (n.Y0 - point[1]) ** 2)
+
+        probes = {"point_a": nearest(POINT_A), "point_b": nearest(POINT_B)}
         rows: dict[str, list] = {"iterations": [], "wall_seconds": [], "converged": [], "point_a": [], "point_b": []}
         while analysis.KeepAdvancingSolutionLoop():
             started = time.perf_counter()

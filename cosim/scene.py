@@ -74,6 +74,8 @@ SCHEMA: dict[str, Any] = {
         # the online interface surrogate (checked by the coupler against its own settings)
         "surrogate": AnyTable(),
     },
+    # the stability matrix of `cosim stability` (its grid, methods, windows and settings of every run)
+    "stability": {"grid": [], "methods": [], "windows": Value(20, low=1), "settings": []},
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
                "plots": [],   # a scene's own run plots: names of cosim.run_plots entry points
                "checkpoint_every": Value(0, low=0)},
@@ -108,6 +110,11 @@ MEANINGS = {
                              "the exchanged data it accelerates",
     "coupling.convergence": "`[[coupling.convergence]]`: one convergence measure per table (below); a window has "
                             "converged when all of them are met",
+    "stability.grid": "`cosim stability`: the swept parameters, \"key=v1,v2,...\" each (one or two)",
+    "stability.methods": "`cosim stability`: the accelerations crossed with the grid (default: all)",
+    "stability.windows": "`cosim stability`: windows per run",
+    "stability.settings": "`cosim stability`: \"key=value\" overrides of every run of the matrix (a criterion and "
+                          "an iteration limit fit for it, say)",
     "output.plot_field": "the exchanged data drawn in run.png (default: the first)",
     "output.plot_index": "the value of that field drawn",
     "output.plot_label": "its label in run.png",

@@ -40,7 +40,8 @@ def test_spectral_radius_tends_to_the_continuum_theory_as_the_mesh_is_refined():
 
 
 def test_the_stability_matrix_gauss_seidel_converges_exactly_where_the_spectral_radius_is_below_one(tmp_path, capsys):
-    code = main(["stability", str(TUBE_SCENE), "--out", str(tmp_path), "--factors", "0.1,1,10", "--dts", "0.1",
+    code = main(["stability", str(TUBE_SCENE), "--out", str(tmp_path), "--grid", "tube.stiffness_factor=0.1,1,10",
+                 "--grid", "time.dt=0.1",
                  "--methods", "none,iqn-ils", "--windows", "5", "--quiet"])
     assert code == 0, capsys.readouterr().err
     with open(tmp_path / "spectral.csv", newline="") as stream:
@@ -65,7 +66,8 @@ def test_the_stability_matrix_gauss_seidel_converges_exactly_where_the_spectral_
 def test_the_surrogate_quasi_newton_converges_wherever_iqn_ils_does(tmp_path, capsys):
     """The stability matrix's acceptance for iqn-surrogate: on every (stiffness, dt) where IQN-ILS converges, the
     surrogate quasi-Newton (its online surrogate in use from window 6) converges too."""
-    code = main(["stability", str(TUBE_SCENE), "--out", str(tmp_path), "--factors", "0.1,1,100", "--dts", "0.1,0.001",
+    code = main(["stability", str(TUBE_SCENE), "--out", str(tmp_path), "--grid", "tube.stiffness_factor=0.1,1,100",
+                 "--grid", "time.dt=0.1,0.001",
                  "--methods", "iqn-ils,iqn-surrogate", "--windows", "12", "--quiet"])
     assert code == 0, capsys.readouterr().err
     with open(tmp_path / "sweep.csv", newline="") as stream:

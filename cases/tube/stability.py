@@ -1,5 +1,6 @@
 """The elastic tube's stability: the continuum theory of plain Gauss-Seidel coupling, and the stability matrix
-(stiffness x time step x acceleration) that ``cosim stability`` runs as a sweep.
+(stiffness x time step x acceleration) as ``cosim stability`` draws it (the theory's lines, spectral.csv,
+contraction.png; the matrix itself is any scene's: ``coupler.stability_matrix``).
 
 For the linearised tube the continuum theory gives the eigenvalues
 lambda_m = -[1 / ((m - 1/2) pi kappa tau)]^2 with kappa = c_MK / v0, tau = v0 dt / L and
@@ -10,6 +11,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,37 +36,9 @@ def tube_critical_stiffness(tangent_modulus: float, rho: float, r0: float, v0: f
     return abs(tube_eigenvalue(1, tangent_modulus, rho, r0, v0, dt, length))
 
 
-# --- the stability matrix: a sweep over stiffness and time step for several methods --------------
+# --- the theory on the stability matrix of `cosim stability` (stiffness factor x time step) -------------------
 
-METHODS = {
-    "none": '{type="none"}',
-    "constant": '{type="constant", data=["section"], relaxation=0.1}',
-    "aitken": '{type="aitken", data=["section"], initial_relaxation=0.01}',
-    "iqn-ils": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=8}',
-    "iqn-ils-reuse0": '{type="iqn-ils", data=["section"], initial_relaxation=0.01, reused_time_windows=0}',
-    "iqn-imvj": '{type="iqn-imvj", data=["section"], initial_relaxation=0.01}',
-    "iqn-surrogate": '{type="iqn-surrogate", data=["section"], initial_relaxation=0.01, reused_time_windows=8}',
-}
-# what a method needs besides its acceleration table: the online surrogate, trained on the first windows
-METHOD_SETTINGS = {"iqn-surrogate": ["coupling.surrogate={start_window=6, retrain_every=5}"]}
-MATRIX_KEYS = ["coupling.acceleration", "tube.stiffness_factor", "time.dt"]
-MATRIX_SETTINGS = ['coupling.convergence=[{data="section", type="relative", limit=1e-8}]',
-                   "coupling.max_iterations=200"]
-
-
-def matrix_runs(factors: list[float], dts: list[float], methods: list[str], windows: int, wall_law: str,
-                common: Sequence[str] = ()) -> list:
-    """The sweep of the stability matrix: every (method, stiffness factor, dt), ``windows`` windows each."""
-    from coupler.sweep import SweepRun
-    runs = []
-    for method in methods:
-        for factor in factors:
-            for dt in dts:
-                runs.append(SweepRun((*MATRIX_SETTINGS, f'tube.wall_law="{wall_law}"', *common,
-                                      f"coupling.acceleration={METHODS[method]}", *METHOD_SETTINGS.get(method, []),
-                                      f"tube.stiffness_factor={factor!r}",
-                                      f"time.dt={dt!r}", f"time.end={windows * dt!r}")))
-    return runs
+FACTOR, DT = "tube.stiffness_factor", "time.dt"
 
 
 def spectral_table(scene_path: str, factors: list[float], dts: list[float], wall_law: str,
@@ -87,55 +62,48 @@ def spectral_table(scene_path: str, factors: list[float], dts: list[float], wall
     return rows
 
 
-def plot_matrix(table: list[dict[str, str]], spectra: list[dict[str, float]], methods: list[str],
-                factors: list[float], dts: list[float], png) -> None:
-    """Heat maps of mean iterations per method, failures marked, both stability boundaries drawn."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import LogNorm
+class TubeTheory:
+    """The tube's continuum theory on a matrix whose rows are stiffness factors and columns time steps: the
+    computed and theoretical rho = 1 lines, ``spectral.csv`` and ``contraction.png`` (``cosim.stability_theory``)."""
 
-    columns = min(len(methods), 3)
-    rows = math.ceil(len(methods) / columns)
-    figure, axes = plt.subplots(rows, columns, figsize=(4.6 * columns, 3.9 * rows), squeeze=False,
-                                constrained_layout=True)
-    norm = LogNorm(vmin=1, vmax=200)
-    letters = {"diverged": "D", "stalled": "S", "max-iterations": "M", "non-finite": "N", "component-error": "C",
-               "error": "E"}
-    x_of, y_of = {dt: i for i, dt in enumerate(sorted(dts, reverse=True))}, {f: j for j, f in enumerate(sorted(factors))}
-    spectrum = {(s["stiffness_factor"], s["dt"]): s for s in spectra}
-    for axis, method in zip(axes.flat, methods):
-        grid = np.full((len(factors), len(dts)), np.nan)
-        for row in table:
-            if row["coupling.acceleration"] != METHODS[method]:
-                continue
-            factor, dt = float(row["tube.stiffness_factor"]), float(row["time.dt"])
-            i, j = y_of[factor], x_of[dt]
-            if row["failure"]:
-                axis.text(j, i, letters.get(row["failure"], "?"), ha="center", va="center", color="red",
-                          fontsize=13, fontweight="bold")
-            else:
-                grid[i, j] = float(row["mean_iterations"])
-                axis.text(j, i, f"{grid[i, j]:.1f}", ha="center", va="center", fontsize=8, color="white")
-        image = axis.imshow(grid, origin="lower", cmap="viridis", norm=norm, aspect="auto")
-        # the boundaries: rho = 1 between grid rows (rho scales as 1 / stiffness)
+    def __init__(self, scene_path: str, axes: list[tuple[str, list[str]]], common: list[str]):
+        self.scene_path, self.common = scene_path, [c for c in common if not c.startswith("coupling.acceleration")]
+        self.factor_text, self.dt_text = axes[0][1], axes[1][1]
+        self.factors, self.dts = [float(v) for v in self.factor_text], [float(v) for v in self.dt_text]
+        self.wall_law = next((c.split("=", 1)[1].strip('"') for c in reversed(common)
+                              if c.startswith("tube.wall_law=")), "piecewise")
+        self.spectra: list[dict[str, float]] = []
+
+    def prepare(self, out: Path) -> list[Path]:
+        import csv
+        self.spectra = spectral_table(self.scene_path, self.factors, self.dts, self.wall_law, self.common)
+        path = out / "spectral.csv"
+        with open(path, "w", newline="") as stream:
+            writer = csv.DictWriter(stream, ["stiffness_factor", "dt", "spectral_radius", "theory"])
+            writer.writeheader()
+            writer.writerows(self.spectra)
+        return [path]
+
+    def draw(self, axis: Any, method: str) -> None:
+        """Both rho = 1 boundaries between the grid's rows (rho scales as 1 / stiffness)."""
+        spectrum = {(s["stiffness_factor"], s["dt"]): s for s in self.spectra}
+        order = np.argsort(self.factors)
+        logs = np.log10(np.asarray(self.factors)[order])
         for key, style, label in (("spectral_radius", "w-", "computed rho = 1"), ("theory", "w--", "theory rho = 1")):
-            critical = [spectrum[(factors[0], dt)][key] * factors[0] for dt in sorted(dts, reverse=True)]
-            logs = np.log10(sorted(factors))
-            y = np.interp(np.log10(critical), logs, np.arange(len(factors)), left=-0.5, right=len(factors) - 0.5)
-            axis.plot(np.arange(len(dts)), y, style, lw=1.5, label=label)
-        axis.set_xticks(range(len(dts)), [f"{dt:g}" for dt in sorted(dts, reverse=True)])
-        axis.set_yticks(range(len(factors)), [f"{f:g}" for f in sorted(factors)])
-        axis.set_xlabel("time step dt [s]")
-        axis.set_ylabel("stiffness factor [-]")
-        axis.set_title(method)
+            critical = [spectrum[(self.factors[0], dt)][key] * self.factors[0] for dt in self.dts]
+            y = np.interp(np.log10(critical), logs, order.astype(float), left=-0.5, right=len(self.factors) - 0.5)
+            axis.plot(np.arange(len(self.dts)), y, style, lw=1.5, label=label)
         axis.legend(loc="lower left", fontsize=7, facecolor="0.3", labelcolor="white")
-    for axis in list(axes.flat)[len(methods):]:
-        axis.set_visible(False)
-    figure.colorbar(image, ax=axes, label="mean coupling iterations per window [count]", shrink=0.8)
-    figure.suptitle("tube stability matrix (D diverged, S stalled, M max iterations, N non-finite, C component error)")
-    figure.savefig(png, dpi=110)
-    plt.close(figure)
+
+    def finish(self, rows: list[dict[str, str]], out: Path) -> list[Path]:
+        path = out / "contraction.png"
+        plot_contraction(rows, self.spectra, path)
+        return [path]
+
+
+def tube_theory(scene_path: str, axes: list[tuple[str, list[str]]], common: list[str]) -> TubeTheory | None:
+    """The theory of a matrix over stiffness factor (rows) and time step (columns); None for other axes."""
+    return TubeTheory(scene_path, axes, common) if [key for key, _ in axes] == [FACTOR, DT] else None
 
 
 def plot_contraction(table: list[dict[str, str]], spectra: list[dict[str, float]], png) -> None:
@@ -147,9 +115,9 @@ def plot_contraction(table: list[dict[str, str]], spectra: list[dict[str, float]
     spectrum = {(s["stiffness_factor"], s["dt"]): s for s in spectra}
     points = []
     for row in table:
-        if row["coupling.acceleration"] != METHODS["none"] or row["contraction"] in ("", "nan"):
+        if row["coupling.acceleration"] != '{type="none"}' or row["contraction"] in ("", "nan"):
             continue
-        s = spectrum[(float(row["tube.stiffness_factor"]), float(row["time.dt"]))]
+        s = spectrum[(float(row[FACTOR]), float(row[DT]))]
         points.append((s["spectral_radius"], s["theory"], float(row["contraction"]), row["failure"]))
     figure, axis = plt.subplots(figsize=(6, 5), constrained_layout=True)
     if points:
