@@ -9,7 +9,7 @@ BIN := $(VENV)/bin
 EXTRAS := .[test,lint,docs,rom,fmu,kratos,mesh,sweep]
 LOCK := constraints.txt
 
-.PHONY: demo demo-flap campaign test lint docs test-latest lock bench figures clean
+.PHONY: demo demo-flap campaign mok test lint docs test-latest lock bench figures clean
 
 $(BIN)/cosim: pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
@@ -26,6 +26,11 @@ demo-flap: $(BIN)/cosim
 
 campaign: $(BIN)/cosim
 	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
+
+# Mok's benchmark: 250 windows through our coupler and through Kratos's own, side by side (about 10 minutes);
+# rewrites its table in docs/mok.md
+mok: $(BIN)/cosim
+	$(BIN)/python -m benchmarks.mok_run 250 --docs
 
 test: lint docs
 	$(BIN)/python -m pytest -q --durations=15

@@ -24,8 +24,9 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from kratos_solvers.fluid import KratosFluid
-from kratos_solvers.solid import LINEAR_SOLVERS, KratosSolid
+from cosim.schema import validate
+from kratos_solvers.fluid import FLUID_SCHEMA, KratosFluid
+from kratos_solvers.solid import LINEAR_SOLVERS, SOLID_SCHEMA, KratosSolid
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -95,6 +96,9 @@ def run_peer(windows: int, linear_solver: str = "sparse_lu", reynolds: float = 2
                  "linear_solver": linear_solver, "tolerance": 1e-6, "max_iterations": 25,
                  "clamped": "DISPLACEMENT_BCDisp"}
     assert linear_solver in LINEAR_SOLVERS
+    # every default filled in, as the components' own validation does (the mesh comes separately)
+    fluid_prm = validate({**fluid_prm, "mesh": "-"}, FLUID_SCHEMA)
+    solid_prm = validate({**solid_prm, "mesh": "-"}, SOLID_SCHEMA)
     with tempfile.TemporaryDirectory(prefix="cosim-peer-") as folder:
         tmp = Path(folder)
         (tmp / "fluid_materials.json").write_text(json.dumps(KratosFluid._materials(flow)))

@@ -7,8 +7,8 @@ time (its own and its children's) are measured from outside. Prints side by side
 wall and CPU time, compute per solver call, and point A's maximum, its time and its last value, with
 the largest difference between the two histories.
 
-Usage: python -m benchmarks.mok_run [WINDOWS] [--repeat N] [--small]
-(--small: 5 windows on a coarse mesh, for the tests)
+Usage: python -m benchmarks.mok_run [WINDOWS] [--repeat N] [--small] [--docs]
+(--small: 5 windows on a coarse mesh, for the tests; --docs: also rewrite the table in docs/mok.md)
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import Timing, fresh_directory, machine
+from benchmarks.common import Timing, fresh_directory, machine, rewrite_readme
 from cosim.results import RunResults
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -103,6 +103,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("windows", type=int, nargs="?", default=250)
     parser.add_argument("--repeat", type=int, default=1, help="runs of each, alternated (default 1)")
     parser.add_argument("--small", action="store_true", help="5 windows on a coarse mesh (for the tests)")
+    parser.add_argument("--docs", action="store_true", help="rewrite the table in docs/mok.md")
     args = parser.parse_args(argv)
     windows, mesh = (5, COARSE) if args.small else (args.windows, {})
     out = fresh_directory("mok")
@@ -114,6 +115,8 @@ def main(argv: list[str] | None = None) -> dict:
     print("\n".join(lines))
     (out / "table.txt").write_text("\n".join(lines) + "\n")
     (out / "runs.json").write_text(json.dumps(runs))
+    if args.docs:
+        rewrite_readme("mok", lines, f"python -m benchmarks.mok_run {windows} --repeat {args.repeat} --docs")
     return {**runs, "out": str(out)}
 
 

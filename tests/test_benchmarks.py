@@ -57,6 +57,18 @@ def test_double_flap_benchmark_small(capsys):
 
 
 @needs_kratos
+def test_mok_benchmark_small(capsys):
+    """Ours and Kratos's coupler on the same coarse Mok meshes: both converge every window to the same wall."""
+    from benchmarks import mok_run
+    results = mok_run.main(["--small"])
+    ours, theirs = results["ours"][0], results["kratos"][0]
+    assert all(ours["converged"]) and all(theirs["converged"]) and len(ours["converged"]) == len(theirs["converged"]) == 5
+    a, b = np.array(ours["point_a"])[:, 0], np.array(theirs["point_a"])[:, 0]
+    assert np.abs(a - b).max() < 0.2 * np.abs(b).max()      # the same physics; criteria of 1e-6 m on 1e-4 m
+    assert "ratio Kratos / ours" in capsys.readouterr().out
+
+
+@needs_kratos
 def test_flap_rom_call_benchmark_small(capsys):
     from benchmarks import flap_rom_call
     results = flap_rom_call.main(["--small"])   # asserts inside: FMU = online ROM bit for bit = offline on K

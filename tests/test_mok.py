@@ -169,3 +169,28 @@ def test_short_mok_run_through_real_processes(tmp_path):
         corner = int(np.argmin(np.linalg.norm(interface - [0.5015, 0.25], axis=1)))
         np.testing.assert_array_equal(calls.outputs["displacement"][:, corner], calls.outputs["point_a"])
         assert windows.iterations.mean() <= 4
+
+
+@needs_gmsh
+@needs_kratos
+def test_stability_matrix_on_mok_classes_gauss_seidel_as_diverged_where_iqn_ils_converges(tmp_path, capsys):
+    """Added mass dominates at rho_s / rho_f = 0.5 and 10 alike: plain Gauss-Seidel diverges and is classed so,
+    IQN-ILS converges (coarse mesh, three windows per run)."""
+    import csv
+
+    from cosim.cli import main
+    code = main(["stability", str(ROOT / "scenes" / "mok.toml"), "--out", str(tmp_path),
+                 "--grid", "components.structure.parameters.density=478,9560", "--grid", "time.dt=0.1",
+                 "--methods", "none,iqn-ils", "--windows", "3", "--quiet",
+                 *(arg for key, value in COARSE.items() for arg in ("--set", f"mesh.{key}={value}"))])
+    assert code == 0, capsys.readouterr().err
+    with open(tmp_path / "sweep.csv", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    assert len(rows) == 4
+    for row in rows:
+        if '"none"' in row["coupling.acceleration"]:
+            assert row["failure"] == "diverged", row
+        else:
+            assert row["failure"] == "" and int(row["windows_converged"]) == 3, row
+    matrix = (tmp_path / "matrix.md").read_text()
+    assert matrix.count("diverged") == 2 and (tmp_path / "stability.png").stat().st_size > 10_000
