@@ -194,3 +194,34 @@ def test_stability_matrix_on_mok_classes_gauss_seidel_as_diverged_where_iqn_ils_
             assert row["failure"] == "" and int(row["windows_converged"]) == 3, row
     matrix = (tmp_path / "matrix.md").read_text()
     assert matrix.count("diverged") == 2 and (tmp_path / "stability.png").stat().st_size > 10_000
+
+
+@needs_gmsh
+@needs_kratos
+def test_a_mok_run_resumes_with_the_structure_s_inertia(tmp_path, monkeypatch):
+    """Stopped after window 3 and resumed from Kratos's serialised model parts: the dynamic structure's velocity and
+    acceleration come back with it, so the resumed run repeats the uninterrupted one's iterations and fields (to
+    round-off: Kratos rebuilds its systems on load)."""
+    from cosim.checkpoint import read
+    from cosim.results import RunResults
+    from cosim.scene import load_scene
+    from coupler.run import run_scene
+    from tests.test_restart import stopped_at
+    overrides = ["time.end=0.8", "output.checkpoint_every=2",
+                 *(f"mesh.{key}={value}" for key, value in COARSE.items())]
+    scene = ROOT / "scenes" / "mok.toml"
+    run_scene(load_scene(scene, overrides), tmp_path / "whole", progress=False)
+    with monkeypatch.context() as patch:
+        stopped_at(3, patch)
+        with pytest.raises(KeyboardInterrupt):
+            run_scene(load_scene(scene, overrides), tmp_path / "cut", progress=False)
+    assert read(tmp_path / "cut" / "checkpoint.npz")[0]["windows"] == 3
+    run_scene(load_scene(scene, overrides), tmp_path / "cut", progress=False, resume=True)
+    with RunResults(tmp_path / "whole") as whole, RunResults(tmp_path / "cut") as cut:
+        np.testing.assert_array_equal(cut.windows.iterations, whole.windows.iterations)
+        a_whole = whole.calls("structure", converged_only=True).outputs["point_a"]
+        a_cut = cut.calls("structure", converged_only=True).outputs["point_a"]
+        assert len(a_cut) == len(a_whole) == 8
+        np.testing.assert_allclose(a_cut, a_whole, rtol=0, atol=1e-9 * np.abs(a_whole).max())
+        for name, values in whole.fields().items():
+            assert np.abs(cut.fields()[name] - values).max() <= 1e-8 * np.abs(values).max(), name
