@@ -19,12 +19,11 @@ import json
 import os
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from benchmarks.kratos_peer import timed
+from benchmarks.kratos_peer import run_coupled
 from cases.mok.components import FLUID_SCHEMA, STRUCTURE_SCHEMA, MokFluid, MokStructure
 from cases.mok.mesh import FLUID_INTERFACE, POINT_A, POINT_B, SOLID_INTERFACE, mok_meshes
 from cosim.schema import validate
@@ -74,7 +73,6 @@ def cosim_parameters(end: float, fluid_file: Path, structure_file: Path) -> dict
 
 def run_peer(windows: int, mesh: dict) -> dict:
     import KratosMultiphysics as KM
-    from KratosMultiphysics.CoSimulationApplication.co_simulation_analysis import CoSimulationAnalysis
     KM.Logger.GetDefaultOutput().SetSeverity(KM.Logger.Severity.WARNING)
     end = windows * DT
     time_section = {"start": 0.0, "end": end, "dt": DT}
@@ -90,37 +88,7 @@ def run_peer(windows: int, mesh: dict) -> dict:
                                                            tmp / "fluid_materials.json")))
         structure_file.write_text(json.dumps(MokStructure._project(structure_prm, meshes["solid"].with_suffix(""),
                                                                    tmp / "structure_materials.json")))
-        analysis = CoSimulationAnalysis(KM.Parameters(json.dumps(cosim_parameters(end, fluid_file, structure_file))))
-        coupled = analysis._GetSolver()
-        compute: dict[str, list[float]] = {"fluid": [], "structure": []}
-        for name, log in compute.items():
-            wrapper = coupled.solver_wrappers[name]
-            wrapper.SolveSolutionStep = timed(wrapper.SolveSolutionStep, log)
-        analysis.Initialize()
-        structure = coupled.solver_wrappers["structure"]._analysis_stage.model["Structure"]
-
-        def nearest(point: tuple[float, float]):
-            return min(structure.Nodes, key=lambda n: (n.X0 - point[0]) ** 2 + (n.Y0 - point[1]) ** 2)
-
-        probes = {"point_a": nearest(POINT_A), "point_b": nearest(POINT_B)}
-        rows: dict[str, list] = {"iterations": [], "wall_seconds": [], "converged": [], "point_a": [], "point_b": []}
-        while analysis.KeepAdvancingSolutionLoop():
-            started = time.perf_counter()
-            calls_before = len(compute["fluid"])
-            analysis.time = coupled.AdvanceInTime(analysis.time)
-            analysis.InitializeSolutionStep()
-            coupled.Predict()
-            rows["converged"].append(bool(coupled.SolveSolutionStep()))
-            analysis.FinalizeSolutionStep()
-            analysis.OutputSolutionStep()
-            rows["wall_seconds"].append(time.perf_counter() - started)
-            rows["iterations"].append(len(compute["fluid"]) - calls_before)
-            for name, node in probes.items():
-                rows[name].append([node.GetSolutionStepValue(KM.DISPLACEMENT_X),
-                                   node.GetSolutionStepValue(KM.DISPLACEMENT_Y)])
-        analysis.Finalize()
-        del analysis, coupled
-    return {**rows, "fluid_compute": compute["fluid"], "solid_compute": compute["structure"]}
+        return run_coupled(cosim_parameters(end, fluid_file, structure_file), {"point_a": POINT_A, "point_b": POINT_B})
 
 
 def main(argv: list[str] | None = None) -> int:

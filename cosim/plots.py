@@ -30,13 +30,18 @@ def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) ->
     top.plot(time[:len(values)], values, lw=1.0)
     top.set_ylabel(label)
     top.grid(alpha=0.3)
-    bottom.plot(time, iterations, lw=0.8, drawstyle="steps-mid")
-    mean = iterations.mean() if iterations.size else float("nan")
-    bottom.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
-    bottom.set_ylabel("coupling iterations per window [count]")
-    bottom.set_xlabel("time [s]")
-    bottom.legend(loc="upper right")
-    bottom.grid(alpha=0.3)
+    iterations_panel(bottom, time, iterations)
     figure.savefig(png, dpi=110)
     plt.close(figure)
     return Path(png)
+
+
+def iterations_panel(axis: Any, time: np.ndarray, iterations: np.ndarray) -> None:
+    """Coupling iterations per window over time, with their mean (the lower panel of every run plot)."""
+    axis.plot(time, iterations, lw=0.8, drawstyle="steps-mid")
+    mean = iterations.mean() if iterations.size else float("nan")
+    axis.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
+    axis.set_ylabel("coupling iterations per window [count]")
+    axis.set_xlabel("time [s]")
+    axis.legend(loc="upper right")
+    axis.grid(alpha=0.3)

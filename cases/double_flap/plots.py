@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from cases.last_window import plot_last_window
+from cosim.plots import iterations_panel
 from cosim.results import RunResults
 
 TIPS = {"left": (1.2, 0.28), "right": (1.52, 0.28)}
@@ -45,13 +46,7 @@ def run_plots(results: str | Path, out_dir: str | Path) -> list[Path]:
     top.set_ylabel("tip x-displacement [mm]")
     top.legend(loc="upper left")
     top.grid(alpha=0.3)
-    bottom.plot(windows.time, windows.iterations, lw=0.8, drawstyle="steps-mid")
-    mean = windows.iterations.mean() if len(windows) else float("nan")
-    bottom.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
-    bottom.set_ylabel("coupling iterations per window [count]")
-    bottom.set_xlabel("time [s]")
-    bottom.legend(loc="upper right")
-    bottom.grid(alpha=0.3)
+    iterations_panel(bottom, windows.time, windows.iterations)
     written.append(out_dir / "tips.png")
     figure.savefig(written[-1], dpi=110)
     plt.close(figure)

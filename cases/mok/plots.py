@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from cases.last_window import plot_last_window
+from cosim.plots import iterations_panel
 from cosim.results import RunResults
 
 # point A's x-displacement as Mok (2001) and Valdes (2007) show it: the band the two curves span
@@ -88,13 +89,7 @@ def run_plots(results: str | Path, out_dir: str | Path) -> list[Path]:
     top.set_ylabel("x-displacement [cm]")
     top.legend(loc="lower right", fontsize=8)
     top.grid(alpha=0.3)
-    bottom.plot(windows.time, windows.iterations, lw=0.8, drawstyle="steps-mid")
-    mean = windows.iterations.mean() if len(windows) else float("nan")
-    bottom.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
-    bottom.set_ylabel("coupling iterations per window [count]")
-    bottom.set_xlabel("time [s]")
-    bottom.legend(loc="upper right")
-    bottom.grid(alpha=0.3)
+    iterations_panel(bottom, windows.time, windows.iterations)
     written = [out_dir / "points.png"]
     figure.savefig(written[-1], dpi=110)
     plt.close(figure)
