@@ -84,6 +84,10 @@ class Component:
     #: a ``step`` with the same ``t`` solves that window again from the last iterate
     repeats_steps: bool = False
 
+    #: how many of the last converged windows the component needs to be handed when it takes over from another
+    #: backend during a run (a structure with inertia: its history); 0 for none
+    history_windows: int = 0
+
     #: seconds without a request after which the server calls ``idle`` (None: never)
     idle_interval: float | None = None
 
@@ -108,6 +112,7 @@ class Component:
             "can_get_and_set_state": self.can_get_and_set_state,
             "can_checkpoint": self.can_checkpoint,
             "repeats_steps": self.repeats_steps,
+            "history_windows": self.history_windows,
         }
         for name, nodes in self.meshes().items():
             description[MESH_PREFIX + name] = np.asarray(nodes, dtype=np.float64)
@@ -172,6 +177,11 @@ class Component:
 
     def local_names(self) -> list[str]:
         return [v.name for v in self.variables() if v.causality == "local"]
+
+    def take_over(self, inputs: Mapping[str, np.ndarray], outputs: Mapping[str, np.ndarray]) -> None:
+        """Start from the converged inputs and outputs of the last windows another backend served (arrays of
+        ``history_windows`` rows or fewer, oldest first); components with ``history_windows`` > 0 implement it."""
+        raise ComponentError(self.name, "takes over no history")
 
     # --- state ------------------------------------------------------------
     def save_state(self) -> Any:

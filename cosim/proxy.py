@@ -160,6 +160,7 @@ class ComponentProxy:
         self.can_get_and_set_state = bool(result.get("can_get_and_set_state"))
         self.can_checkpoint = bool(result.get("can_checkpoint"))
         self.repeats_steps = bool(result.get("repeats_steps"))
+        self.history_windows = int(result.get("history_windows", 0))
         return result
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
@@ -209,6 +210,12 @@ class ComponentProxy:
 
     def restore_checkpoint(self, document: str, arrays: Mapping[str, np.ndarray]) -> None:
         self.call("restore_checkpoint", {"document": document}, arrays)
+
+    def take_over(self, inputs: Mapping[str, np.ndarray], outputs: Mapping[str, np.ndarray]) -> None:
+        """Hand the component the converged inputs and outputs of the windows before it takes over (rows oldest
+        first), from the backend that served them."""
+        self.call("take_over", arrays={**{f"in:{k}": v for k, v in inputs.items()},
+                                       **{f"out:{k}": v for k, v in outputs.items()}})
 
     def terminate(self) -> dict[str, np.ndarray]:
         return {k: np.array(v) for k, v in self.call("terminate")[1].items()}

@@ -149,6 +149,7 @@ class ComponentServer:
             "free_state": lambda a, arr: c.free_state(a["handle"]),
             "checkpoint": self._checkpoint,
             "restore_checkpoint": lambda a, arr: c.restore_checkpoint(unpack(json.loads(a["document"]), arr)),
+            "take_over": self._take_over,
             "terminate": lambda a, arr: c.terminate(),
             "ping": lambda a, arr: {"pid": os.getpid()},
             "shutdown": self._shutdown,
@@ -157,6 +158,11 @@ class ComponentServer:
     def _checkpoint(self, args: dict, arrays: dict) -> dict[str, Any]:
         document, state_arrays = pack(self.component.checkpoint())
         return {"document": json.dumps(document), **state_arrays}
+
+    def _take_over(self, args: dict, arrays: dict) -> None:
+        inputs = {name[len("in:"):]: value for name, value in arrays.items() if name.startswith("in:")}
+        outputs = {name[len("out:"):]: value for name, value in arrays.items() if name.startswith("out:")}
+        self.component.take_over(inputs, outputs)
 
     def _shutdown(self, args: dict, arrays: dict) -> None:
         if self.token and not hmac.compare_digest(str(args.get("token", "")), self.token):

@@ -4,12 +4,15 @@ switch time, then its ROM. Only stateless (quasi-static) backends can be switche
 With a ``fallback`` (the full-order backend, kept running), a call the ROM flags as out of its
 training range (local ``rom_out_of_range``) is computed again by the full-order backend,
 whose outputs are used, and the full-order backend serves the rest of that window; the
-windows where that happened are counted. ``backend_changed`` says whether the last call was served
+windows where that happened are counted. A backend that needs a history to take over (``history_windows``:
+a structure with inertia) is handed, before its first call, the converged inputs and outputs of the last
+windows the backend before it served. ``backend_changed`` says whether the last call was served
 by another backend than the call before it (the coupling scheme then tells its acceleration that
 the map changed)."""
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -55,12 +58,18 @@ class BackendSchedule:
         self._sent: ComponentProxy | None = None
         self._served: ComponentProxy | None = None   # the backend whose outputs the last call returned
         self.backend_changed = False
+        # what a backend with a history takes over: the last windows' converged calls, and the call in flight
+        keep = max((getattr(proxy, "history_windows", 0) for _, proxy in self.stages), default=0)
+        self._converged: deque[tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = deque(maxlen=keep)
+        self._last_call: tuple[float, dict[str, np.ndarray], dict[str, np.ndarray]] | None = None
+        self._taken_over: set[str] = set()
 
     def checkpoint_state(self) -> dict[str, Any]:
         """What the schedule carries between windows: the windows that fell back, and the backend that served
         the last call (a change of backend at the next call tells the acceleration its map changed)."""
         return {"fallback_windows": set(self.fallback_windows),
-                "served": None if self._served is None else self._served.name}
+                "served": None if self._served is None else self._served.name,
+                "converged": list(self._converged), "last_call": self._last_call, "taken_over": set(self._taken_over)}
 
     def restore_checkpoint_state(self, state: Mapping[str, Any]) -> None:
         backends = {proxy.name: proxy for _, proxy in self.stages}
@@ -69,6 +78,10 @@ class BackendSchedule:
         self.fallback_windows = set(state["fallback_windows"])
         self._served = None if state["served"] is None else backends[state["served"]]
         self.backend_changed = False
+        self._converged.extend(tuple(pair) for pair in state.get("converged", []))
+        last = state.get("last_call")
+        self._last_call = None if last is None else (float(last[0]), dict(last[1]), dict(last[2]))
+        self._taken_over = set(state.get("taken_over", set()))
 
     def active(self, t: float) -> ComponentProxy:
         """The backend serving the window that starts at ``t``."""
@@ -91,7 +104,22 @@ class BackendSchedule:
         # once a window has fallen back, the full-order backend serves the rest of it (one map per window)
         self._sent = self.fallback if self.fallback is not None and t in self.fallback_windows else self.active(t)
         self._sent_inputs = (t, dt, inputs)
+        if self._converged.maxlen:
+            self._hand_over_history(t, self._sent)
         self._sent.send_step(t, dt, inputs, restore)
+
+    def _hand_over_history(self, t: float, backend: ComponentProxy) -> None:
+        """Close the last window (its last call was the converged one) and hand a backend that serves for the first
+        time, after another, the windows it needs."""
+        if self._last_call is not None and self._last_call[0] != t:
+            self._converged.append(self._last_call[1:])
+            self._last_call = None
+        if getattr(backend, "history_windows", 0) and backend.name not in self._taken_over \
+                and self._served is not None and self._served is not backend and self._converged:
+            inputs = {name: np.stack([call[0][name] for call in self._converged]) for name in self._converged[0][0]}
+            outputs = {name: np.stack([call[1][name] for call in self._converged]) for name in self._converged[0][1]}
+            backend.take_over(inputs, outputs)
+            self._taken_over.add(backend.name)
 
     def receive_step(self) -> dict[str, np.ndarray]:
         assert self._sent is not None and self._sent_inputs is not None, "receive_step before send_step"
@@ -106,6 +134,11 @@ class BackendSchedule:
             served = self._sent
         self.backend_changed = self._served is not None and served is not self._served
         self._served = served
+        if self._converged.maxlen:
+            t, _, inputs = self._sent_inputs
+            exchanged = {v.name for v in self.variables.values() if v.causality == "output"}
+            self._last_call = (t, {k: np.array(v) for k, v in inputs.items()},
+                               {k: np.array(v) for k, v in outputs.items() if k in exchanged})
         return outputs
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> dict[str, np.ndarray]:

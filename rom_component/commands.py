@@ -19,7 +19,14 @@ def _train_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _train(args: argparse.Namespace) -> int:
     from rom_component.train import load_config, train
-    train(args.results, args.out, load_config(args.config, args.set or []))
+    config = load_config(args.config, args.set or [])
+    if config["dynamics"]["memory"]:
+        from rom_component.step_map_train import train_step_map
+        if len(args.results) != 1:
+            raise SceneError("dynamics.memory: a step-map ROM trains on one run's recorded calls")
+        train_step_map(args.results[0], args.out, config)
+    else:
+        train(args.results, args.out, config)
     return 0
 
 

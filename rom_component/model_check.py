@@ -21,7 +21,7 @@ MAX_MODEL_BYTES = 1 << 30          # 1 GiB decompressed; a double-flap model wit
 MAX_METADATA_BYTES = 1 << 20
 FLOATS = {"E", "e", "A", "base", "u_mean", "Phi_u", "f_mean", "Phi_f", "force_singular_values",
           "disp_singular_values", "B", "Phi_bar", "centres", "H", "envelope_low", "envelope_high", "envelope_mean",
-          "envelope_precision", "envelope_max_distance"}
+          "envelope_precision", "envelope_max_distance", "W_f", "W_z", "W_h", "W_q", "c", "P", "p0"}
 REQUIRED = ("E", "e", "H", "A", "base", "u_mean", "Phi_u")
 INDICES = {"quad_i", "quad_j", "cube_i", "cube_j", "cube_k"}
 MESH = re.compile(r"mesh:[A-Za-z0-9_.-]{1,64}")
@@ -59,23 +59,21 @@ def check_members(archive: zipfile.ZipFile) -> None:
                                     f"{MAX_MODEL_BYTES:,} in all")
 
 
+STEP_MAP_REQUIRED = ("E", "e", "W_f", "W_z", "W_h", "W_q", "c", "A", "base", "u_mean", "Phi_u", "P", "p0")
+
+
 def check_arrays(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) -> None:
     """Dtypes, shapes and values of a model's arrays against each other."""
+    if metadata.get("kind") == "step-map":
+        check_step_map(arrays, metadata)
+        return
     for name in REQUIRED:
         if name not in arrays:
             raise ModelContentError(f"it lacks the array '{name}'")
     regressor = metadata.get("regressor")
     if not isinstance(regressor, str):      # "rbf" or "poly"
         raise ModelContentError(f"its metadata names no regressor (got {regressor!r})")
-    for name, value in arrays.items():
-        if name in INDICES:
-            if value.dtype.kind not in "iu" or value.ndim != 1:
-                raise ModelContentError(f"array '{name}' is {value.dtype} of shape {value.shape}; expected 1-D integers")
-        elif value.dtype != np.float64:
-            raise ModelContentError(f"array '{name}' is {value.dtype}; expected float64")
-        elif not np.isfinite(value).all():
-            raise ModelContentError(f"array '{name}' holds {np.count_nonzero(~np.isfinite(value))} values that are "
-                                    "not finite")
+    _check_values(arrays)
     E, A = arrays["E"], arrays["A"]
     if E.ndim != 2 or A.ndim != 2:
         raise ModelContentError(f"arrays 'E' {E.shape} and 'A' {A.shape} must be matrices")
@@ -83,9 +81,7 @@ def check_arrays(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) 
     n_full = arrays["u_mean"].size
     terms = r_u * (r_u + 1) // 2
     expected = {"e": (r_f,), "base": (n_out,), "u_mean": (n_full,), "Phi_u": (n_full, r_u), "f_mean": (n_in,),
-                "Phi_f": (n_in, r_f), "B": (n_out, terms), "Phi_bar": (n_full, terms), "envelope_low": (r_f,),
-                "envelope_high": (r_f,), "envelope_mean": (r_f,), "envelope_precision": (r_f, r_f),
-                "envelope_max_distance": (1,)}
+                "Phi_f": (n_in, r_f), "B": (n_out, terms), "Phi_bar": (n_full, terms), **_envelope_shapes(r_f)}
     if regressor == "rbf":
         if "centres" not in arrays or arrays["centres"].ndim != 2:
             raise ModelContentError("an rbf model needs the matrix 'centres'")
@@ -99,13 +95,69 @@ def check_arrays(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) 
     expected["H"] = (r_u, m + r_f + 1)
     if "B" in arrays and "Phi_bar" not in arrays:
         raise ModelContentError("it has the quadratic decoder 'B' but not its full field 'Phi_bar'")
+    _check_shapes(arrays, expected, f"r_f = {r_f}, r_u = {r_u}, {n_in} inputs, {n_out} outputs, {n_full} field values")
+    _check_meshes(arrays)
+
+
+def _envelope_shapes(r_f: int) -> dict[str, tuple[int, ...]]:
+    return {"envelope_low": (r_f,), "envelope_high": (r_f,), "envelope_mean": (r_f,), "envelope_precision": (r_f, r_f),
+            "envelope_max_distance": (1,)}
+
+
+def check_step_map(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) -> None:
+    """A step-map ROM (``rom_component.step_map``): its matrices' shapes follow from r_f, r_u and the histories."""
+    for name in STEP_MAP_REQUIRED:
+        if name not in arrays:
+            raise ModelContentError(f"it lacks the array '{name}'")
+    _check_values(arrays)
+    counts = {}
+    for key in ("history", "force_history", "quadratic_modes"):
+        value = metadata.get(key)
+        if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= 64:
+            raise ModelContentError(f"its metadata's '{key}' is {value!r}; expected a whole number from 0 to 64")
+        counts[key] = value
+    E, A = arrays["E"], arrays["A"]
+    if E.ndim != 2 or A.ndim != 2:
+        raise ModelContentError(f"arrays 'E' {E.shape} and 'A' {A.shape} must be matrices")
+    (r_f, _), (n_out, r_u) = E.shape, A.shape
+    k = counts["quadratic_modes"]
+    if k > r_u:
+        raise ModelContentError(f"its metadata's quadratic_modes {k} exceeds r_u = {r_u}")
+    n_full, n_probe = arrays["u_mean"].size, arrays["p0"].size
+    expected = {"e": (r_f,), "W_f": (r_u, r_f), "W_z": (r_u, counts["history"] * r_u),
+                "W_h": (r_u, counts["force_history"] * r_f), "W_q": (r_u, k * (k + 1) // 2), "c": (r_u,),
+                "base": (n_out,), "u_mean": (n_full,), "Phi_u": (n_full, r_u), "P": (n_probe, r_u), "p0": (n_probe,),
+                **_envelope_shapes(r_f)}
+    _check_shapes(arrays, expected, f"r_f = {r_f}, r_u = {r_u}, history {counts['history']}, force history "
+                                    f"{counts['force_history']}, {n_out} outputs, {n_full} field values")
+    if len(metadata.get("probes", [])) * 2 != n_probe:
+        raise ModelContentError(f"its metadata names {len(metadata.get('probes', []))} probes for {n_probe} probe "
+                                "values (two each)")
+    _check_meshes(arrays)
+
+
+def _check_shapes(arrays: Mapping[str, np.ndarray], expected: Mapping[str, tuple[int, ...]], sizes: str) -> None:
     for name, shape in expected.items():
         if name in arrays and arrays[name].shape != shape:
-            raise ModelContentError(f"array '{name}' has shape {arrays[name].shape}, expected {shape} (r_f = {r_f}, "
-                                    f"r_u = {r_u}, {n_in} inputs, {n_out} outputs, {n_full} field values)")
+            raise ModelContentError(f"array '{name}' has shape {arrays[name].shape}, expected {shape} ({sizes})")
+
+
+def _check_meshes(arrays: Mapping[str, np.ndarray]) -> None:
     for name, value in arrays.items():
         if MESH.fullmatch(name) and (value.ndim != 2 or not 1 <= value.shape[1] <= 3):
             raise ModelContentError(f"mesh array '{name}' has shape {value.shape}, expected (nodes, 1 to 3)")
+
+
+def _check_values(arrays: Mapping[str, np.ndarray]) -> None:
+    for name, value in arrays.items():
+        if name in INDICES:
+            if value.dtype.kind not in "iu" or value.ndim != 1:
+                raise ModelContentError(f"array '{name}' is {value.dtype} of shape {value.shape}; expected 1-D integers")
+        elif value.dtype != np.float64:
+            raise ModelContentError(f"array '{name}' is {value.dtype}; expected float64")
+        elif not np.isfinite(value).all():
+            raise ModelContentError(f"array '{name}' holds {np.count_nonzero(~np.isfinite(value))} values that are "
+                                    "not finite")
 
 
 def _index_terms(arrays: Mapping[str, np.ndarray], names: tuple[str, ...], r_f: int) -> int:

@@ -35,6 +35,10 @@ CONFIG: dict[str, dict[str, Any]] = {
                   "seed": 0, "energy": Value(0.9999, low=0.0, high=1.0, low_open=True),
                   "split": Choice("snapshots", ("snapshots", "windows")), "compare_splits": False,
                   "tolerance": Value(0.0, low=0.0)},
+    "dynamics": {"memory": False, "form": ["free"], "history": [2, 3], "force_history": [1, 2], "quadratic_modes": [0],
+                 "ridge": [1e-12, 1e-10, 1e-8],
+                 "holdout_fraction": Value(0.25, low=0.0, high=1.0, low_open=True, high_open=True),
+                 "max_radius": Value(1.0, low=0.0, low_open=True)},
 }
 MEANINGS = {
     "snapshots.component": "the recorded component whose calls are the training data",
@@ -63,6 +67,19 @@ MEANINGS = {
     "selection.compare_splits": "print the table of the other split too",
     "selection.tolerance": "choose = 'holdout': the fewest modes whose hold-out error is within this fraction of "
                            "the best",
+    "dynamics.memory": "true: a structure with inertia, modelled by a step map with memory "
+                       "(rom_component.step_map): the reduced displacement from the window's force and the last "
+                       "windows' converged displacements and forces, every setting chosen by hold-out over whole "
+                       "windows (selection.force_modes and disp_modes are its mode grids; model is not used)",
+    "dynamics.form": "the forms of the map the hold-out tries: 'free' (every weight fitted) or 'newmark' (a reduced "
+                     "second-order system under Newmark's average acceleration: the force weights 1 : 2 : 1)",
+    "dynamics.history": "the numbers of past converged displacements the hold-out tries",
+    "dynamics.force_history": "the numbers of past converged forces the hold-out tries",
+    "dynamics.quadratic_modes": "the numbers of leading reduced displacements whose products enter the map (0: a "
+                                "linear map) the hold-out tries",
+    "dynamics.ridge": "the ridge penalties (relative, per snapshot) the hold-out tries",
+    "dynamics.holdout_fraction": "the share of the training windows, at their end, that each model is run over",
+    "dynamics.max_radius": "the largest spectral radius of the map's linear part; one above is scaled down to it",
 }
 
 

@@ -1,0 +1,365 @@
+"""A ROM of a structure with inertia: a learned discrete-time step map in reduced coordinates.
+
+A dynamic structure's displacement at the end of a window depends on the window's force and on the
+structure's state at its start (its displacement, velocity and acceleration), which a history of
+converged windows carries. In reduced coordinates (x: a POD of the forces, scaled; z: a POD of the
+displacement field)::
+
+    z_{n+1} = W_f x_{n+1} + sum_{k=1..p} A_k z_{n+1-k} + sum_{k=1..q} B_k x_{n+1-k} + c   [+ Q q(z_n)]
+
+with q(z_n) the products of the leading ``quadratic_modes`` coordinates of the last state (a
+geometrically nonlinear structure). For a linear structure under Newmark's average acceleration the
+map with p = 2, q = 2 is exact in the full coordinates: M (u_{n+1} - 2 u_n + u_{n-1}) / dt^2 +
+K (u_{n+1} + 2 u_n + u_{n-1}) / 4 = (f_{n+1} + 2 f_n + f_{n-1}) / 4.
+
+Training pairs carry the sub-iterations' meaning: a coupling iteration solves a window again from the
+same start state with another force, so every recorded call of window n+1 is a pair (history of the
+converged windows before it, the call's force) -> the call's displacement. The fit is a ridge least
+squares (scikit-learn's ``Ridge``) on scaled features. The linear part's stability is checked at fit:
+the spectral radius of the companion matrix of A_1..A_p is reported, and a model above ``max_radius``
+is stabilised by scaling A_k by s^k (every eigenvalue times s, exactly); a free response that still
+grows (the quadratic terms) is refused.
+
+Before the first window the structure is at rest: the history is the reduced coordinates of zero force
+and zero displacement.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from sklearn.linear_model import Ridge
+
+from rom_component.decoders import PodDecoder
+from rom_component.encoders import PodEncoder
+
+
+FORMS = ("newmark", "free", "trapezoidal")
+
+
+class UnstableModel(ValueError):
+    """A fitted step map whose free response grows."""
+
+
+@dataclass
+class WindowData:
+    """Recorded calls of a dynamic structure, in window order.
+
+    ``F`` (m, N_f) forces and ``U`` (m, N_u) displacement fields of every call; ``window`` (m,) the window
+    each belongs to (1 = the first window of the run); ``converged`` (m,) each window's last, converged call.
+    """
+
+    F: np.ndarray
+    U: np.ndarray
+    window: np.ndarray
+    converged: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.window = np.asarray(self.window, dtype=np.int64)
+        self.converged = np.asarray(self.converged, dtype=bool)
+        windows = self.window[self.converged]
+        if len(windows) == 0 or np.any(np.diff(windows) != 1) or windows[0] != 1:
+            raise ValueError("the recorded calls must hold one converged call per window, windows 1, 2, ... in "
+                             f"order (got converged windows {windows[:5].tolist()}...)")
+
+    @property
+    def windows(self) -> int:
+        return int(self.window[self.converged][-1])
+
+    def converged_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """Converged forces and fields of windows 0 (rest: zeros), 1, ..., W."""
+        F = np.vstack([np.zeros((1, self.F.shape[1])), self.F[self.converged]])
+        U = np.vstack([np.zeros((1, self.U.shape[1])), self.U[self.converged]])
+        return F, U
+
+    def select(self, first: int, last: int) -> np.ndarray:
+        """The calls of windows ``first`` to ``last`` (inclusive)."""
+        return (self.window >= first) & (self.window <= last)
+
+
+def lagged(sequence: np.ndarray, window: np.ndarray, lags: int) -> np.ndarray:
+    """Rows [s[w-1], s[w-2], ..., s[w-lags]] for each window w (index 0 repeated before the start): (m, lags*r)."""
+    index = np.maximum(window[:, None] - np.arange(1, lags + 1)[None, :], 0)
+    return sequence[index].reshape(len(window), -1)
+
+
+def quadratic_pairs(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The index pairs (i <= j) of the unique products of ``k`` coordinates."""
+    return np.triu_indices(k)
+
+
+@dataclass
+class StepMap:
+    """The fitted map's matrices in reduced units (z, x); see the module's docstring."""
+
+    W_f: np.ndarray          # (r_u, r_f)
+    A: np.ndarray            # (r_u, p r_u): [A_1 ... A_p]
+    B: np.ndarray            # (r_u, q r_f): [B_1 ... B_q]
+    Q: np.ndarray            # (r_u, k (k + 1) / 2)
+    c: np.ndarray            # (r_u,)
+    quadratic_modes: int = 0
+    radius: float = 0.0              # spectral radius of the linear part as fitted
+    radius_served: float = 0.0       # after stabilisation
+    pairs: tuple[np.ndarray, np.ndarray] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.pairs = quadratic_pairs(self.quadratic_modes)
+
+    @property
+    def history(self) -> int:
+        return self.A.shape[1] // max(self.A.shape[0], 1)
+
+    @property
+    def force_history(self) -> int:
+        return self.B.shape[1] // max(self.W_f.shape[1], 1)
+
+    def step(self, x: np.ndarray, z_history: np.ndarray, x_history: np.ndarray) -> np.ndarray:
+        """z_{n+1} for the reduced force ``x`` and the histories (newest first), (p, r_u) and (q, r_f)."""
+        z = self.W_f @ x + self.A @ z_history.ravel() + self.c
+        if self.B.size:
+            z += self.B @ x_history.ravel()
+        if self.quadratic_modes:
+            last = z_history[0, :self.quadratic_modes]
+            z += self.Q @ (last[self.pairs[0]] * last[self.pairs[1]])
+        return z
+
+    def companion_radius(self) -> float:
+        return companion_radius(self.A)
+
+
+def companion_radius(A: np.ndarray) -> float:
+    """Spectral radius of z_{n+1} = sum_k A_k z_{n+1-k}: the companion matrix of [A_1 ... A_p]."""
+    r, pr = A.shape
+    companion = np.zeros((pr, pr))
+    companion[:r] = A
+    companion[r:, :pr - r] = np.eye(pr - r)
+    return float(np.max(np.abs(np.linalg.eigvals(companion)))) if pr else 0.0
+
+
+def stabilised(A: np.ndarray, max_radius: float) -> tuple[np.ndarray, float, float]:
+    """[A_1 ... A_p] with every companion eigenvalue scaled by s = max_radius / radius if the radius exceeds
+    ``max_radius`` (A_k -> s^k A_k); the radius before and after."""
+    radius = companion_radius(A)
+    if radius <= max_radius:
+        return A, radius, radius
+    r = A.shape[0]
+    s = max_radius / radius
+    scales = np.repeat(s ** np.arange(1, A.shape[1] // r + 1), r)
+    A = A * scales[None, :]
+    return A, radius, companion_radius(A)
+
+
+class StepMapRom:
+    """A POD encoder of forces, a POD decoder of the displacement field, and a step map between them.
+
+    ``fit(data)`` on a ``WindowData``; ``rollout`` runs the map over a sequence of converged forces from a
+    history, as the component does in a coupled run once each window has converged.
+    """
+
+    def __init__(self, force_modes: int = 8, disp_modes: int = 6, history: int = 2, force_history: int = 2,
+                 ridge: float = 1e-8, quadratic_modes: int = 0, max_radius: float = 1.0, form: str = "newmark"):
+        if form not in FORMS:
+            raise ValueError(f"form {form!r} not in {FORMS}")
+        self.force_modes, self.disp_modes = force_modes, disp_modes
+        self.form = form
+        # the second-order form is Newmark's two-step recurrence: its histories are fixed
+        self.history, self.force_history = (2, 2) if form == "newmark" else (history, 2) if form == "trapezoidal" \
+            else (history, force_history)
+        self.ridge, self.max_radius = ridge, max_radius
+        self.quadratic_modes = 0 if form == "newmark" else quadratic_modes
+
+    def settings(self) -> dict[str, Any]:
+        return {"form": self.form, "force_modes": self.force_modes, "disp_modes": self.disp_modes,
+                "history": self.history, "force_history": self.force_history, "ridge": self.ridge,
+                "quadratic_modes": self.quadratic_modes, "max_radius": self.max_radius}
+
+    def fit(self, data: WindowData, last_window: int | None = None, bases: Bases | None = None) -> StepMapRom:
+        """Fit on the calls of windows 1 to ``last_window`` (default: all); ``bases``: PODs already fitted on
+        those calls (the hold-out reuses them across its grid)."""
+        last = data.windows if last_window is None else last_window
+        rows = data.select(1, last)
+        self.bases_ = bases or Bases(data, rows, self.force_modes, self.disp_modes)
+        x, z, xc, zc = self.bases_.reduced(self.force_modes, self.disp_modes)
+        window = data.window[rows]
+        if self.form == "trapezoidal":
+            W_f, A, B, Q, c = self._fit_trapezoidal(x[rows], z[rows], window, xc, zc)
+        elif self.form == "newmark":
+            W_f, A, B, Q, c = self._fit_second_order(x[rows], z[rows], lagged(xc, window, 2), lagged(zc, window, 2))
+        else:
+            W_f, A, B, Q, c = self._fit_free(x[rows], z[rows], window, xc, zc)
+        A, radius, served = stabilised(A, self.max_radius)
+        self.map_ = StepMap(W_f, A, B, Q, c, self.quadratic_modes, radius, served)
+        self.check_free_response(xc[last], zc, xc, last)
+        return self
+
+    def _fit_second_order(self, x: np.ndarray, z: np.ndarray, x_history: np.ndarray,
+                          z_history: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Newmark's average acceleration on a reduced M z'' + C z' + K z = P x + g, fitted as
+        z+ - 2 z0 + z- = -K' (z+ + 2 z0 + z-) - C' (z+ - z-) + P' (x+ + 2 x0 + x-) + c (K', C', P' absorb M^-1 and
+        dt) and solved for z+: a step map whose force weights are the structure's, 1 : 2 : 1, and whose
+        instantaneous response follows from the same operators as its history's."""
+        r_u, r_f = z.shape[1], x.shape[1]
+        z0, z1 = z_history[:, :r_u], z_history[:, r_u:]
+        x0, x1 = x_history[:, :r_f], x_history[:, r_f:]
+        scale = self.bases_.z_scale
+        target = (z - 2 * z0 + z1) / scale
+        features = np.hstack([-(z + 2 * z0 + z1) / scale, -(z - z1) / scale, x + 2 * x0 + x1])
+        ridge = Ridge(alpha=self.ridge * len(features), fit_intercept=True, solver="svd").fit(features, target)
+        K, C, P = np.split(ridge.coef_ * np.concatenate([np.ones(2 * r_u), np.full(r_f, scale)]), [r_u, 2 * r_u],
+                           axis=1)
+        c = ridge.intercept_ * scale
+        L = np.eye(r_u) + K + C
+        W_f = np.linalg.solve(L, P)
+        A = np.linalg.solve(L, np.hstack([2 * np.eye(r_u) - 2 * K, -np.eye(r_u) - K + C]))
+        return W_f, A, np.hstack([2 * W_f, W_f]), np.zeros((r_u, 0)), np.linalg.solve(L, c)
+
+    def _fit_trapezoidal(self, x: np.ndarray, z: np.ndarray, window: np.ndarray, xc: np.ndarray,
+                         zc: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The force only through Newmark's weighted sum x+ + 2 x0 + x- (its weights 1 : 2 : 1 fixed), the
+        displacement history free."""
+        r_f = x.shape[1]
+        x_history = lagged(xc, window, 2)
+        forcing = x + 2 * x_history[:, :r_f] + x_history[:, r_f:]
+        z_history = lagged(zc, window, self.history)
+        scale = self.bases_.z_scale
+        ridge = Ridge(alpha=self.ridge * len(z), fit_intercept=True, solver="svd")
+        ridge.fit(np.hstack([forcing, z_history / scale]), z / scale)
+        W, A = ridge.coef_[:, :r_f] * scale, ridge.coef_[:, r_f:]
+        return W, A, np.hstack([2 * W, W]), np.zeros((z.shape[1], 0)), ridge.intercept_ * scale
+
+    def _fit_free(self, x: np.ndarray, z: np.ndarray, window: np.ndarray, xc: np.ndarray,
+                  zc: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Every weight of the step map free, by ridge least squares on scaled features."""
+        features = self._features(x, lagged(zc, window, self.history), lagged(xc, window, self.force_history),
+                                   lagged(zc, window, 1))
+        scale = self.bases_.z_scale
+        ridge = Ridge(alpha=self.ridge * len(features), fit_intercept=True, solver="svd")
+        ridge.fit(features / self._feature_scales(), z / scale)
+        W = ridge.coef_ / self._feature_scales()[None, :] * scale      # back to reduced units
+        r_f, r_u, p, q = self.modes[0], self.modes[1], self.history, self.force_history
+        W_f, A, B, Q = np.split(W, np.cumsum([r_f, p * r_u, q * r_f]), axis=1)
+        return W_f, A, B, Q, ridge.intercept_ * scale
+
+    @property
+    def modes(self) -> tuple[int, int]:
+        return min(self.force_modes, self.bases_.x_all.shape[1]), min(self.disp_modes, self.bases_.z_all.shape[1])
+
+    def _features(self, x: np.ndarray, z_history: np.ndarray, x_history: np.ndarray, last: np.ndarray) -> np.ndarray:
+        k = self.quadratic_modes
+        i, j = quadratic_pairs(k)
+        quadratic = (last[:, :k][:, i] * last[:, :k][:, j]) / self.bases_.z_scale
+        return np.hstack([x, z_history, x_history, quadratic])
+
+    def _feature_scales(self) -> np.ndarray:
+        """Per feature column: the forces' coordinates are scaled already; displacements by the z scale."""
+        r_f, r_u = self.modes
+        k = self.quadratic_modes
+        return np.concatenate([np.ones(r_f), np.full(self.history * r_u, self.bases_.z_scale),
+                               np.ones(self.force_history * r_f), np.full(k * (k + 1) // 2, self.bases_.z_scale)])
+
+    def rollout(self, x: np.ndarray, z_history: np.ndarray, x_history: np.ndarray) -> np.ndarray:
+        """Reduced displacements of consecutive windows driven by the reduced forces ``x`` (n, r_f), each window's
+        answer joining the history (newest first: (p, r_u) and (q, r_f))."""
+        step = self.map_
+        z_history, x_history = z_history.copy(), x_history.copy()
+        Z = np.empty((len(x), step.W_f.shape[0]))
+        for n, x_n in enumerate(x):       # a recurrence: each window needs the last one's answer
+            Z[n] = step.step(x_n, z_history, x_history)
+            z_history = np.vstack([Z[n], z_history[:-1]])
+            if len(x_history):
+                x_history = np.vstack([x_n, x_history[:-1]])
+        return Z
+
+    def history_before(self, zc: np.ndarray, xc: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
+        """The histories a call of ``window`` starts from, from converged reduced rows of windows 0, 1, ..."""
+        z_history = zc[np.maximum(window - 1 - np.arange(self.history), 0)]
+        x_history = xc[np.maximum(window - 1 - np.arange(self.force_history), 0)]
+        return z_history, x_history
+
+    def check_free_response(self, x_hold: np.ndarray, zc: np.ndarray, xc: np.ndarray, last: int,
+                            windows: int = 2000) -> None:
+        """Hold the last converged force for ``windows`` windows from the last state: refuse a model whose
+        response leaves ten times the training range."""
+        z_history, x_history = self.history_before(zc, xc, last + 1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            Z = self.rollout(np.repeat(x_hold[None, :], windows, axis=0), z_history, x_history)
+        span = float(np.ptp(zc, axis=0).max()) or 1.0
+        grown = np.abs(Z - zc[last]).max() if np.isfinite(Z).all() else np.inf
+        if grown > 10 * span:
+            raise UnstableModel(f"the step map's free response grows to {grown:.3g} (training range {span:.3g}) "
+                                f"under a held force over {windows} windows (linear part's spectral radius "
+                                f"{self.map_.radius_served:.6f}, quadratic modes {self.quadratic_modes})")
+
+    def validation_error(self, data: WindowData, first: int, last: int) -> float:
+        """The field error e of a rollout over windows ``first`` to ``last`` driven by the recorded converged forces,
+        started from the recorded history: mean_t ||U - U_rom|| / mean_t ||U||."""
+        x, z, xc, zc = self.bases_.reduced(*self.modes, data=data)
+        Z = self.rollout(xc[first:last + 1], *self.history_before(zc, xc, first))
+        U = data.converged_rows()[1][first:last + 1]
+        U_rom = self.bases_.decoder.inverse_transform_modes(Z)
+        return float(np.linalg.norm(U - U_rom, axis=1).mean() / max(np.linalg.norm(U, axis=1).mean(), 1e-300))
+
+
+class _Decoder(PodDecoder):
+    def inverse_transform_modes(self, Z: np.ndarray) -> np.ndarray:
+        return Z @ self.components_[:, :Z.shape[1]].T + self.mean_
+
+
+class Bases:
+    """The force and displacement PODs of a block of calls, at the largest mode counts a grid asks for."""
+
+    def __init__(self, data: WindowData, rows: np.ndarray, force_modes: int, disp_modes: int):
+        self.encoder = PodEncoder(modes=force_modes).fit(data.F[rows])
+        self.decoder = _Decoder(modes=disp_modes)
+        self.decoder.fit_transform(data.U[rows])
+        self._data = data
+        self.x_all, self.z_all, self.xc_all, self.zc_all = self._reduce(data)
+        self.z_scale = float(np.sqrt(np.mean(self.z_all[:, 0] ** 2))) or 1.0
+
+    def _reduce(self, data: WindowData) -> tuple[np.ndarray, ...]:
+        Fc, Uc = data.converged_rows()
+        return (self.encoder.transform(data.F), self.z_of(data.U), self.encoder.transform(Fc), self.z_of(Uc))
+
+    def z_of(self, U: np.ndarray) -> np.ndarray:
+        return (U - self.decoder.mean_) @ self.decoder.components_
+
+    def reduced(self, force_modes: int, disp_modes: int, data: WindowData | None = None) -> tuple[np.ndarray, ...]:
+        """x, z of every call and xc, zc of every converged window (0 = rest), truncated."""
+        arrays = (self.x_all, self.z_all, self.xc_all, self.zc_all) if data is None or data is self._data \
+            else self._reduce(data)
+        r_f, r_u = min(force_modes, arrays[0].shape[1]), min(disp_modes, arrays[1].shape[1])
+        return arrays[0][:, :r_f], arrays[1][:, :r_u], arrays[2][:, :r_f], arrays[3][:, :r_u]
+
+
+@dataclass
+class HoldoutRow:
+    settings: dict[str, Any]
+    error: float
+    radius: float
+    refused: str = ""
+
+
+def holdout(data: WindowData, last_window: int, grid: dict[str, Sequence[Any]], fraction: float,
+            max_radius: float = 1.0) -> list[HoldoutRow]:
+    """Every combination of ``grid`` fitted on the first windows and scored by a rollout over the last
+    ``fraction`` of windows 1 to ``last_window`` (whole windows, driven by their recorded forces)."""
+    split = max(2, int(round(last_window * (1 - fraction))))
+    if split >= last_window:
+        raise ValueError(f"a hold-out of {fraction:g} of {last_window} windows leaves none to test")
+    keys = list(grid)
+    combos = np.array(np.meshgrid(*[np.arange(len(grid[k])) for k in keys], indexing="ij")).reshape(len(keys), -1).T
+    bases = Bases(data, data.select(1, split), max(grid["force_modes"]), max(grid["disp_modes"]))
+    rows = []
+    for combo in combos:
+        settings = {k: grid[k][i] for k, i in zip(keys, combo)}
+        model = StepMapRom(**settings, max_radius=max_radius)
+        try:
+            model.fit(data, split, bases=bases)
+        except UnstableModel as exc:
+            rows.append(HoldoutRow(settings, np.inf, np.nan, str(exc)))
+            continue
+        rows.append(HoldoutRow(settings, model.validation_error(data, split + 1, last_window), model.map_.radius))
+    return rows

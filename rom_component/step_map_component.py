@@ -1,0 +1,196 @@
+"""A step-map ROM (``rom_component.step_map``) behind the component contract: a structure with inertia.
+
+The component keeps its reduced history: the converged reduced displacements and forces of the last
+windows. A window's calls all start from that history (``repeats_steps``: a call with the same ``t``
+solves the window again from its start, one with a later ``t`` closes the window, whose last call was the
+converged one, and moves the history on). Taking over from the full-order structure at a switch time,
+it is handed the full-order run's last converged windows (``take_over``) and projects them on its bases.
+Its outputs: the interface displacement, and the probes the full-order structure recorded (Mok's
+``point_a`` and ``point_b``), decoded from the same reduced displacement; the whole field is rebuilt
+once, at ``terminate``. Trust as for the static ROM: the window's force against the training range.
+A fallback to the full-order structure cannot be offered: its state would be the switch time's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
+from cosim.errors import ComponentError, CosimError
+from cosim.schema import Choice, FilePath, Value
+from rom_component.envelope import trust
+from rom_component.persistence import load_arrays
+from rom_component.step_map import StepMap
+
+SCHEMA = {"model": FilePath(), "on_out_of_range": Choice("warn", ("warn", "fail")),
+          "range_margin": Value(0.05, low=0.0)}
+HELP = {
+    "model": "the step-map model file written by `cosim train` with dynamics.memory = true (.npz)",
+    "on_out_of_range": "a call outside the training range: 'warn' or 'fail' (a structure with inertia cannot fall "
+                       "back to its full-order solver, whose state would be the switch time's)",
+    "range_margin": "how far beyond the training range (in range widths of each reduced force) a call is still in "
+                    "range",
+}
+TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
+CHECKPOINTED = ("z_history", "x_history", "_z", "_x", "_window_time", "_dt", "_times", "_reduced", "trust_values")
+
+
+class StepMapRomSolid(Component):
+    """A trained step-map ROM (``model``: path of the .npz) in a dynamic structure's place."""
+
+    name = "structure_rom"
+    parameter_schema = SCHEMA
+    parameter_help = HELP
+    repeats_steps = True
+
+    def instantiate(self, parameters: Mapping[str, Any]) -> None:
+        prm = self.validated(parameters)
+        if not prm["model"]:
+            raise ComponentError(self.name, "parameter 'model' (path of the trained .npz) is not set")
+        try:
+            arrays, meta = load_arrays(prm["model"])
+        except CosimError as exc:
+            raise ComponentError(self.name, str(exc)) from None
+        if meta.get("kind") != "step-map":
+            raise ComponentError(self.name, f"model '{prm['model']}' is a {meta.get('kind', 'static')} ROM, not a "
+                                            "step map (train it with dynamics.memory = true)")
+        self.on_out_of_range, self.range_margin = prm["on_out_of_range"], prm["range_margin"]
+        self.meta, self.arrays = meta, arrays
+        self.map = StepMap(arrays["W_f"], arrays["W_z"], arrays["W_h"], arrays["W_q"], arrays["c"],
+                           int(meta["quadratic_modes"]))
+        self.E, self.e, self.A, self.base = arrays["E"], arrays["e"], arrays["A"], arrays["base"]
+        self.P, self.p0 = arrays["P"], arrays["p0"]
+        self.A_pinv = np.linalg.pinv(self.A)              # interface displacements to reduced ones (take-over)
+        self.envelope = {k: v for k, v in arrays.items() if k.startswith("envelope_")}
+        self.input_name, self.output_name = meta["input_variable"], meta["output_variable"]
+        declared = {v["name"]: v for v in meta.get("variables", [])}
+        self.placement = {name: (declared.get(name, {}).get("mesh", ""), declared.get(name, {}).get("components", 1))
+                          for name in (self.input_name, self.output_name)}
+        self.mesh_nodes = {k[len(MESH_PREFIX):]: v for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
+        self.probes = list(meta.get("probes", []))
+        self.history_windows = max(self.map.history, self.map.force_history)
+        self.trained_dt = float(meta["dt"])
+        r_f, r_u = self.E.shape[0], self.A.shape[1]
+        rest_z, rest_x = self._reduce_rest()
+        self.z_history = np.tile(rest_z, (self.map.history, 1))          # newest first
+        self.x_history = np.tile(rest_x, (self.map.force_history, 1)).reshape(self.map.force_history, r_f)
+        self._z, self._x = np.zeros(r_u), np.zeros(r_f)
+        self._window_time: float | None = None
+        self._dt = self.trained_dt
+        self._times: list[float] = []
+        self._reduced: list[np.ndarray] = []
+        self.trust_values = np.zeros(3)
+
+    def _reduce_rest(self) -> tuple[np.ndarray, np.ndarray]:
+        """The reduced coordinates of the structure at rest (zero field, zero force)."""
+        Phi, mean = self.arrays["Phi_u"], self.arrays["u_mean"]
+        return -(mean @ Phi), -self.e
+
+    def _shape(self, name: str, size: int) -> tuple[int, ...]:
+        return Variable(name, "input", size, components=self.placement[name][1]).shape
+
+    def variables(self) -> list[Variable]:
+        (in_mesh, in_k), (out_mesh, out_k) = self.placement[self.input_name], self.placement[self.output_name]
+        return [Variable(self.input_name, "input", self.E.shape[1], mesh=in_mesh, components=in_k),
+                Variable(self.output_name, "output", self.A.shape[0], mesh=out_mesh, components=out_k),
+                *[Variable(name, "local", 2, "m") for name in self.probes],
+                *[Variable(name, "local", 1) for name in TRUST_LOCALS]]
+
+    def meshes(self) -> dict[str, np.ndarray]:
+        return self.mesh_nodes
+
+    # --- the window's calls ------------------------------------------------------------------------
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        check_inputs(self, inputs, {self.input_name: self._shape(self.input_name, self.E.shape[1])})
+        if abs(dt - self.trained_dt) > 1e-9 * self.trained_dt:
+            raise ComponentError(self.name, f"window size {dt:g} s at t = {t:g} s: the step map was trained on "
+                                            f"windows of {self.trained_dt:g} s")
+        if self._window_time is None or abs(t - self._window_time) > 1e-9 * max(1.0, abs(t)):
+            if self._window_time is not None and t < self._window_time:
+                raise ComponentError(self.name, f"cannot step back from the window starting at {self._window_time:g} s "
+                                                f"to one starting at {t:g} s")
+            self._close_window()
+            self._window_time, self._dt = t, dt
+        force = np.ravel(inputs[self.input_name]) if self.input_name in inputs else None
+        if force is not None:
+            self._x = self.E @ force - self.e
+        self._z = self.map.step(self._x, self.z_history, self.x_history)
+        excess, distance = trust(self._x, self.envelope)
+        out = excess > self.range_margin
+        self.trust_values = np.array((excess, distance, 1.0 if out else 0.0))
+        if out:
+            message = (f"input outside the training range at t = {t:g} s (a reduced force mode beyond the training "
+                       f"data by {excess:.3g} of its range, more than {self.range_margin:g})")
+            if self.on_out_of_range == "fail":
+                raise ComponentError(self.name, message)
+            self.warn(message)
+        return self._outputs()
+
+    def _outputs(self) -> dict[str, np.ndarray]:
+        u = self.A @ self._z + self.base
+        probes = self.P @ self._z + self.p0
+        (_, out_k) = self.placement[self.output_name]
+        return {self.output_name: u.reshape(self._shape(self.output_name, u.size)),
+                **{name: probes[2 * i:2 * i + 2].copy() for i, name in enumerate(self.probes)},
+                **{name: self.trust_values[i:i + 1].copy() for i, name in enumerate(TRUST_LOCALS)}}
+
+    def _close_window(self) -> None:
+        """The last call of the window in flight was its converged one: it joins the history."""
+        if self._window_time is None:
+            return
+        self.z_history = np.vstack([self._z, self.z_history[:-1]])
+        if self.map.force_history:
+            self.x_history = np.vstack([self._x, self.x_history[:-1]])
+        self._times.append(self._window_time + self._dt)
+        self._reduced.append(self._z.copy())
+
+    def set_values(self, values: Mapping[str, np.ndarray]) -> None:
+        raise ComponentError(self.name, "takes its inputs with step (it repeats a window from its start)")
+
+    def do_step(self, t: float, dt: float) -> None:
+        raise ComponentError(self.name, "steps with step (it repeats a window from its start)")
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        known = self._outputs()
+        return {name: known[name] for name in names}
+
+    # --- history --------------------------------------------------------------------------------
+    def take_over(self, inputs: Mapping[str, np.ndarray], outputs: Mapping[str, np.ndarray]) -> None:
+        """Start from the full-order structure's last converged windows (rows oldest first): their forces and
+        interface displacements projected on the ROM's bases. Fewer windows than the history: rest before them."""
+        forces, displacements = inputs.get(self.input_name), outputs.get(self.output_name)
+        if forces is None or displacements is None or len(forces) != len(displacements):
+            raise ComponentError(self.name, f"take_over needs as many rows of '{self.input_name}' as of "
+                                            f"'{self.output_name}'")
+        n = len(forces)
+        X = forces.reshape(n, -1) @ self.E.T - self.e
+        Z = (displacements.reshape(n, -1) - self.base) @ self.A_pinv.T
+        for x, z in zip(X, Z):          # oldest first
+            self.z_history = np.vstack([z, self.z_history[:-1]])
+            if self.map.force_history:
+                self.x_history = np.vstack([x, self.x_history[:-1]])
+        self._window_time = None
+
+    def checkpoint(self) -> Any:
+        return {name: (np.array(getattr(self, name)) if isinstance(getattr(self, name), np.ndarray)
+                       else getattr(self, name)) for name in CHECKPOINTED}
+
+    def restore_checkpoint(self, state: Any) -> None:
+        for name, value in state.items():
+            if name not in CHECKPOINTED:
+                raise ComponentError(self.name, f"checkpoint holds '{name}', which this ROM component does not keep")
+            setattr(self, name, value)
+        self._reduced = [np.asarray(z) for z in self._reduced]
+
+    def terminate(self) -> dict[str, np.ndarray]:
+        """Reduced displacements of every converged window and the full field rebuilt from them."""
+        self._close_window()
+        self._window_time = None
+        if not self._reduced:
+            return {}
+        reduced = np.stack(self._reduced)
+        field = reduced @ self.arrays["Phi_u"].T + self.arrays["u_mean"]
+        return {"time": np.array(self._times), "reduced": reduced, "full_field": field}

@@ -1,0 +1,113 @@
+"""The step-map ROM of a structure with inertia, on a structure whose step map is known: a chain of masses and
+springs integrated by Newmark's average acceleration, whose windows are repeated with perturbed forces as a
+coupling's sub-iterations repeat them."""
+
+import numpy as np
+import pytest
+
+from rom_component.step_map import StepMapRom, UnstableModel, WindowData, companion_radius, holdout, stabilised
+
+DT = 0.1
+
+
+def chain(n: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """Mass and stiffness of a clamped chain of ``n`` unit masses (stiffness 40 per spring)."""
+    K = 40.0 * (2 * np.eye(n) - np.eye(n, k=1) - np.eye(n, k=-1))
+    K[-1, -1] = 40.0
+    return np.eye(n), K
+
+
+def newmark_calls(windows: int = 160, n: int = 12, seed: int = 0) -> WindowData:
+    """Every call of a run: per window 2 to 4 calls from the same start state, the last at the converged force."""
+    M, K = chain(n)
+    rng = np.random.default_rng(seed)
+    beta, gamma = 0.25, 0.5
+    lhs = M / (beta * DT ** 2) + K
+    u, v, a = np.zeros(n), np.zeros(n), np.zeros(n)
+    shape = np.linspace(0.2, 1.0, n)
+    F, U, window, converged = [], [], [], []
+    for w in range(1, windows + 1):
+        t = w * DT
+        force = shape * (1 - np.cos(0.6 * t)) + 0.3 * np.sin(1.7 * t) * shape[::-1]
+
+        def solve(f: np.ndarray) -> np.ndarray:
+            rhs = f + M @ (u / (beta * DT ** 2) + v / (beta * DT) + (0.5 / beta - 1) * a)
+            return np.linalg.solve(lhs, rhs)
+
+        calls = int(rng.integers(2, 5))
+        for k in range(calls):
+            f = force if k == calls - 1 else force + 0.05 * rng.standard_normal(n) * (calls - k)
+            F.append(f)
+            U.append(solve(f))
+            window.append(w)
+            converged.append(k == calls - 1)
+        u_new = U[-1]
+        a_new = (u_new - u - DT * v - DT ** 2 * (0.5 - beta) * a) / (beta * DT ** 2)
+        v = v + DT * ((1 - gamma) * a + gamma * a_new)
+        u, a = u_new, a_new
+    return WindowData(np.array(F), np.array(U), np.array(window), np.array(converged))
+
+
+@pytest.mark.parametrize("form", ["free", "trapezoidal"])
+def test_a_linear_structure_s_step_map_is_learned_to_round_off(form):
+    """Newmark on a linear structure is the two-step map z+ = W (x+ + 2 x0 + x-) + A1 z0 + A2 z- in the full
+    coordinates: with every mode kept, a rollout over unseen windows repeats the structure to 1e-8."""
+    data = newmark_calls()
+    model = StepMapRom(force_modes=12, disp_modes=12, history=2, force_history=2, ridge=0.0, form=form).fit(data, 120)
+    assert model.validation_error(data, 121, 160) < 1e-8
+    # undamped, non-dissipative: every eigenvalue of the linear part on the unit circle
+    assert model.map_.radius == pytest.approx(1.0, abs=1e-6)
+
+
+def test_sub_iterations_identify_the_instantaneous_response():
+    """The calls of one window differ only in the force: their differences are W_f times the force's."""
+    data = newmark_calls()
+    model = StepMapRom(force_modes=12, disp_modes=12, history=2, force_history=2, ridge=0.0, form="free").fit(data, 120)
+    M, K = chain()
+    exact = np.linalg.inv(M / (0.25 * DT ** 2) + K)
+    encoder, decoder = model.bases_.encoder, model.bases_.decoder
+    # W_f in the full coordinates: decoder modes @ W_f @ encoder's Jacobian
+    full = decoder.components_[:, :12] @ model.map_.W_f @ encoder.jacobian()[:12]
+    np.testing.assert_allclose(full, exact, atol=1e-9 * np.abs(exact).max())
+
+
+def test_holdout_chooses_enough_history():
+    """One displacement and no force of history cannot carry a structure's velocity: the hold-out prefers two."""
+    data = newmark_calls()
+    rows = holdout(data, 120, {"form": ["free"], "force_modes": [12], "disp_modes": [12], "history": [1, 2],
+                               "force_history": [0, 2], "ridge": [0.0], "quadratic_modes": [0]}, 0.25)
+    best = min(rows, key=lambda row: row.error)
+    assert best.settings["history"] == 2 and best.settings["force_history"] == 2
+    worst = [row for row in rows if row.settings["history"] == 1 and row.settings["force_history"] == 0][0]
+    assert worst.error > 100 * best.error
+
+
+def test_stabilisation_scales_every_eigenvalue_exactly():
+    rng = np.random.default_rng(1)
+    A = rng.standard_normal((3, 6))
+    radius = companion_radius(A)
+    assert radius > 1.0
+    scaled, before, after = stabilised(A, 0.9)
+    assert before == pytest.approx(radius) and after == pytest.approx(0.9, rel=1e-12)
+    same, _, untouched = stabilised(A, 2 * radius)
+    assert same is A and untouched == pytest.approx(radius)
+
+
+def test_a_growing_free_response_is_refused():
+    """Quadratic terms fitted on noise-free data can run away under a held force: such a model is refused."""
+    data = newmark_calls()
+    model = StepMapRom(force_modes=12, disp_modes=12, history=2, force_history=2, ridge=0.0, form="free")
+    model.fit(data, 120)
+    step = model.map_
+    step.Q = np.full((12, 3), 1e3)          # a strongly growing quadratic term on the leading two modes
+    step.quadratic_modes = 2
+    step.pairs = np.triu_indices(2)
+    x, z, xc, zc = model.bases_.reduced(12, 12)
+    with pytest.raises(UnstableModel, match="free response grows"):
+        model.check_free_response(xc[120], zc, xc, 120)
+
+
+def test_window_data_needs_one_converged_call_per_window_in_order():
+    data = newmark_calls(windows=4)
+    with pytest.raises(ValueError, match="one converged call per window"):
+        WindowData(data.F, data.U, data.window, np.zeros(len(data.window), dtype=bool))
