@@ -119,7 +119,12 @@ PARTS: dict[str, Registry[Any]] = {"encoder": ENCODERS, "regressor": REGRESSORS,
 
 
 def describe_parts(params: dict[str, dict[str, Any]]) -> str:
-    """A model's parts in one line: ``r_f=45 r_u=9 pod(scaling=global) poly(method=ridge, ...) quadratic(...)``."""
+    """A model's parts in one line: ``r_f=45 r_u=9 pod(scaling=global) poly(method=ridge, ...) quadratic(...)``; a
+    step map's settings: ``r_f=12 r_u=8 step-map(history=4, ...)``."""
+    if "step_map" in params:
+        step = dict(params["step_map"])
+        modes = f"r_f={step.pop('force_modes', None)} r_u={step.pop('disp_modes', None)}"
+        return f"{modes} step-map({', '.join(f'{k}={v}' for k, v in step.items())})"
     def settings(kind: str) -> str:
         part = params.get(kind, {})
         inner = ", ".join(f"{k}={v}" for k, v in part.items() if k not in ("type", "modes"))

@@ -5,20 +5,25 @@ structure's state at its start (its displacement, velocity and acceleration), wh
 converged windows carries. In reduced coordinates (x: a POD of the forces, scaled; z: a POD of the
 displacement field)::
 
-    z_{n+1} = W_f x_{n+1} + sum_{k=1..p} A_k z_{n+1-k} + sum_{k=1..q} B_k x_{n+1-k} + c   [+ Q q(z_n)]
+    z_{n+1} = W (x_{n+1} + 2 x_n + x_{n-1}) + sum_{k=1..p} A_k z_{n+1-k} + c   [+ Q q(z_n)]
 
 with q(z_n) the products of the leading ``quadratic_modes`` coordinates of the last state (a
-geometrically nonlinear structure). For a linear structure under Newmark's average acceleration the
-map with p = 2, q = 2 is exact in the full coordinates: M (u_{n+1} - 2 u_n + u_{n-1}) / dt^2 +
-K (u_{n+1} + 2 u_n + u_{n-1}) / 4 = (f_{n+1} + 2 f_n + f_{n-1}) / 4.
+geometrically nonlinear structure). The force enters only through Newmark's weighted sum: for a linear
+structure under Newmark's average acceleration, M (u_{n+1} - 2 u_n + u_{n-1}) / dt^2 +
+K (u_{n+1} + 2 u_n + u_{n-1}) / 4 = (f_{n+1} + 2 f_n + f_{n-1}) / 4, so the map with p = 2 is exact in the
+full coordinates. Fixing the weights 1 : 2 : 1 matters in a coupled run: the fluid's force carries the
+added mass, - m_a (u_{n+1} - 2 u_n + u_{n-1}) / dt^2, so an error in how a map weighs past forces against
+the present one is multiplied by m_a / (m dt^2) in the loop (on Mok's benchmark, a map with every force
+weight free ran away within 6 s of taking over, while its open-loop error was the same: see the research
+notebook).
 
 Training pairs carry the sub-iterations' meaning: a coupling iteration solves a window again from the
 same start state with another force, so every recorded call of window n+1 is a pair (history of the
 converged windows before it, the call's force) -> the call's displacement. The fit is a ridge least
-squares (scikit-learn's ``Ridge``) on scaled features. The linear part's stability is checked at fit:
-the spectral radius of the companion matrix of A_1..A_p is reported, and a model above ``max_radius``
-is stabilised by scaling A_k by s^k (every eigenvalue times s, exactly); a free response that still
-grows (the quadratic terms) is refused.
+squares (scikit-learn's ``Ridge``). The linear part's stability is checked at fit: the spectral radius of
+the companion matrix of A_1..A_p is reported, and a model above ``max_radius`` is stabilised by scaling A_k
+by s^k (every eigenvalue times s, exactly); a free response that still grows (a held force for 2000
+windows: the quadratic terms, or a radius of 1 on a real eigenvalue) is refused.
 
 Before the first window the structure is at rest: the history is the reduced coordinates of zero force
 and zero displacement.
@@ -35,9 +40,6 @@ from sklearn.linear_model import Ridge
 
 from rom_component.decoders import PodDecoder
 from rom_component.encoders import PodEncoder
-
-
-FORMS = ("newmark", "free", "trapezoidal")
 
 
 class UnstableModel(ValueError):
@@ -159,106 +161,47 @@ class StepMapRom:
     history, as the component does in a coupled run once each window has converged.
     """
 
-    def __init__(self, force_modes: int = 8, disp_modes: int = 6, history: int = 2, force_history: int = 2,
-                 ridge: float = 1e-8, quadratic_modes: int = 0, max_radius: float = 1.0, form: str = "newmark"):
-        if form not in FORMS:
-            raise ValueError(f"form {form!r} not in {FORMS}")
-        self.force_modes, self.disp_modes = force_modes, disp_modes
-        self.form = form
-        # the second-order form is Newmark's two-step recurrence: its histories are fixed
-        self.history, self.force_history = (2, 2) if form == "newmark" else (history, 2) if form == "trapezoidal" \
-            else (history, force_history)
-        self.ridge, self.max_radius = ridge, max_radius
-        self.quadratic_modes = 0 if form == "newmark" else quadratic_modes
+    force_history = 2           # Newmark's weighted sum x+ + 2 x0 + x- spans the window and the two before it
+
+    def __init__(self, force_modes: int = 8, disp_modes: int = 6, history: int = 2, ridge: float = 1e-8,
+                 quadratic_modes: int = 0, max_radius: float = 1.0):
+        self.force_modes, self.disp_modes, self.history = force_modes, disp_modes, history
+        self.ridge, self.quadratic_modes, self.max_radius = ridge, quadratic_modes, max_radius
 
     def settings(self) -> dict[str, Any]:
-        return {"form": self.form, "force_modes": self.force_modes, "disp_modes": self.disp_modes,
-                "history": self.history, "force_history": self.force_history, "ridge": self.ridge,
-                "quadratic_modes": self.quadratic_modes, "max_radius": self.max_radius}
+        return {"force_modes": self.force_modes, "disp_modes": self.disp_modes, "history": self.history,
+                "ridge": self.ridge, "quadratic_modes": self.quadratic_modes, "max_radius": self.max_radius}
 
     def fit(self, data: WindowData, last_window: int | None = None, bases: Bases | None = None) -> StepMapRom:
         """Fit on the calls of windows 1 to ``last_window`` (default: all); ``bases``: PODs already fitted on
         those calls (the hold-out reuses them across its grid)."""
+        if self.history < 1:
+            raise ValueError(f"history {self.history}: the map needs at least the last window's displacement")
         last = data.windows if last_window is None else last_window
         rows = data.select(1, last)
         self.bases_ = bases or Bases(data, rows, self.force_modes, self.disp_modes)
         x, z, xc, zc = self.bases_.reduced(self.force_modes, self.disp_modes)
-        window = data.window[rows]
-        if self.form == "trapezoidal":
-            W_f, A, B, Q, c = self._fit_trapezoidal(x[rows], z[rows], window, xc, zc)
-        elif self.form == "newmark":
-            W_f, A, B, Q, c = self._fit_second_order(x[rows], z[rows], lagged(xc, window, 2), lagged(zc, window, 2))
-        else:
-            W_f, A, B, Q, c = self._fit_free(x[rows], z[rows], window, xc, zc)
-        A, radius, served = stabilised(A, self.max_radius)
-        self.map_ = StepMap(W_f, A, B, Q, c, self.quadratic_modes, radius, served)
-        self.check_free_response(xc[last], zc, xc, last)
-        return self
-
-    def _fit_second_order(self, x: np.ndarray, z: np.ndarray, x_history: np.ndarray,
-                          z_history: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Newmark's average acceleration on a reduced M z'' + C z' + K z = P x + g, fitted as
-        z+ - 2 z0 + z- = -K' (z+ + 2 z0 + z-) - C' (z+ - z-) + P' (x+ + 2 x0 + x-) + c (K', C', P' absorb M^-1 and
-        dt) and solved for z+: a step map whose force weights are the structure's, 1 : 2 : 1, and whose
-        instantaneous response follows from the same operators as its history's."""
-        r_u, r_f = z.shape[1], x.shape[1]
-        z0, z1 = z_history[:, :r_u], z_history[:, r_u:]
-        x0, x1 = x_history[:, :r_f], x_history[:, r_f:]
-        scale = self.bases_.z_scale
-        target = (z - 2 * z0 + z1) / scale
-        features = np.hstack([-(z + 2 * z0 + z1) / scale, -(z - z1) / scale, x + 2 * x0 + x1])
-        ridge = Ridge(alpha=self.ridge * len(features), fit_intercept=True, solver="svd").fit(features, target)
-        K, C, P = np.split(ridge.coef_ * np.concatenate([np.ones(2 * r_u), np.full(r_f, scale)]), [r_u, 2 * r_u],
-                           axis=1)
-        c = ridge.intercept_ * scale
-        L = np.eye(r_u) + K + C
-        W_f = np.linalg.solve(L, P)
-        A = np.linalg.solve(L, np.hstack([2 * np.eye(r_u) - 2 * K, -np.eye(r_u) - K + C]))
-        return W_f, A, np.hstack([2 * W_f, W_f]), np.zeros((r_u, 0)), np.linalg.solve(L, c)
-
-    def _fit_trapezoidal(self, x: np.ndarray, z: np.ndarray, window: np.ndarray, xc: np.ndarray,
-                         zc: np.ndarray) -> tuple[np.ndarray, ...]:
-        """The force only through Newmark's weighted sum x+ + 2 x0 + x- (its weights 1 : 2 : 1 fixed), the
-        displacement history free."""
-        r_f = x.shape[1]
+        x, z, window = x[rows], z[rows], data.window[rows]
+        if self.quadratic_modes > z.shape[1]:
+            raise ValueError(f"quadratic_modes {self.quadratic_modes} exceeds the {z.shape[1]} displacement modes")
+        r_f, r_u, k = x.shape[1], z.shape[1], self.quadratic_modes
         x_history = lagged(xc, window, 2)
         forcing = x + 2 * x_history[:, :r_f] + x_history[:, r_f:]
-        z_history = lagged(zc, window, self.history)
+        last_z = lagged(zc, window, 1)[:, :k]
+        i, j = quadratic_pairs(k)
         scale = self.bases_.z_scale
-        ridge = Ridge(alpha=self.ridge * len(z), fit_intercept=True, solver="svd")
-        ridge.fit(np.hstack([forcing, z_history / scale]), z / scale)
-        W, A = ridge.coef_[:, :r_f] * scale, ridge.coef_[:, r_f:]
-        return W, A, np.hstack([2 * W, W]), np.zeros((z.shape[1], 0)), ridge.intercept_ * scale
-
-    def _fit_free(self, x: np.ndarray, z: np.ndarray, window: np.ndarray, xc: np.ndarray,
-                  zc: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Every weight of the step map free, by ridge least squares on scaled features."""
-        features = self._features(x, lagged(zc, window, self.history), lagged(xc, window, self.force_history),
-                                   lagged(zc, window, 1))
-        scale = self.bases_.z_scale
-        ridge = Ridge(alpha=self.ridge * len(features), fit_intercept=True, solver="svd")
-        ridge.fit(features / self._feature_scales(), z / scale)
-        W = ridge.coef_ / self._feature_scales()[None, :] * scale      # back to reduced units
-        r_f, r_u, p, q = self.modes[0], self.modes[1], self.history, self.force_history
-        W_f, A, B, Q = np.split(W, np.cumsum([r_f, p * r_u, q * r_f]), axis=1)
-        return W_f, A, B, Q, ridge.intercept_ * scale
+        features = np.hstack([forcing, lagged(zc, window, self.history) / scale, last_z[:, i] * last_z[:, j] / scale ** 2])
+        ridge = Ridge(alpha=self.ridge * len(z), fit_intercept=True, solver="svd").fit(features, z / scale)
+        W, A, Q = np.split(ridge.coef_, [r_f, r_f + self.history * r_u], axis=1)
+        W, Q = W * scale, Q / scale
+        A, radius, served = stabilised(A, self.max_radius)
+        self.map_ = StepMap(W, A, np.hstack([2 * W, W]), Q, ridge.intercept_ * scale, k, radius, served)
+        self.check_free_response(xc[last], zc, xc, last)
+        return self
 
     @property
     def modes(self) -> tuple[int, int]:
         return min(self.force_modes, self.bases_.x_all.shape[1]), min(self.disp_modes, self.bases_.z_all.shape[1])
-
-    def _features(self, x: np.ndarray, z_history: np.ndarray, x_history: np.ndarray, last: np.ndarray) -> np.ndarray:
-        k = self.quadratic_modes
-        i, j = quadratic_pairs(k)
-        quadratic = (last[:, :k][:, i] * last[:, :k][:, j]) / self.bases_.z_scale
-        return np.hstack([x, z_history, x_history, quadratic])
-
-    def _feature_scales(self) -> np.ndarray:
-        """Per feature column: the forces' coordinates are scaled already; displacements by the z scale."""
-        r_f, r_u = self.modes
-        k = self.quadratic_modes
-        return np.concatenate([np.ones(r_f), np.full(self.history * r_u, self.bases_.z_scale),
-                               np.ones(self.force_history * r_f), np.full(k * (k + 1) // 2, self.bases_.z_scale)])
 
     def rollout(self, x: np.ndarray, z_history: np.ndarray, x_history: np.ndarray) -> np.ndarray:
         """Reduced displacements of consecutive windows driven by the reduced forces ``x`` (n, r_f), each window's

@@ -70,9 +70,8 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
         raise SceneError("snapshots.t_min: a step-map ROM trains from the run's start (the history begins at rest)")
     if last < 4:
         raise SceneError(f"snapshots.t_max = {spec['t_max']:g}: only {last} windows to train on")
-    grid = {"form": dynamics["form"], "force_modes": selection["force_modes"], "disp_modes": selection["disp_modes"],
-            "history": dynamics["history"], "force_history": dynamics["force_history"],
-            "ridge": dynamics["ridge"], "quadratic_modes": dynamics["quadratic_modes"]}
+    grid = {"force_modes": selection["force_modes"], "disp_modes": selection["disp_modes"],
+            "history": dynamics["history"], "ridge": dynamics["ridge"], "quadratic_modes": dynamics["quadratic_modes"]}
     echo(f"{int(data.select(1, last).sum())} calls of '{spec['component']}' in {last} windows (t <= "
          f"{times[last - 1]:g} s, every sub-iteration), force {data.F.shape[1]}, field {data.U.shape[1]} values")
     started = time.perf_counter()
@@ -85,22 +84,25 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
          f"{cv_seconds:.1f} s; best five by the field error e:")
     for row in ranked[:5]:
         echo(f"  e = {row.error:.3e}  radius {row.radius:.4f}  " + " ".join(f"{k}={v}" for k, v in row.settings.items()))
-    if not np.isfinite(ranked[0].error):
-        raise SceneError("every model of the hold-out grid was refused: its free response grows")
-    chosen = ranked[0].settings
     fit_started = time.perf_counter()
-    try:
-        model = StepMapRom(**chosen, max_radius=dynamics["max_radius"]).fit(data, last)
-    except UnstableModel as exc:
-        raise SceneError(f"the chosen step map fitted on all {last} windows: {exc}") from None
+    model, refusals = None, []
+    for row in (row for row in ranked if np.isfinite(row.error)):   # the best one whose fit on every window holds
+        try:
+            model = StepMapRom(**row.settings, max_radius=dynamics["max_radius"]).fit(data, last)
+            break
+        except UnstableModel as exc:
+            refusals.append(f"{row.settings}: {exc}")
+            echo(f"refused on all {last} windows, the next one tried: " + refusals[-1])
+    if model is None:
+        raise SceneError("every model of the hold-out grid was refused: its free response grows"
+                         + (f" (the last: {refusals[-1]})" if refusals else ""))
     fit_seconds = time.perf_counter() - fit_started
     step = model.map_
     if step.radius_served < step.radius:
         echo(f"stabilised: the linear part's spectral radius {step.radius:.6f} scaled to {step.radius_served:.6f}")
     training_error = model.validation_error(data, 1, last)
     r_f, r_u = model.modes
-    echo(f"fitted r_f = {r_f}, r_u = {r_u}, history {model.history} (displacements) and {model.force_history} "
-         f"(forces), ridge {model.ridge:g}, quadratic modes {model.quadratic_modes} in {fit_seconds:.3f} s; linear "
+    echo(f"fitted r_f = {r_f}, r_u = {r_u}, history of {model.history} windows' displacements, ridge {model.ridge:g}, quadratic modes {model.quadratic_modes} in {fit_seconds:.3f} s; linear "
          f"part's spectral radius {step.radius_served:.6f}; rollout over the training windows e = {training_error:.3e}")
     K = interface_index(results, spec) if spec["field"] else np.arange(data.U.shape[1])
     encoder, decoder = model.bases_.encoder, model.bases_.decoder

@@ -35,7 +35,7 @@ CONFIG: dict[str, dict[str, Any]] = {
                   "seed": 0, "energy": Value(0.9999, low=0.0, high=1.0, low_open=True),
                   "split": Choice("snapshots", ("snapshots", "windows")), "compare_splits": False,
                   "tolerance": Value(0.0, low=0.0)},
-    "dynamics": {"memory": False, "form": ["free"], "history": [2, 3], "force_history": [1, 2], "quadratic_modes": [0],
+    "dynamics": {"memory": False, "history": [2, 3, 4], "quadratic_modes": [0],
                  "ridge": [1e-12, 1e-10, 1e-8],
                  "holdout_fraction": Value(0.25, low=0.0, high=1.0, low_open=True, high_open=True),
                  "max_radius": Value(1.0, low=0.0, low_open=True)},
@@ -71,10 +71,8 @@ MEANINGS = {
                        "(rom_component.step_map): the reduced displacement from the window's force and the last "
                        "windows' converged displacements and forces, every setting chosen by hold-out over whole "
                        "windows (selection.force_modes and disp_modes are its mode grids; model is not used)",
-    "dynamics.form": "the forms of the map the hold-out tries: 'free' (every weight fitted) or 'newmark' (a reduced "
-                     "second-order system under Newmark's average acceleration: the force weights 1 : 2 : 1)",
-    "dynamics.history": "the numbers of past converged displacements the hold-out tries",
-    "dynamics.force_history": "the numbers of past converged forces the hold-out tries",
+    "dynamics.history": "the numbers of past converged displacements the hold-out tries (the force enters through "
+                        "Newmark's weighted sum of the window's and the two before it)",
     "dynamics.quadratic_modes": "the numbers of leading reduced displacements whose products enter the map (0: a "
                                 "linear map) the hold-out tries",
     "dynamics.ridge": "the ridge penalties (relative, per snapshot) the hold-out tries",
