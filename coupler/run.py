@@ -346,7 +346,9 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
                              for n, s in scene["components"].items() if s["record"]}
                 participants = participants_of(backends)
-                scheme = build_scheme(scene, participants, recorders)
+                # the scheme knows a participant by its proxy's name (a ROM serving alone: '<name>_rom'); the
+                # results file by the scene's
+                scheme = build_scheme(scene, participants, {participants[n].name: r for n, r in recorders.items()})
                 check_plot(scene["output"], scheme.values)
                 if saved is None:
                     store.write_initial(scheme.values)

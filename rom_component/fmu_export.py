@@ -89,6 +89,13 @@ def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
 def export_fmu(model: str | Path, out: str | Path, components_per_node: int | None = None) -> Path:
     """Write the FMU for the ROM stored in ``model``; returns its path. The same model gives the same bytes."""
     arrays, metadata = load_arrays(model)
+    if metadata.get("kind") == "step-map":      # a ROM with memory: its history is the FMU's state
+        from rom_component.step_map_native import export_step_map_fmu
+        declared = {v["name"]: v for v in metadata.get("variables", [])}
+        components = components_per_node or int(declared.get(metadata["input_variable"], {}).get("components", 1))
+        out = Path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        return export_step_map_fmu(arrays, metadata, out, components)
     rom = OnlineRom(arrays, metadata)
     declared = {v["name"]: v for v in metadata.get("variables", [])}
     input_components = declared.get(metadata.get("input_variable"), {}).get("components", 1)

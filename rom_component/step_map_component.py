@@ -23,19 +23,23 @@ from cosim.errors import ComponentError, CosimError
 from cosim.schema import Choice, FilePath, Value
 from rom_component.envelope import trust
 from rom_component.persistence import load_arrays
-from rom_component.step_map import StepMap
+from rom_component.step_map_native import CompiledStepMap
+from rom_component.step_map_online import OnlineStepMap
 
-SCHEMA = {"model": FilePath(), "on_out_of_range": Choice("warn", ("warn", "fail")),
-          "range_margin": Value(0.05, low=0.0)}
+ARITHMETIC = ("reproducible", "compiled", "fast")
+SCHEMA = {"model": FilePath(), "arithmetic": Choice("reproducible", ARITHMETIC),
+          "on_out_of_range": Choice("warn", ("warn", "fail")), "range_margin": Value(0.05, low=0.0)}
 HELP = {
     "model": "the step-map model file written by `cosim train` with dynamics.memory = true (.npz)",
+    "arithmetic": "'reproducible': NumPy in the C code's order, bit-identical to the exported FMU; 'compiled': the "
+                  "FMU's own C code in-process (the same results, faster; needs a C compiler); 'fast': BLAS products",
     "on_out_of_range": "a call outside the training range: 'warn' or 'fail' (a structure with inertia cannot fall "
                        "back to its full-order solver, whose state would be the switch time's)",
     "range_margin": "how far beyond the training range (in range widths of each reduced force) a call is still in "
                     "range",
 }
 TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
-CHECKPOINTED = ("z_history", "x_history", "_z", "_x", "_window_time", "_dt", "_times", "_reduced", "trust_values")
+CHECKPOINTED = ("_window_time", "_dt", "_times", "_reduced", "trust_values")
 
 
 class StepMapRomSolid(Component):
@@ -59,11 +63,12 @@ class StepMapRomSolid(Component):
                                             "step map (train it with dynamics.memory = true)")
         self.on_out_of_range, self.range_margin = prm["on_out_of_range"], prm["range_margin"]
         self.meta, self.arrays = meta, arrays
-        self.map = StepMap(arrays["W_f"], arrays["W_z"], arrays["W_h"], arrays["W_q"], arrays["c"],
-                           int(meta["quadratic_modes"]))
-        self.E, self.e, self.A, self.base = arrays["E"], arrays["e"], arrays["A"], arrays["base"]
-        self.P, self.p0 = arrays["P"], arrays["p0"]
-        self.A_pinv = np.linalg.pinv(self.A)              # interface displacements to reduced ones (take-over)
+        try:
+            self.rom: OnlineStepMap | CompiledStepMap = (
+                CompiledStepMap(arrays, meta) if prm["arithmetic"] == "compiled"
+                else OnlineStepMap(arrays, meta, prm["arithmetic"]))
+        except CosimError as exc:            # no compiler for the compiled arithmetic
+            raise ComponentError(self.name, str(exc)) from None
         self.envelope = {k: v for k, v in arrays.items() if k.startswith("envelope_")}
         self.input_name, self.output_name = meta["input_variable"], meta["output_variable"]
         declared = {v["name"]: v for v in meta.get("variables", [])}
@@ -71,31 +76,24 @@ class StepMapRomSolid(Component):
                           for name in (self.input_name, self.output_name)}
         self.mesh_nodes = {k[len(MESH_PREFIX):]: v for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
         self.probes = list(meta.get("probes", []))
-        self.history_windows = max(self.map.history, self.map.force_history)
+        self.history_windows = int(meta["history"])
         self.trained_dt = float(meta["dt"])
-        r_f, r_u = self.E.shape[0], self.A.shape[1]
-        rest_z, rest_x = self._reduce_rest()
-        self.z_history = np.tile(rest_z, (self.map.history, 1))          # newest first
-        self.x_history = np.tile(rest_x, (self.map.force_history, 1)).reshape(self.map.force_history, r_f)
-        self._z, self._x = np.zeros(r_u), np.zeros(r_f)
+        self.n_in, self.n_out = arrays["E"].shape[1], arrays["A"].shape[0]
+        self.input_shape = self._shape(self.input_name, self.n_in)
+        self.output_shape = self._shape(self.output_name, self.n_out)
         self._window_time: float | None = None
         self._dt = self.trained_dt
         self._times: list[float] = []
         self._reduced: list[np.ndarray] = []
         self.trust_values = np.zeros(3)
 
-    def _reduce_rest(self) -> tuple[np.ndarray, np.ndarray]:
-        """The reduced coordinates of the structure at rest (zero field, zero force)."""
-        Phi, mean = self.arrays["Phi_u"], self.arrays["u_mean"]
-        return -(mean @ Phi), -self.e
-
     def _shape(self, name: str, size: int) -> tuple[int, ...]:
         return Variable(name, "input", size, components=self.placement[name][1]).shape
 
     def variables(self) -> list[Variable]:
         (in_mesh, in_k), (out_mesh, out_k) = self.placement[self.input_name], self.placement[self.output_name]
-        return [Variable(self.input_name, "input", self.E.shape[1], mesh=in_mesh, components=in_k),
-                Variable(self.output_name, "output", self.A.shape[0], mesh=out_mesh, components=out_k),
+        return [Variable(self.input_name, "input", self.n_in, mesh=in_mesh, components=in_k),
+                Variable(self.output_name, "output", self.n_out, mesh=out_mesh, components=out_k),
                 *[Variable(name, "local", 2, "m") for name in self.probes],
                 *[Variable(name, "local", 1) for name in TRUST_LOCALS]]
 
@@ -104,7 +102,10 @@ class StepMapRomSolid(Component):
 
     # --- the window's calls ------------------------------------------------------------------------
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        check_inputs(self, inputs, {self.input_name: self._shape(self.input_name, self.E.shape[1])})
+        force = inputs.get(self.input_name)
+        if len(inputs) != 1 or type(force) is not np.ndarray or force.shape != self.input_shape:
+            check_inputs(self, inputs, {self.input_name: self.input_shape})
+            raise ComponentError(self.name, f"step needs the input '{self.input_name}' at every call")
         if abs(dt - self.trained_dt) > 1e-9 * self.trained_dt:
             raise ComponentError(self.name, f"window size {dt:g} s at t = {t:g} s: the step map was trained on "
                                             f"windows of {self.trained_dt:g} s")
@@ -114,11 +115,9 @@ class StepMapRomSolid(Component):
                                                 f"to one starting at {t:g} s")
             self._close_window()
             self._window_time, self._dt = t, dt
-        force = np.ravel(inputs[self.input_name]) if self.input_name in inputs else None
-        if force is not None:
-            self._x = self.E @ force - self.e
-        self._z = self.map.step(self._x, self.z_history, self.x_history)
-        excess, distance = trust(self._x, self.envelope)
+        rom = self.rom
+        rom.evaluate(force.reshape(-1))
+        excess, distance = trust(rom.x, self.envelope)
         out = excess > self.range_margin
         self.trust_values = np.array((excess, distance, 1.0 if out else 0.0))
         if out:
@@ -130,22 +129,19 @@ class StepMapRomSolid(Component):
         return self._outputs()
 
     def _outputs(self) -> dict[str, np.ndarray]:
-        u = self.A @ self._z + self.base
-        probes = self.P @ self._z + self.p0
-        (_, out_k) = self.placement[self.output_name]
-        return {self.output_name: u.reshape(self._shape(self.output_name, u.size)),
+        rom, trust_values = self.rom, self.trust_values
+        probes = rom.probes
+        return {self.output_name: rom.u.reshape(self.output_shape).copy(),
                 **{name: probes[2 * i:2 * i + 2].copy() for i, name in enumerate(self.probes)},
-                **{name: self.trust_values[i:i + 1].copy() for i, name in enumerate(TRUST_LOCALS)}}
+                **{name: trust_values[i:i + 1].copy() for i, name in enumerate(TRUST_LOCALS)}}
 
     def _close_window(self) -> None:
         """The last call of the window in flight was its converged one: it joins the history."""
         if self._window_time is None:
             return
-        self.z_history = np.vstack([self._z, self.z_history[:-1]])
-        if self.map.force_history:
-            self.x_history = np.vstack([self._x, self.x_history[:-1]])
+        self.rom.commit()
         self._times.append(self._window_time + self._dt)
-        self._reduced.append(self._z.copy())
+        self._reduced.append(self.rom.z.copy())
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
         raise ComponentError(self.name, "takes its inputs with step (it repeats a window from its start)")
@@ -166,29 +162,38 @@ class StepMapRomSolid(Component):
             raise ComponentError(self.name, f"take_over needs as many rows of '{self.input_name}' as of "
                                             f"'{self.output_name}'")
         n = len(forces)
-        X = forces.reshape(n, -1) @ self.E.T - self.e
-        Z = (displacements.reshape(n, -1) - self.base) @ self.A_pinv.T
-        for x, z in zip(X, Z):          # oldest first
-            self.z_history = np.vstack([z, self.z_history[:-1]])
-            if self.map.force_history:
-                self.x_history = np.vstack([x, self.x_history[:-1]])
+        self.rom.take_over(forces.reshape(n, -1), displacements.reshape(n, -1))
         self._window_time = None
 
     def checkpoint(self) -> Any:
-        return {name: (np.array(getattr(self, name)) if isinstance(getattr(self, name), np.ndarray)
-                       else getattr(self, name)) for name in CHECKPOINTED}
+        """The history (reduced displacements and forces), the window in flight and the converged record."""
+        zh, xh = self.rom.history()
+        state = {name: getattr(self, name) for name in CHECKPOINTED}
+        return {**state, "trust_values": np.array(self.trust_values), "z_history": zh, "x_history": xh,
+                "z": np.array(self.rom.z), "x": np.array(self.rom.x)}
 
     def restore_checkpoint(self, state: Any) -> None:
-        for name, value in state.items():
-            if name not in CHECKPOINTED:
+        known = {*CHECKPOINTED, "z_history", "x_history", "z", "x"}
+        for name in state:
+            if name not in known:
                 raise ComponentError(self.name, f"checkpoint holds '{name}', which this ROM component does not keep")
-            setattr(self, name, value)
+        for name in CHECKPOINTED:
+            setattr(self, name, state[name])
         self._reduced = [np.asarray(z) for z in self._reduced]
+        zh, xh = np.asarray(state["z_history"]), np.asarray(state["x_history"])
+        if self._window_time is not None:     # the last window's converged call joins the history, as at its close
+            zh = np.vstack([state["z"], zh[:-1]])
+            xh = np.vstack([state["x"], xh[:-1]])
+            self._times.append(self._window_time + self._dt)
+            self._reduced.append(np.array(state["z"]))
+            self._window_time = None
+        self.rom.set_history(zh, xh)
 
     def terminate(self) -> dict[str, np.ndarray]:
         """Reduced displacements of every converged window and the full field rebuilt from them."""
         self._close_window()
         self._window_time = None
+        self.rom.close()
         if not self._reduced:
             return {}
         reduced = np.stack(self._reduced)

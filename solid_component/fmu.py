@@ -5,6 +5,11 @@ into the array variables ``name`` (node-major). The hot path calls the FMU's raw
 ``fmi2SetReal``/``fmi2DoStep``/``fmi2GetReal`` with preallocated ctypes arrays.
 By default the FMU is taken as stateless (its outputs depend on its inputs only, as a
 quasi-static solid's); ``stateful = true`` uses ``fmi2GetFMUstate``/``fmi2SetFMUstate``.
+An FMU whose ``resources/interface.json`` declares ``history_windows`` (a ROM with memory, from
+``cosim export-fmu`` of a step-map model) carries a history from window to window: the component
+repeats a window by rolling the FMU back to the window's start (``fmi2GetFMUstate`` at its first call,
+``fmi2SetFMUstate`` before each later one), and hands it a full-order run's last windows at a switch
+through the function the file names (``take_over``). Its ``local`` variables (probe points) are read as locals.
 """
 
 from __future__ import annotations
@@ -83,6 +88,7 @@ class FmuSolid(Component):
             raise ComponentError(self.name, f"FMU '{path}' cannot get and set its state (stateful = true)")
         self.inputs = self._group(md, "input")
         self.outputs = self._group(md, "output")
+        self.locals = self._group(md, "local")
         if not self.inputs or not self.outputs:
             raise ComponentError(self.name, f"FMU '{path}' has no array-named inputs or outputs "
                                             "(expected scalar names like 'force[1].x' or 'pressure[1]')")
@@ -111,11 +117,16 @@ class FmuSolid(Component):
 
     def _read_interface(self, resources: Path) -> None:
         """Meshes and components per node of the variables, from resources/interface.json if present."""
-        self.placement = {name: ("", 1) for name in [*self.inputs, *self.outputs]}
+        self.placement = {name: ("", 1) for name in [*self.inputs, *self.outputs, *self.locals]}
         self.mesh_nodes: dict[str, np.ndarray] = {}
         described = resources / "interface.json"
+        self._window: tuple[float, Any] | None = None     # a history FMU: the window in flight and its start state
         if described.is_file():
             interface = json.loads(described.read_text())
+            self.history_windows = int(interface.get("history_windows", 0))
+            if self.history_windows:
+                self.repeats_steps = True
+                self._bind_take_over(str(interface.get("take_over", "")))
             for v in interface["variables"]:
                 if v["name"] in self.placement:
                     self.placement[v["name"]] = (v["mesh"], int(v["components"]))
@@ -123,6 +134,43 @@ class FmuSolid(Component):
 
     def meshes(self) -> dict[str, np.ndarray]:
         return self.mesh_nodes
+
+    def _bind_take_over(self, symbol: str) -> None:
+        function = getattr(self.slave.dll, symbol, None) if symbol else None
+        if function is None:
+            raise ComponentError(self.name, f"FMU '{self.path}' declares a history but no take-over function "
+                                            f"('{symbol}' is not in its binary)")
+        function.restype = ctypes.c_int
+        function.argtypes = [ctypes.c_void_p, ctypes.c_int32, ctypes.c_void_p, ctypes.c_void_p]
+        self._take_over = function
+
+    def take_over(self, inputs: Mapping[str, np.ndarray], outputs: Mapping[str, np.ndarray]) -> None:
+        """The FMU's history from a full-order run's converged windows (rows oldest first)."""
+        if not self.history_windows:
+            super().take_over(inputs, outputs)
+        (input_name,), (output_name,) = list(self.inputs), list(self.outputs)
+        forces, displacements = inputs.get(input_name), outputs.get(output_name)
+        if forces is None or displacements is None or len(forces) != len(displacements):
+            raise ComponentError(self.name, f"take_over needs as many rows of '{input_name}' as of '{output_name}'")
+        n = len(forces)
+        forces = np.ascontiguousarray(forces.reshape(n, -1), dtype=np.float64)
+        displacements = np.ascontiguousarray(displacements.reshape(n, -1), dtype=np.float64)
+        if not self._take_over(self.slave.component, n, forces.ctypes.data, displacements.ctypes.data):
+            raise ComponentError(self.name, "the FMU refused the history it was handed")
+        self._release_window()
+
+    def _release_window(self) -> None:
+        if self._window is not None:
+            self.slave.freeFMUState(self._window[1])
+            self._window = None
+
+    def _roll_back(self, t: float) -> None:
+        """A history FMU: keep the state a window starts from at its first call, go back to it at every later one."""
+        if self._window is not None and abs(t - self._window[0]) <= 1e-9 * max(1.0, abs(t)):
+            self.slave.setFMUState(self._window[1])
+            return
+        self._release_window()
+        self._window = (t, self.slave.getFMUState())
 
     def _callbacks(self):
         """FMI callbacks whose logger keeps the FMU's messages (and writes them to the log)."""
@@ -182,7 +230,7 @@ class FmuSolid(Component):
         self._do_step.restype = ctypes.c_int
         self._pointers = {name: (refs.ctypes.data_as(pointer_vr), ctypes.c_size_t(len(refs)),
                                  values.ctypes.data_as(pointer_real))
-                          for name, (refs, values) in {**self.inputs, **self.outputs}.items()}
+                          for name, (refs, values) in {**self.inputs, **self.outputs, **self.locals}.items()}
 
     def _check(self, status: int, call: str) -> None:
         if status > WARNING:
@@ -192,7 +240,8 @@ class FmuSolid(Component):
     # --- contract -----------------------------------------------------------
     def variables(self) -> list[Variable]:
         return [Variable(n, causality, len(r), mesh=self.placement[n][0], components=self.placement[n][1])
-                for causality, group in (("input", self.inputs), ("output", self.outputs)) for n, (r, _) in group.items()]
+                for causality, group in (("input", self.inputs), ("output", self.outputs), ("local", self.locals))
+                for n, (r, _) in group.items()]
 
     def enter_initialization_mode(self, start: float, stop: float) -> None:
         self.slave.setupExperiment(startTime=start)
@@ -216,7 +265,7 @@ class FmuSolid(Component):
             refs, count, data = self._pointers[name]
             self._check(self._get(self.slave.component, refs, count, data), "fmi2GetReal")
             components = self.placement[name][1]
-            values = (self.outputs.get(name) or self.inputs[name])[1]
+            values = (self.outputs.get(name) or self.locals.get(name) or self.inputs[name])[1]
             out[name] = (values if components == 1 else values.reshape(-1, components)).copy()
         return out
 
@@ -227,6 +276,8 @@ class FmuSolid(Component):
         """The hot path: set, step, get, with the names it returns worked out once."""
         if not hasattr(self, "_returned"):
             self._returned = self.output_names() + self.local_names()
+        if self.history_windows:
+            self._roll_back(t)
         self.set_values(inputs)
         self.do_step(t, dt)
         return self.get_values(self._returned)
@@ -258,6 +309,7 @@ class FmuSolid(Component):
         return {"fmu_state": np.frombuffer(bytes(serialized), dtype=np.uint8).copy()}
 
     def restore_checkpoint(self, state: Any) -> None:
+        self._release_window()
         if not self.can_serialize:
             raise ComponentError(self.name, f"FMU '{self.path}' cannot serialise its state (canSerializeFMUstate is "
                                             "false)")
@@ -268,6 +320,7 @@ class FmuSolid(Component):
             self.slave.freeFMUState(restored)
 
     def terminate(self) -> dict[str, np.ndarray]:
+        self._release_window()
         self.slave.terminate()
         self.slave.freeInstance()
         shutil.rmtree(self.unzipped, ignore_errors=True)

@@ -98,3 +98,20 @@ def run_plots(results: str | Path, out_dir: str | Path) -> list[Path]:
     if picture is not None:
         written.append(picture)
     return written
+
+
+def report_metrics(run: Any, reference: Any) -> dict[str, Any]:
+    """Report hook (``cosim.report_metrics``): point A's x-displacement, ROM-FOM against FOM-FOM over the windows the
+    ROM served: the largest difference and the relative L2 error, over the FOM-FOM run's deflection (its largest
+    |x| over the run), and both runs' point A against the literature."""
+    with RunResults(run.path) as ours, RunResults(reference.path) as theirs:
+        a_ours, a_theirs = points(ours)[1][:, 0], points(theirs)[1][:, 0]
+    served = run.predicted()[:len(a_ours)]
+    deflection = float(np.abs(a_theirs).max())
+    difference = np.abs(a_ours - a_theirs[:len(a_ours)])[served]
+    return {"point_a": {
+        "max_difference_cm": float(difference.max() * 100) if difference.size else float("nan"),
+        "max_over_deflection": float(difference.max() / deflection) if difference.size else float("nan"),
+        "l2_over_deflection": float(np.sqrt(np.mean(difference ** 2)) / deflection) if difference.size else float("nan"),
+        "fom_deflection_cm": deflection * 100,
+        "rom_fom": point_a_summary(run.path).as_dict(), "fom_fom": point_a_summary(reference.path).as_dict()}}

@@ -1,0 +1,231 @@
+"""The step-map ROM's C code (``fmu/step_map_rom.c``): the binary resource of a model's arrays it reads, its
+compilation into the cache for the in-process path (``CompiledStepMap``), and the FMU export with the history as
+the FMU's state (``export_step_map_fmu``). Both run the same C code, so a run served in-process with
+``arithmetic = "compiled"`` or by the FMU gives the same bits; the C sums follow the component's
+``reproducible`` NumPy arithmetic, which gives them too.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import json
+import os
+import shutil
+import struct
+import subprocess
+import tempfile
+import uuid
+import xml.etree.ElementTree as ET
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cosim.component import MESH_PREFIX
+from cosim.errors import CosimError
+from rom_component.native import HEADERS, NAME_BYTES, fmi_headers
+
+SOURCE = Path(__file__).with_name("fmu") / "step_map_rom.c"
+MODEL_IDENTIFIER = "step_map_rom"
+AXES = "xyz"
+
+
+def rest_history(arrays: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The reduced displacement and force of the structure at rest (zero field, zero force)."""
+    return -(arrays["u_mean"] @ arrays["Phi_u"]), -arrays["e"]
+
+
+def resource_bytes(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], guid: str, components: int) -> bytes:
+    """What ``step_map_rom.c`` reads from ``resources/rom.bin`` (little-endian; the format in its header)."""
+    names = [metadata["input_variable"], metadata["output_variable"]]
+    for name in names:
+        if len(name.encode()) > NAME_BYTES:
+            raise CosimError(f"variable name '{name}' is longer than {NAME_BYTES} bytes")
+    E, A = arrays["E"], arrays["A"]
+    (r_f, n_in), (n_out, r_u) = E.shape, A.shape
+    z_rest, x_rest = rest_history(arrays)
+    header = b"CSSTEP1\0" + guid.encode().ljust(40, b"\0")[:40] + b"".join(n.encode().ljust(NAME_BYTES, b"\0")
+                                                                        for n in names)
+    header += struct.pack("<8i", n_in, n_out, arrays["p0"].size, r_f, r_u, int(metadata["history"]),
+                          int(metadata["quadratic_modes"]), components)
+    parts = [E, arrays["e"], arrays["W_f"], arrays["W_z"], arrays["W_q"], arrays["c"], A.T, arrays["base"],
+             arrays["P"].T, arrays["p0"], np.linalg.pinv(A), z_rest, x_rest]
+    return header + b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in parts)
+
+
+def model_guid(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], components: int) -> str:
+    digest = hashlib.sha256(resource_bytes(arrays, metadata, "", components)).digest()
+    return "{" + str(uuid.UUID(bytes=digest[:16], version=4)) + "}"
+
+
+def write_sources(folder: Path) -> None:
+    shutil.copy(SOURCE, folder / SOURCE.name)
+    for header in HEADERS:
+        shutil.copy(fmi_headers() / header, folder / header)
+
+
+def compile_binary(sources: Path, target: Path) -> None:
+    compiler = os.environ.get("CC", "cc")
+    if shutil.which(compiler) is None:
+        raise CosimError(f"the step-map ROM's C code needs a C compiler; '{compiler}' was not found (set CC)")
+    command = [compiler, "-std=c99", "-O2", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
+               str(sources / SOURCE.name), "-o", str(target)]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise CosimError(f"compiling the step-map ROM failed:\n{done.stderr}")
+
+
+def library_path() -> Path:
+    """The compiled library for the present source and compiler, in the cache, built if missing."""
+    from rom_component.compiled import cache_dir
+    compiler = os.environ.get("CC", "cc")
+    digest = hashlib.sha256(SOURCE.read_bytes() + compiler.encode()).hexdigest()[:16]
+    target = cache_dir() / f"step_map_rom-{digest}.so"
+    if target.is_file():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
+        write_sources(Path(tmp))
+        built = Path(tmp) / target.name
+        compile_binary(Path(tmp), built)
+        os.replace(built, target)
+    return target
+
+
+def bind(lib: ctypes.CDLL) -> ctypes.CDLL:
+    """Argument and result types of the C functions outside FMI."""
+    pointer = ctypes.c_void_p
+    lib.step_map_open.restype = pointer
+    lib.step_map_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
+    lib.step_map_last_error.restype = ctypes.c_char_p
+    lib.step_map_evaluate.restype = None
+    lib.step_map_evaluate.argtypes = [pointer] * 6
+    lib.step_map_commit.argtypes = [pointer]
+    lib.step_map_history.argtypes = [pointer, pointer, pointer, ctypes.c_int]
+    lib.step_map_take_over.restype = ctypes.c_int
+    lib.step_map_take_over.argtypes = [pointer, ctypes.c_int32, pointer, pointer]
+    lib.step_map_close.argtypes = [pointer]
+    return lib
+
+
+def address(array: np.ndarray) -> int:
+    return array.ctypes.data
+
+
+class CompiledStepMap:
+    """The step map's C code in-process: ``evaluate(f)`` a window's call (the history stays), ``commit()`` the
+    window's last call into the history, ``history`` / ``set_history``, ``take_over``."""
+
+    def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]):
+        self.lib = bind(ctypes.CDLL(str(library_path())))
+        self.folder = tempfile.TemporaryDirectory(prefix="cosim-step-map-")
+        guid = model_guid(arrays, metadata, 1)
+        Path(self.folder.name, "rom.bin").write_bytes(resource_bytes(arrays, metadata, guid, 1))
+        self.handle = self.lib.step_map_open(Path(self.folder.name).as_uri().encode(), guid.encode())
+        if not self.handle:
+            raise CosimError(f"the step-map ROM's C code refused the model: {self.lib.step_map_last_error().decode()}")
+        (r_f, _), (n_out, r_u) = arrays["E"].shape, arrays["A"].shape
+        self.p = int(metadata["history"])
+        self.u, self.probes = np.zeros(n_out), np.zeros(arrays["p0"].size)
+        self.x, self.z = np.zeros(r_f), np.zeros(r_u)
+
+    def evaluate(self, f: np.ndarray) -> None:
+        f = np.ascontiguousarray(f, dtype=np.float64)
+        self.lib.step_map_evaluate(self.handle, address(f), address(self.u), address(self.probes), address(self.x),
+                                   address(self.z))
+
+    def commit(self) -> None:
+        self.lib.step_map_commit(self.handle)
+
+    def history(self) -> tuple[np.ndarray, np.ndarray]:
+        zh, xh = np.zeros((self.p, len(self.z))), np.zeros((2, len(self.x)))
+        self.lib.step_map_history(self.handle, address(zh), address(xh), 0)
+        return zh, xh
+
+    def set_history(self, zh: np.ndarray, xh: np.ndarray) -> None:
+        zh, xh = (np.ascontiguousarray(a, dtype=np.float64) for a in (zh, xh))
+        self.lib.step_map_history(self.handle, address(zh), address(xh), 1)
+
+    def take_over(self, forces: np.ndarray, displacements: np.ndarray) -> None:
+        forces, displacements = (np.ascontiguousarray(a, dtype=np.float64) for a in (forces, displacements))
+        self.lib.step_map_take_over(self.handle, len(forces), address(forces), address(displacements))
+
+    def close(self) -> None:
+        if self.handle:
+            self.lib.step_map_close(self.handle)
+            self.handle = None
+        self.folder.cleanup()
+
+
+def scalar_names(name: str, size: int, components: int) -> list[str]:
+    if components == 1:
+        return [f"{name}[{node + 1}]" for node in range(size)]
+    return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
+
+
+def model_description(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], guid: str,
+                      components: int) -> bytes:
+    """``modelDescription.xml``: the force in, the interface displacement out, the probes as locals."""
+    (r_f, n_in), (n_out, r_u) = arrays["E"].shape, arrays["A"].shape
+    inputs = scalar_names(metadata["input_variable"], n_in, components)
+    outputs = scalar_names(metadata["output_variable"], n_out, components)
+    probes = [name for probe in metadata.get("probes", []) for name in scalar_names(probe, 2, 1)]
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": MODEL_IDENTIFIER, "guid": guid,
+        "description": (f"step-map ROM of a structure with inertia: r_f={r_f}, r_u={r_u}, history of "
+                        f"{metadata['history']} windows, window {metadata['dt']:g} s; the history is the FMU's state"),
+        "generationTool": "cosim export-fmu", "variableNamingConvention": "structured",
+        "numberOfEventIndicators": "0"})
+    cosimulation = ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": MODEL_IDENTIFIER, "needsExecutionTool": "false",
+        "canHandleVariableCommunicationStepSize": "false", "canInterpolateInputs": "false",
+        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
+    ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": SOURCE.name})
+    ET.SubElement(root, "DefaultExperiment", {"stepSize": repr(float(metadata["dt"]))})
+    variables = ET.SubElement(root, "ModelVariables")
+    for vr, name in enumerate(inputs):
+        scalar = ET.SubElement(variables, "ScalarVariable", {"name": name, "valueReference": str(vr),
+                                                             "causality": "input", "variability": "continuous"})
+        ET.SubElement(scalar, "Real", {"start": "0.0"})
+    for k, name in enumerate(outputs + probes):
+        causality = "output" if k < len(outputs) else "local"
+        scalar = ET.SubElement(variables, "ScalarVariable", {
+            "name": name, "valueReference": str(n_in + k), "causality": causality, "variability": "continuous",
+            "initial": "calculated"})
+        ET.SubElement(scalar, "Real")
+    structure = ET.SubElement(root, "ModelStructure")
+    for block in ("Outputs", "InitialUnknowns"):
+        unknowns = ET.SubElement(structure, block)
+        for index in range(n_in + 1, n_in + len(outputs) + 1):
+            ET.SubElement(unknowns, "Unknown", {"index": str(index)})
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
+
+
+def export_step_map_fmu(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], out: Path,
+                        components: int) -> Path:
+    """The FMU of a step-map model; the same model gives the same bytes."""
+    guid = model_guid(arrays, metadata, components)
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        for folder in ("sources", "resources", "binaries/linux64"):
+            (root / folder).mkdir(parents=True)
+        write_sources(root / "sources")
+        (root / "resources" / "rom.bin").write_bytes(resource_bytes(arrays, metadata, guid, components))
+        (root / "modelDescription.xml").write_bytes(model_description(arrays, metadata, guid, components))
+        meshes = {k[len(MESH_PREFIX):]: v.tolist() for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
+        (root / "resources" / "interface.json").write_text(json.dumps(
+            {"variables": metadata.get("variables", []), "meshes": meshes, "history_windows": int(metadata["history"]),
+             "take_over": "step_map_take_over"}, sort_keys=True))
+        compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so")
+        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
+            for path in sorted(root.rglob("*")):
+                if path.is_file():
+                    info = zipfile.ZipInfo(path.relative_to(root).as_posix(), date_time=(1980, 1, 1, 0, 0, 0))
+                    info.compress_type = zipfile.ZIP_DEFLATED
+                    info.external_attr = 0o644 << 16
+                    archive.writestr(info, path.read_bytes())
+    return out
