@@ -9,7 +9,7 @@ BIN := $(VENV)/bin
 EXTRAS := .[test,lint,docs,rom,fmu,kratos,mesh,sweep]
 LOCK := constraints.txt
 
-.PHONY: demo demo-flap campaign mok test lint docs test-latest lock bench figures clean
+.PHONY: demo demo-flap demo-mok-rom campaign mok test lint docs test-latest lock bench figures clean
 
 $(BIN)/cosim: pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
@@ -26,6 +26,11 @@ demo-flap: $(BIN)/cosim
 
 campaign: $(BIN)/cosim
 	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
+
+# the ROM with memory of Mok's wall: FOM-FOM, training, ROM-FOM and FMU-FOM switching at 12 s, other inflows
+# (about 15 minutes; runs/mok_rom_demo/report)
+demo-mok-rom: $(BIN)/cosim
+	COSIM=$(BIN)/cosim bash scripts/mok_rom_demo.sh
 
 # Mok's benchmark: 250 windows through our coupler and through Kratos's own, side by side (about 10 minutes);
 # rewrites its table in docs/mok.md

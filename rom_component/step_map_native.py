@@ -163,6 +163,8 @@ class CompiledStepMap:
 def scalar_names(name: str, size: int, components: int) -> list[str]:
     if components == 1:
         return [f"{name}[{node + 1}]" for node in range(size)]
+    if size % components or components > len(AXES):
+        raise CosimError(f"variable '{name}' of size {size} cannot hold {components} components per node")
     return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
 
 
@@ -170,8 +172,10 @@ def model_description(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, A
                       components: int) -> bytes:
     """``modelDescription.xml``: the force in, the interface displacement out, the probes as locals."""
     (r_f, n_in), (n_out, r_u) = arrays["E"].shape, arrays["A"].shape
+    declared = {v["name"]: v for v in metadata.get("variables", [])}
     inputs = scalar_names(metadata["input_variable"], n_in, components)
-    outputs = scalar_names(metadata["output_variable"], n_out, components)
+    outputs = scalar_names(metadata["output_variable"], n_out,
+                           int(declared.get(metadata["output_variable"], {}).get("components", components)))
     probes = [name for probe in metadata.get("probes", []) for name in scalar_names(probe, 2, 1)]
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": MODEL_IDENTIFIER, "guid": guid,

@@ -62,6 +62,28 @@ def probe_rows(U: np.ndarray, probes: dict[str, np.ndarray]) -> dict[str, np.nda
     return found
 
 
+def model_file(model: StepMapRom, data: WindowData, last: int, K: np.ndarray, probes: dict[str, np.ndarray],
+               dt: float, input_name: str, output_name: str) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """The arrays and metadata of a fitted model's file: the served output's rows ``K`` of the field, the probes'
+    rows (``probe_rows``), the training envelope of the reduced forces of windows 1 to ``last``."""
+    r_f, r_u = model.modes
+    step, encoder, decoder = model.map_, model.bases_.encoder, model.bases_.decoder
+    Phi_u = np.ascontiguousarray(decoder.components_[:, :r_u])
+    probe_index = np.concatenate(list(probes.values())) if probes else np.zeros(0, dtype=np.int64)
+    arrays = {"E": np.ascontiguousarray(encoder.jacobian()[:r_f]), "e": encoder.online_arrays()["e"][:r_f],
+              "W_f": step.W_f, "W_z": step.A, "W_h": step.B, "W_q": step.Q, "c": step.c,
+              "A": np.ascontiguousarray(Phi_u[K]), "base": decoder.mean_[K].copy(), "u_mean": decoder.mean_,
+              "Phi_u": Phi_u, "P": np.ascontiguousarray(Phi_u[probe_index]), "p0": decoder.mean_[probe_index].copy(),
+              "force_singular_values": encoder.singular_values_, "disp_singular_values": decoder.singular_values_,
+              **fit_envelope(model.bases_.x_all[data.select(1, last), :r_f])}
+    metadata = {"kind": KIND, "regressor": KIND, "params": {"step_map": model.settings()},
+                "input_variable": input_name, "output_variable": output_name, "windows": last, "dt": dt,
+                "n_snapshots": int(data.select(1, last).sum()), "history": model.history,
+                "force_history": model.force_history, "quadratic_modes": model.quadratic_modes,
+                "radius": step.radius, "radius_served": step.radius_served, "probes": list(probes)}
+    return arrays, metadata
+
+
 def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any], echo=print) -> dict[str, Any]:
     spec, dynamics, selection = config["snapshots"], config["dynamics"], config["selection"]
     data, times, dt, probes = read_window_data(results, spec)
@@ -105,31 +127,17 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
     echo(f"fitted r_f = {r_f}, r_u = {r_u}, history of {model.history} windows' displacements, ridge {model.ridge:g}, quadratic modes {model.quadratic_modes} in {fit_seconds:.3f} s; linear "
          f"part's spectral radius {step.radius_served:.6f}; rollout over the training windows e = {training_error:.3e}")
     K = interface_index(results, spec) if spec["field"] else np.arange(data.U.shape[1])
-    encoder, decoder = model.bases_.encoder, model.bases_.decoder
-    Phi_u = np.ascontiguousarray(decoder.components_[:, :r_u])
-    E = np.ascontiguousarray(encoder.jacobian()[:r_f])
-    e = encoder.online_arrays()["e"][:r_f]
-    x_train = model.bases_.x_all[data.select(1, last), :r_f]
     found = probe_rows(data.U, probes)
-    probe_index = np.concatenate([found[name] for name in found]) if found else np.zeros(0, dtype=np.int64)
-    arrays = {"E": E, "e": e, "W_f": step.W_f, "W_z": step.A, "W_h": step.B, "W_q": step.Q, "c": step.c,
-              "A": np.ascontiguousarray(Phi_u[K]), "base": decoder.mean_[K].copy(), "u_mean": decoder.mean_,
-              "Phi_u": Phi_u, "P": np.ascontiguousarray(Phi_u[probe_index]), "p0": decoder.mean_[probe_index].copy(),
-              "force_singular_values": encoder.singular_values_, "disp_singular_values": decoder.singular_values_,
-              **fit_envelope(x_train)}
+    arrays, metadata = model_file(model, data, last, K, found, dt, spec["input"], spec["output"])
     variables, meshes = read_interface(results, spec)
-    metadata = {
-        "kind": KIND, "regressor": KIND, "params": {"step_map": model.settings()},
-        "input_variable": spec["input"], "output_variable": spec["output"], "field_variable": spec["field"],
-        "component": spec["component"], "results": str(results), "variables": variables,
-        "t_range": [0.0, float(times[last - 1])], "windows": last, "dt": dt, "n_snapshots": int(data.select(1, last).sum()),
-        "history": model.history, "force_history": model.force_history, "quadratic_modes": model.quadratic_modes,
-        "radius": step.radius, "radius_served": step.radius_served, "probes": list(found),
+    metadata.update({
+        "field_variable": spec["field"], "component": spec["component"], "results": str(results),
+        "variables": variables, "t_range": [0.0, float(times[last - 1])],
         "fit_seconds": fit_seconds, "cv_seconds": cv_seconds, "training_error": training_error,
         "selection": {"grid": grid, "holdout_fraction": dynamics["holdout_fraction"],
                       "rows": [{**row.settings, "error": row.error if np.isfinite(row.error) else None,
                                 "radius": row.radius if np.isfinite(row.radius) else None} for row in rows]},
-    }
+    })
     persistence.save(out, {**arrays, **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
     echo(f"saved {out}")
     return metadata

@@ -1,0 +1,152 @@
+"""The step-map ROM's three arithmetics and its FMU, on a model fitted to the Newmark chain of test_step_map: the
+component's NumPy path in the C code's order, the C code in-process and the exported FMU give the same bits,
+through repeated windows and a take-over; fmpy, an independent importer, validates the FMU, repeats windows with
+fmi2GetFMUstate / fmi2SetFMUstate and goes on from a serialised state."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rom_component.step_map import StepMapRom
+from tests.test_step_map import newmark_calls
+
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler")
+N = 12
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory):
+    """A step-map model file and its FMU (probe 'tip': the chain's last mass, x and y as its two values)."""
+    from rom_component import persistence
+    from rom_component.fmu_export import export_fmu
+    from rom_component.step_map_train import model_file
+    data = newmark_calls()
+    # a two-valued field per node so that a probe is a node: the chain's displacement and zero
+    data.U = np.stack([data.U, np.zeros_like(data.U)], axis=2).reshape(len(data.U), -1)
+    fitted = StepMapRom(force_modes=8, disp_modes=6, history=3, ridge=1e-10).fit(data, 120)
+    arrays, metadata = model_file(fitted, data, 120, np.arange(2 * N), {"tip": np.array([2 * N - 2, 2 * N - 1])},
+                                  0.1, "force", "displacement")
+    metadata["variables"] = [{"name": "force", "mesh": "", "components": 1},
+                             {"name": "displacement", "mesh": "", "components": 2}]
+    folder = tmp_path_factory.mktemp("step-map")
+    persistence.save(folder / "model.npz", arrays, metadata)
+    export_fmu(folder / "model.npz", folder / "model.fmu")
+    return folder / "model.npz", folder / "model.fmu", data
+
+
+def calls(data, windows: int = 30, per_window: int = 3) -> list[tuple[float, np.ndarray]]:
+    """(window start, force) of several calls per window, forces off the training data's."""
+    rng = np.random.default_rng(5)
+    return [(0.1 * w, data.F[w] * 1.01 + 0.02 * rng.standard_normal(N)) for w in range(windows)
+            for _ in range(per_window)]
+
+
+def test_numpy_compiled_and_fmu_give_the_same_bits(model):
+    from rom_component.step_map_component import StepMapRomSolid
+    from solid_component.fmu import FmuSolid
+    path, fmu_path, data = model
+    components = []
+    for arithmetic in ("reproducible", "compiled"):
+        component = StepMapRomSolid()
+        component.instantiate({"model": str(path), "arithmetic": arithmetic})
+        components.append(component)
+    fmu = FmuSolid()
+    fmu.instantiate({"path": str(fmu_path)})
+    fmu.enter_initialization_mode(0.0, 3.0)
+    fmu.exit_initialization_mode()
+    components.append(fmu)
+    assert fmu.repeats_steps and fmu.history_windows == 3
+    assert [v.name for v in fmu.variables() if v.causality == "local"] == ["tip"]
+    history = {"force": data.F[40:43], "displacement": data.U[40:43].reshape(3, N, 2)}
+    for component in components:
+        component.take_over(history, history)
+    for t, f in calls(data):
+        answers = [component.step(t, 0.1, {"force": f}) for component in components]
+        for answer in answers[1:]:
+            assert answer["displacement"].tobytes() == answers[0]["displacement"].tobytes()
+            assert answer["tip"].tobytes() == answers[0]["tip"].tobytes()
+    fast = StepMapRomSolid()
+    fast.instantiate({"model": str(path), "arithmetic": "fast"})
+    fast.take_over(history, history)
+    for t, f in calls(data):
+        last = fast.step(t, 0.1, {"force": f})
+    np.testing.assert_allclose(last["displacement"], answers[0]["displacement"], rtol=0,
+                               atol=1e-12 * np.abs(answers[0]["displacement"]).max())
+    for component in components:
+        component.terminate()
+
+
+def test_fmpy_repeats_windows_by_the_fmu_state_and_resumes_from_its_serialisation(model):
+    """fmpy drives the FMU as FMI 2.0 says: fmi2GetFMUstate at a window's start, fmi2SetFMUstate before each
+    repeat; its answers are the component's. Serialised after window 10 and read into a new instance, the FMU goes
+    on with the same bits."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.validation import validate_fmu
+
+    from rom_component.step_map_component import StepMapRomSolid
+    path, fmu_path, data = model
+    assert validate_fmu(str(fmu_path)) == []
+    md = read_model_description(str(fmu_path))
+    refs = {v.name: v.valueReference for v in md.modelVariables}
+    inputs = [refs[f"force[{i + 1}]"] for i in range(N)]
+    outputs = [refs[f"displacement[{i + 1}].{axis}"] for i in range(N) for axis in "xy"]
+
+    def start() -> FMU2Slave:
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path)),
+                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="step_map")
+        slave.instantiate()
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        return slave
+
+    component = StepMapRomSolid()
+    component.instantiate({"model": str(path)})
+    slave, serialised = start(), None
+    window_start, t_open = None, None
+    for t, f in calls(data):
+        if t != t_open:
+            if t_open is not None and abs(t_open - 1.0) < 1e-9:      # after window 10: move to a new instance
+                state = slave.getFMUState()
+                serialised = slave.serializeFMUstate(state)
+                slave.freeFMUState(state)
+                slave.terminate()
+                slave.freeInstance()                    # with it every state it handed out
+                window_start = None
+                slave = start()
+                restored = slave.deSerializeFMUstate(serialised)
+                slave.setFMUState(restored)
+                slave.freeFMUState(restored)
+            if window_start is not None:
+                slave.freeFMUState(window_start)
+            window_start, t_open = slave.getFMUState(), t
+        else:
+            slave.setFMUState(window_start)
+        slave.setReal(inputs, list(f))
+        slave.doStep(currentCommunicationPoint=t, communicationStepSize=0.1)
+        theirs = np.array(slave.getReal(outputs))
+        ours = component.step(t, 0.1, {"force": f})["displacement"].ravel()
+        assert theirs.tobytes() == ours.tobytes(), t
+    assert serialised is not None
+    slave.freeFMUState(window_start)
+    slave.terminate()
+    slave.freeInstance()
+    component.terminate()
+
+
+def test_a_static_model_is_refused_by_the_step_map_component(tmp_path):
+    from cosim.errors import ComponentError
+    from rom_component import persistence
+    from rom_component.step_map_component import StepMapRomSolid
+    from tests.roms import solid_rom
+    rng = np.random.default_rng(0)
+    F, U = rng.standard_normal((30, 5)), rng.standard_normal((30, 4))
+    rom = solid_rom(3, 3, "rbf", "linear").fit(F, U)
+    persistence.save(tmp_path / "static.npz", rom.online_arrays(), {"regressor": "rbf"})
+    with pytest.raises(ComponentError, match="not a step map"):
+        StepMapRomSolid().instantiate({"model": str(tmp_path / "static.npz")})
