@@ -6,7 +6,6 @@ fmi2GetFMUstate / fmi2SetFMUstate and goes on from a serialised state."""
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
