@@ -122,9 +122,12 @@ class Run:
         if field:
             with RunResults(self.path) as results:
                 calls = results.calls(participant, converged_only=True)
-                if field not in calls.outputs:
-                    raise SceneError(f"'{self.path}': the recorded calls of '{participant}' have no '{field}'")
+            if field in calls.outputs:
                 U = calls.outputs[field].reshape(len(calls.window), -1).copy()
+            elif self.full_field is not None and len(self.full_field[0]) == len(self.time):   # a ROM served all
+                U = np.zeros((len(self.time), self.full_field[1].shape[1]))
+            else:
+                raise SceneError(f"'{self.path}': the recorded calls of '{participant}' have no '{field}'")
         else:
             values = self.fields[self.output_of(participant)]
             U = values.reshape(len(values), -1).copy()

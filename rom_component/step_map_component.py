@@ -39,6 +39,7 @@ HELP = {
                     "range",
 }
 TRUST_LOCALS = ("rom_excess", "rom_distance", "rom_out_of_range")
+FLOAT64 = np.dtype(np.float64)
 CHECKPOINTED = ("_window_time", "_dt", "_times", "_reduced", "trust_values")
 
 
@@ -86,6 +87,13 @@ class StepMapRomSolid(Component):
         self._times: list[float] = []
         self._reduced: list[np.ndarray] = []
         self.trust_values = np.zeros(3)
+        self._served: dict[str, np.ndarray] | None = None
+        if isinstance(self.rom, CompiledStepMap):     # one C call per served step, on fixed buffers
+            self.rom.bind(self.envelope)
+            outputs, n_out = self.rom.outputs, self.n_out
+            self._served = {self.output_name: outputs[:n_out].reshape(self.output_shape),
+                            **{name: outputs[n_out + 2 * i:n_out + 2 * i + 2] for i, name in enumerate(self.probes)},
+                            **{name: self.rom.trust[i:i + 1] for i, name in enumerate(TRUST_LOCALS)}}
 
     def _shape(self, name: str, size: int) -> tuple[int, ...]:
         return Variable(name, "input", size, components=self.placement[name][1]).shape
@@ -106,27 +114,50 @@ class StepMapRomSolid(Component):
         if len(inputs) != 1 or type(force) is not np.ndarray or force.shape != self.input_shape:
             check_inputs(self, inputs, {self.input_name: self.input_shape})
             raise ComponentError(self.name, f"step needs the input '{self.input_name}' at every call")
-        if abs(dt - self.trained_dt) > 1e-9 * self.trained_dt:
-            raise ComponentError(self.name, f"window size {dt:g} s at t = {t:g} s: the step map was trained on "
-                                            f"windows of {self.trained_dt:g} s")
-        if self._window_time is None or abs(t - self._window_time) > 1e-9 * max(1.0, abs(t)):
-            if self._window_time is not None and t < self._window_time:
-                raise ComponentError(self.name, f"cannot step back from the window starting at {self._window_time:g} s "
-                                                f"to one starting at {t:g} s")
-            self._close_window()
-            self._window_time, self._dt = t, dt
+        self._enter_window(t, dt)
         rom = self.rom
         rom.evaluate(force.reshape(-1))
         excess, distance = trust(rom.x, self.envelope)
         out = excess > self.range_margin
         self.trust_values = np.array((excess, distance, 1.0 if out else 0.0))
         if out:
-            message = (f"input outside the training range at t = {t:g} s (a reduced force mode beyond the training "
-                       f"data by {excess:.3g} of its range, more than {self.range_margin:g})")
-            if self.on_out_of_range == "fail":
-                raise ComponentError(self.name, message)
-            self.warn(message)
+            self._out_of_range(t, excess)
         return self._outputs()
+
+    def _enter_window(self, t: float, dt: float) -> None:
+        """A call of window ``t``: a later window than the last one's closes it."""
+        if self._window_time is not None and abs(t - self._window_time) <= 1e-9 * max(1.0, abs(t)):
+            return
+        if abs(dt - self.trained_dt) > 1e-9 * self.trained_dt:
+            raise ComponentError(self.name, f"window size {dt:g} s at t = {t:g} s: the step map was trained on "
+                                            f"windows of {self.trained_dt:g} s")
+        if self._window_time is not None and t < self._window_time:
+            raise ComponentError(self.name, f"cannot step back from the window starting at {self._window_time:g} s "
+                                            f"to one starting at {t:g} s")
+        self._close_window()
+        self._window_time, self._dt = t, dt
+
+    def served_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``step``; with the compiled arithmetic and the one input of its shape, a single C call (the window's call
+        and its trust) on fixed buffers whose views are returned (sent before the next call rewrites them)."""
+        served, force = self._served, inputs.get(self.input_name)
+        if served is None or len(inputs) != 1 or type(force) is not np.ndarray or force.shape != self.input_shape \
+                or force.dtype is not FLOAT64:
+            return self.step(t, dt, inputs)
+        self._enter_window(t, dt)
+        assert isinstance(self.rom, CompiledStepMap)
+        if self.rom.serve(self.range_margin, force.tobytes()):
+            self.trust_values = self.rom.trust
+            self._out_of_range(t, float(self.rom.trust[0]))
+        self.trust_values = self.rom.trust
+        return dict(served)
+
+    def _out_of_range(self, t: float, excess: float) -> None:
+        message = (f"input outside the training range at t = {t:g} s (a reduced force mode beyond the training "
+                   f"data by {excess:.3g} of its range, more than {self.range_margin:g})")
+        if self.on_out_of_range == "fail":
+            raise ComponentError(self.name, message)
+        self.warn(message)
 
     def _outputs(self) -> dict[str, np.ndarray]:
         rom, trust_values = self.rom, self.trust_values

@@ -108,6 +108,12 @@ def bind(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.step_map_take_over.restype = ctypes.c_int
     lib.step_map_take_over.argtypes = [pointer, ctypes.c_int32, pointer, pointer]
     lib.step_map_close.argtypes = [pointer]
+    lib.step_map_bind.restype = None
+    lib.step_map_bind.argtypes = [pointer] * 5 + [ctypes.c_double, pointer]
+    lib.step_map_serve.restype = ctypes.c_int
+    lib.step_map_serve.argtypes = [pointer, ctypes.c_char_p, ctypes.c_double]
+    lib.step_map_view.restype = ctypes.POINTER(ctypes.c_double)
+    lib.step_map_view.argtypes = [pointer, ctypes.c_int]
     return lib
 
 
@@ -131,6 +137,24 @@ class CompiledStepMap:
         self.p = int(metadata["history"])
         self.u, self.probes = np.zeros(n_out), np.zeros(arrays["p0"].size)
         self.x, self.z = np.zeros(r_f), np.zeros(r_u)
+
+    def bind(self, envelope: Mapping[str, np.ndarray]) -> None:
+        """The served path: the envelope's arrays and a trust buffer bound once; ``serve(margin, f_bytes)`` is then one
+        C call whose results are in the views ``outputs`` (interface displacement then probes), ``x``, ``z`` and
+        ``trust``."""
+        self._envelope = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in envelope.items()}
+        self.trust = np.zeros(3)
+        e = self._envelope
+        self.lib.step_map_bind(self.handle, address(e["envelope_low"]), address(e["envelope_high"]),
+                               address(e["envelope_mean"]), address(e["envelope_precision"]),
+                               float(e["envelope_max_distance"][0]), address(self.trust))
+        n_out, n_probe = len(self.u), len(self.probes)
+        view = lambda which, size: np.ctypeslib.as_array(self.lib.step_map_view(self.handle, which), shape=(size,))
+        self.outputs = view(0, n_out + n_probe)
+        # from here on every result is a view of the instance's own buffers, served or evaluated
+        self.u, self.probes, self.x, self.z = self.outputs[:n_out], self.outputs[n_out:], view(1, len(self.x)), \
+            view(2, len(self.z))
+        self.serve = lambda margin, f: self.lib.step_map_serve(self.handle, f, margin)
 
     def evaluate(self, f: np.ndarray) -> None:
         f = np.ascontiguousarray(f, dtype=np.float64)

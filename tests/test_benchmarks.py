@@ -192,3 +192,12 @@ def test_surrogate_blocks_benchmark_on_a_short_tube_run(tmp_path, capsys):
     median = {key: float(value.split()[0]) for key, value in rows.items()}
     assert all(np.isfinite(v) and v >= 0 for v in median.values())
     assert 0.5 < median["static output secants held by 32 modes of the windows before 16"] <= 1.0 + 1e-12
+
+
+def test_step_map_call_benchmark_small(capsys):
+    """The step-map ROM's call in its arithmetics and as an FMU (asserted inside: compiled, reproducible and FMU give
+    the same bits)."""
+    from benchmarks import step_map_call
+    timings = step_map_call.main(["--small"])
+    assert {"compiled warm", "compiled cold", "reproducible warm", "fmu warm"} <= set(timings)
+    assert "step-map ROM of 12 force values" in capsys.readouterr().out

@@ -74,6 +74,8 @@ typedef struct {
     double *values;           /* the state: zh[p][r_u], xh[2][r_f], inputs[n_in], outputs[n_out + n_probe], time */
     double *zh, *xh, *inputs, *outputs, *time;
     double *x, *s, *z, *quad, *d;
+    const double *low, *high, *mean, *precision;   /* the training envelope of the served path (step_map_serve) */
+    double max_distance, *trust;
     size_t n_values;
     State *states;
     char *buffer;
@@ -647,10 +649,11 @@ void step_map_evaluate(void *c, const double *f, double *u, double *probes, doub
     const Model *m = &inst->model;
     memcpy(inst->inputs, f, sizeof(double) * (size_t)m->n_in);
     evaluate(inst);
-    memcpy(u, inst->outputs, sizeof(double) * (size_t)m->n_out);
-    memcpy(probes, inst->outputs + m->n_out, sizeof(double) * (size_t)m->n_probe);
-    memcpy(x, inst->x, sizeof(double) * (size_t)m->r_f);
-    memcpy(z, inst->z, sizeof(double) * (size_t)m->r_u);
+    /* the caller's arrays may be the instance's own buffers (step_map_view): then there is nothing to copy */
+    if (u != inst->outputs) memcpy(u, inst->outputs, sizeof(double) * (size_t)m->n_out);
+    if (probes != inst->outputs + m->n_out) memcpy(probes, inst->outputs + m->n_out, sizeof(double) * (size_t)m->n_probe);
+    if (x != inst->x) memcpy(x, inst->x, sizeof(double) * (size_t)m->r_f);
+    if (z != inst->z) memcpy(z, inst->z, sizeof(double) * (size_t)m->r_u);
 }
 
 /* the last call's z and x join the history (a window closed) */
@@ -680,4 +683,65 @@ int step_map_take_over(void *c, int32_t n, const double *forces, const double *d
         commit(inst);
     }
     return 1;
+}
+
+/* square root of q >= 0 without libm: the SSE2 instruction where there is one, else Newton's method */
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+static double root(double q) {
+#if defined(__SSE2__)
+    return _mm_cvtsd_f64(_mm_sqrt_sd(_mm_setzero_pd(), _mm_set_sd(q)));
+#else
+    double r = q > 1.0 ? q : 1.0, previous = 0.0;
+    int i;
+    if (!(q > 0.0)) return q;
+    for (i = 0; i < 2000 && r != previous; i++) { previous = r; r = 0.5 * (r + q / r); }
+    return r;
+#endif
+}
+
+/* the served path's envelope (r_f bounds, mean, precision r_f x r_f) and where its trust goes (3 values) */
+void step_map_bind(void *c, const double *low, const double *high, const double *mean, const double *precision,
+                   double max_distance, double *trust) {
+    Instance *inst = (Instance *)c;
+    inst->low = low; inst->high = high; inst->mean = mean; inst->precision = precision;
+    inst->max_distance = max_distance; inst->trust = trust;
+}
+
+/* a served call: the window's call on f (n_in, or NULL for the inputs already held), then its trust
+ * (excess beyond the envelope in range widths, Mahalanobis distance over the largest training one, 1.0 if the
+ * excess passes margin); outputs, x and z stay in the instance (step_map_view); returns 1 if out of range */
+int step_map_serve(void *c, const double *f, double margin) {
+    Instance *inst = (Instance *)c;
+    const Model *m = &inst->model;
+    const int32_t r = m->r_f;
+    double excess = 0.0, quadratic = 0.0;
+    int32_t i, j;
+    if (f != NULL) memcpy(inst->inputs, f, sizeof(double) * (size_t)m->n_in);
+    evaluate(inst);
+    if (inst->trust == NULL) return 0;
+    for (i = 0; i < r; i++) {
+        const double x = inst->x[i], below = inst->low[i] - x, above = x - inst->high[i];
+        double width = inst->high[i] - inst->low[i], e = below > above ? below : above;
+        if (!(width > 1e-300)) width = 1e-300;
+        e = e > 0.0 ? e / width : 0.0;
+        if (e > excess) excess = e;
+    }
+    for (i = 0; i < r; i++) {
+        const double *row = inst->precision + (size_t)i * r;
+        double s = 0.0;
+        for (j = 0; j < r; j++) s += row[j] * (inst->x[j] - inst->mean[j]);
+        quadratic += (inst->x[i] - inst->mean[i]) * s;
+    }
+    inst->trust[0] = excess;
+    inst->trust[1] = root(quadratic > 0.0 ? quadratic : 0.0) / inst->max_distance;
+    inst->trust[2] = excess > margin ? 1.0 : 0.0;
+    return excess > margin;
+}
+
+/* the instance's own buffers: 0 the outputs then the probes (n_out + n_probe), 1 x (r_f), 2 z (r_u) */
+double *step_map_view(void *c, int which) {
+    Instance *inst = (Instance *)c;
+    return which == 0 ? inst->outputs : which == 1 ? inst->x : inst->z;
 }
