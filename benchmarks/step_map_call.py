@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> dict[str, Timing]:
         model, results = small_model(folder) if args.small else (Path(args.model), args.results)
         arrays, metadata = load_arrays(model)
         n_in = arrays["E"].shape[1]
-        components = {}
+        components: dict[str, StepMapRomSolid | FmuSolid] = {}
         for arithmetic in ("compiled", "reproducible", "fast"):
             component = StepMapRomSolid()
             component.instantiate({"model": str(model), "arithmetic": arithmetic})
