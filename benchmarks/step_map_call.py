@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import Timing, cold_call, machine, per_call
+from cosim.component import Component
 from cosim.results import RunResults
 from rom_component.fmu_export import export_fmu
 from rom_component.persistence import load_arrays
@@ -57,18 +58,18 @@ def main(argv: list[str] | None = None) -> dict[str, Timing]:
         model, results = small_model(folder) if args.small else (Path(args.model), args.results)
         arrays, metadata = load_arrays(model)
         n_in = arrays["E"].shape[1]
-        components: dict[str, StepMapRomSolid | FmuSolid] = {}
+        components: dict[str, Component] = {}
         for arithmetic in ("compiled", "reproducible", "fast"):
-            component = StepMapRomSolid()
-            component.instantiate({"model": str(model), "arithmetic": arithmetic})
-            components[arithmetic] = component
+            rom = StepMapRomSolid()
+            rom.instantiate({"model": str(model), "arithmetic": arithmetic})
+            components[arithmetic] = rom
         fmu = FmuSolid()
         fmu.instantiate({"path": str(export_fmu(model, folder / "model.fmu"))})
         fmu.enter_initialization_mode(0.0, 100.0)
         fmu.exit_initialization_mode()
         components["fmu"] = fmu
         rng = np.random.default_rng(0)
-        force = rng.standard_normal(components["compiled"].input_shape)
+        force = rng.standard_normal(rom.input_shape)
         repeat = 7 if args.small else 25
         timings: dict[str, Timing] = {}
         for name, component in components.items():
