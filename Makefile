@@ -30,15 +30,17 @@ campaign: $(BIN)/cosim
 # the ROM with memory of Mok's wall: FOM-FOM, training, ROM-FOM and FMU-FOM switching at 12 s, other inflows
 # (about 15 minutes; runs/mok_rom_demo/report)
 demo-mok-rom: $(BIN)/cosim
-	COSIM=$(BIN)/cosim bash scripts/mok_rom_demo.sh
+	COSIM=$(BIN)/cosim PYTHON=$(BIN)/python MOK_ROM_DOCS=1 bash scripts/mok_rom_demo.sh
 
 # Mok's benchmark: 250 windows through our coupler and through Kratos's own, side by side (about 10 minutes);
 # rewrites its table in docs/mok.md
 mok: $(BIN)/cosim
 	$(BIN)/python -m benchmarks.mok_run 250 --docs
 
+# the suite on two workers, then the tests that race a run against the clock alone (tests/conftest.py: serial)
 test: lint docs
-	$(BIN)/python -m pytest -q --durations=15
+	$(BIN)/python -m pytest -q -n 2 -m "not serial" --durations=15
+	$(BIN)/python -m pytest -q -m serial --durations=5
 
 # ruff and mypy (configured in pyproject.toml): no findings
 lint: $(BIN)/cosim

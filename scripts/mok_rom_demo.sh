@@ -38,4 +38,5 @@ done
 echo "== cosim report"
 rm -rf $OUT/report
 "$COSIM" report $OUT/rom=$OUT/fom $OUT/fmu=$OUT/fom "${pairs[@]}" --out $OUT/report
+"${PYTHON:-python3}" -m scripts.mok_rom_table $OUT/report/report.json ${MOK_ROM_DOCS:+--docs}
 printf 'demo finished in %.0f s; see %s/report\n' "$(echo "$(date +%s.%N) - $start" | bc)" "$OUT"

@@ -87,3 +87,25 @@ def alive_with(text: str) -> list[int]:
             if state != "Z":
                 pids.append(int(entry))
     return pids
+
+
+#: tests that race a run against the clock (a signal or a kill at a window, a timeout) or pin cores and time runs:
+#: `make test` runs them alone after the rest has run on two workers (pytest-xdist), so no other test's load
+#: shifts their timing
+SERIAL_MODULES = ("test_faults.py", "test_benchmarks.py")
+SERIAL_TESTS = ("test_a_campaign_stopped_midway_goes_on_from_its_runs_checkpoints",
+                "test_an_interrupted_sweep_resumes_without_redoing_finished_runs",
+                "test_a_run_killed_in_a_window_resumes_from_its_checkpoint_bit_for_bit",
+                "test_killed_solid_stops_the_run_and_keeps_finished_windows",
+                "test_hanging_component_times_out_and_is_killed", "test_ctrl_c_stops_every_component",
+                "test_a_remote_component_that_disappears_stops_the_run_within_its_timeout_naming_it")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "serial: races a run against the clock; `make test` runs it alone")
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if item.path.name in SERIAL_MODULES or item.originalname in SERIAL_TESTS:  # type: ignore[attr-defined]
+            item.add_marker(pytest.mark.serial)
