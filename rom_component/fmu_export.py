@@ -12,34 +12,17 @@ from __future__ import annotations
 import json
 import tempfile
 import xml.etree.ElementTree as ET
-import zipfile
 from pathlib import Path
 
 from cosim.component import MESH_PREFIX
-from cosim.errors import CosimError
+from rom_component.fmu_package import pack, real_variables, scalar_names
 from rom_component.native import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
 from rom_component.online import OnlineRom
 from rom_component.persistence import load_arrays
 
 MODEL_IDENTIFIER = "solid_rom"
-AXES = "xyz"
 LOG_CATEGORIES = {"logEvents": "instantiation and termination (with loggingOn)",
                   "logStatusError": "every call that returns fmi2Error, with the reason"}
-
-
-def scalar_names(name: str, size: int, components: int) -> list[str]:
-    """FMI structured names of an array variable's scalars, node-major."""
-    if components < 1 or size % components:
-        raise CosimError(f"variable '{name}' of size {size} cannot hold {components} components per node")
-    if components == 1:
-        return [f"{name}[{node + 1}]" for node in range(size)]
-    if components > len(AXES):
-        raise CosimError(f"variable '{name}': at most {len(AXES)} components per node")
-    return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
-
-
-
-
 
 
 def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
@@ -61,29 +44,9 @@ def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
     categories = ET.SubElement(root, "LogCategories")
     for name, text in LOG_CATEGORIES.items():
         ET.SubElement(categories, "Category", {"name": name, "description": text})
-    variables = ET.SubElement(root, "ModelVariables")
-    for vr, name in enumerate(inputs):
-        scalar = ET.SubElement(variables, "ScalarVariable", {"name": name, "valueReference": str(vr),
-                                                             "causality": "input", "variability": "continuous"})
-        ET.SubElement(scalar, "Real", {"start": "0.0"})
-    for k, name in enumerate(outputs):
-        scalar = ET.SubElement(variables, "ScalarVariable", {
-            "name": name, "valueReference": str(len(inputs) + k), "causality": "output",
-            "variability": "continuous", "initial": "calculated"})
-        ET.SubElement(scalar, "Real")
-    structure = ET.SubElement(root, "ModelStructure")
-    for block in ("Outputs", "InitialUnknowns"):
-        unknowns = ET.SubElement(structure, block)
-        for index in range(len(inputs) + 1, len(inputs) + len(outputs) + 1):
-            ET.SubElement(unknowns, "Unknown", {"index": str(index)})
+    real_variables(root, inputs, outputs)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
-
-
-
-
-
-
 
 
 def export_fmu(model: str | Path, out: str | Path, components_per_node: int | None = None) -> Path:
@@ -117,11 +80,4 @@ def export_fmu(model: str | Path, out: str | Path, components_per_node: int | No
             (root / "resources" / "interface.json").write_text(
                 json.dumps({"variables": metadata["variables"], "meshes": meshes}, sort_keys=True))
         compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so")
-        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
-            for path in sorted(root.rglob("*")):
-                if path.is_file():
-                    info = zipfile.ZipInfo(path.relative_to(root).as_posix(), date_time=(1980, 1, 1, 0, 0, 0))
-                    info.compress_type = zipfile.ZIP_DEFLATED
-                    info.external_attr = 0o644 << 16
-                    archive.writestr(info, path.read_bytes())
-    return out
+        return pack(root, out)

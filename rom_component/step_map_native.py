@@ -17,7 +17,6 @@ import subprocess
 import tempfile
 import uuid
 import xml.etree.ElementTree as ET
-import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -26,11 +25,11 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from cosim.errors import CosimError
+from rom_component.fmu_package import pack, real_variables, scalar_names
 from rom_component.native import HEADERS, NAME_BYTES, fmi_headers
 
 SOURCE = Path(__file__).with_name("fmu") / "step_map_rom.c"
 MODEL_IDENTIFIER = "step_map_rom"
-AXES = "xyz"
 
 
 def rest_history(arrays: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -184,14 +183,6 @@ class CompiledStepMap:
         self.folder.cleanup()
 
 
-def scalar_names(name: str, size: int, components: int) -> list[str]:
-    if components == 1:
-        return [f"{name}[{node + 1}]" for node in range(size)]
-    if size % components or components > len(AXES):
-        raise CosimError(f"variable '{name}' of size {size} cannot hold {components} components per node")
-    return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
-
-
 def model_description(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], guid: str,
                       components: int) -> bytes:
     """``modelDescription.xml``: the force in, the interface displacement out, the probes as locals."""
@@ -213,22 +204,7 @@ def model_description(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, A
         "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
     ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": SOURCE.name})
     ET.SubElement(root, "DefaultExperiment", {"stepSize": repr(float(metadata["dt"]))})
-    variables = ET.SubElement(root, "ModelVariables")
-    for vr, name in enumerate(inputs):
-        scalar = ET.SubElement(variables, "ScalarVariable", {"name": name, "valueReference": str(vr),
-                                                             "causality": "input", "variability": "continuous"})
-        ET.SubElement(scalar, "Real", {"start": "0.0"})
-    for k, name in enumerate(outputs + probes):
-        causality = "output" if k < len(outputs) else "local"
-        scalar = ET.SubElement(variables, "ScalarVariable", {
-            "name": name, "valueReference": str(n_in + k), "causality": causality, "variability": "continuous",
-            "initial": "calculated"})
-        ET.SubElement(scalar, "Real")
-    structure = ET.SubElement(root, "ModelStructure")
-    for block in ("Outputs", "InitialUnknowns"):
-        unknowns = ET.SubElement(structure, block)
-        for index in range(n_in + 1, n_in + len(outputs) + 1):
-            ET.SubElement(unknowns, "Unknown", {"index": str(index)})
+    real_variables(root, inputs, outputs, probes)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
 
@@ -249,11 +225,4 @@ def export_step_map_fmu(arrays: Mapping[str, np.ndarray], metadata: Mapping[str,
             {"variables": metadata.get("variables", []), "meshes": meshes, "history_windows": int(metadata["history"]),
              "take_over": "step_map_take_over"}, sort_keys=True))
         compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so")
-        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
-            for path in sorted(root.rglob("*")):
-                if path.is_file():
-                    info = zipfile.ZipInfo(path.relative_to(root).as_posix(), date_time=(1980, 1, 1, 0, 0, 0))
-                    info.compress_type = zipfile.ZIP_DEFLATED
-                    info.external_attr = 0o644 << 16
-                    archive.writestr(info, path.read_bytes())
-    return out
+        return pack(root, out)

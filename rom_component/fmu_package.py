@@ -1,0 +1,57 @@
+"""What every FMU ``cosim export-fmu`` writes shares: scalar variable names of array variables, the
+``ScalarVariable`` elements of ``modelDescription.xml``, and the archive, packed so that the same files give the
+same bytes. The static ROM's export (``fmu_export``) and the step map's (``step_map_native``) use it.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+import zipfile
+from collections.abc import Sequence
+from pathlib import Path
+
+from cosim.errors import CosimError
+
+AXES = "xyz"
+
+
+def scalar_names(name: str, size: int, components: int) -> list[str]:
+    """FMI structured names of an array variable's scalars, node-major: ``name[node]`` or ``name[node].x``."""
+    if components < 1 or size % components:
+        raise CosimError(f"variable '{name}' of size {size} cannot hold {components} components per node")
+    if components == 1:
+        return [f"{name}[{node + 1}]" for node in range(size)]
+    if components > len(AXES):
+        raise CosimError(f"variable '{name}': at most {len(AXES)} components per node")
+    return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
+
+
+def real_variables(root: ET.Element, inputs: Sequence[str], outputs: Sequence[str], locals_: Sequence[str] = ()) -> None:
+    """``ModelVariables`` (value references in that order: inputs, outputs, locals) and ``ModelStructure``."""
+    variables = ET.SubElement(root, "ModelVariables")
+    for vr, name in enumerate(inputs):
+        scalar = ET.SubElement(variables, "ScalarVariable", {"name": name, "valueReference": str(vr),
+                                                             "causality": "input", "variability": "continuous"})
+        ET.SubElement(scalar, "Real", {"start": "0.0"})
+    for k, name in enumerate([*outputs, *locals_]):
+        scalar = ET.SubElement(variables, "ScalarVariable", {
+            "name": name, "valueReference": str(len(inputs) + k), "causality": "output" if k < len(outputs) else "local",
+            "variability": "continuous", "initial": "calculated"})
+        ET.SubElement(scalar, "Real")
+    structure = ET.SubElement(root, "ModelStructure")
+    for block in ("Outputs", "InitialUnknowns"):
+        unknowns = ET.SubElement(structure, block)
+        for index in range(len(inputs) + 1, len(inputs) + len(outputs) + 1):
+            ET.SubElement(unknowns, "Unknown", {"index": str(index)})
+
+
+def pack(folder: Path, out: Path) -> Path:
+    """The FMU archive of ``folder``'s files, in name order with fixed dates and modes (reproducible bytes)."""
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
+        for path in sorted(folder.rglob("*")):
+            if path.is_file():
+                info = zipfile.ZipInfo(path.relative_to(folder).as_posix(), date_time=(1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                info.external_attr = 0o644 << 16
+                archive.writestr(info, path.read_bytes())
+    return out
