@@ -290,7 +290,13 @@ def run_plot_hooks(scene: Scene) -> list:
         if name not in available:
             raise SceneError(f"{scene.source}: 'output.plots.{i}' is {name!r}; known run plots: "
                              f"{', '.join(available) or 'none'}")
-        hooks.append(available[name].load())
+        hook = available[name].load()
+        for component in getattr(hook, "recorded", ()):   # the recorded calls the plot draws from
+            spec = scene["components"].get(component)
+            if spec is not None and not spec["record"]:
+                raise SceneError(f"{scene.source}: 'output.plots.{i}' ({name!r}) draws from the recorded calls of "
+                                 f"'{component}': set components.{component}.record = true, or leave the plot out")
+        hooks.append(hook)
     return hooks
 
 

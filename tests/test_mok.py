@@ -225,3 +225,15 @@ def test_a_mok_run_resumes_with_the_structure_s_inertia(tmp_path, monkeypatch):
         np.testing.assert_allclose(a_cut, a_whole, rtol=0, atol=1e-9 * np.abs(a_whole).max())
         for name, values in whole.fields().items():
             assert np.abs(cut.fields()[name] - values).max() <= 1e-8 * np.abs(values).max(), name
+
+
+@needs_kratos
+def test_a_run_plot_that_needs_recorded_calls_is_refused_before_the_run_without_them(capsys, tmp_path):
+    """Mok's plots draw point A from the structure's recorded calls: a scene that does not record them fails at
+    check, with one line naming the key, instead of after 250 windows."""
+    from cosim.cli import main
+    code = main(["check", str(ROOT / "scenes" / "mok.toml"), "--set", "components.structure.record=false"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert "'output.plots.0' ('mok') draws from the recorded calls of 'structure': set " \
+           "components.structure.record = true" in err
