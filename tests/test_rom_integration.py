@@ -359,3 +359,13 @@ def test_a_rom_fom_run_with_the_online_surrogate_is_reported_against_a_reference
     (row,) = json.loads((tmp_path / "report" / "report.json").read_text())["runs"]
     assert row["surrogate"]["surrogate_trainings"] >= 1 and row["surrogate"]["surrogate_updates"] > 0
     assert 0 < row["monitor_error"] < 5e-3
+
+
+def test_a_rom_serving_alone_from_the_start_is_recorded_under_its_participant(model, tmp_path):
+    """With the switch at the start only the ROM's process runs; its calls are the participant's, recorded as
+    'solid' (they were not recorded at all when the recorder was looked up by the process's name)."""
+    rom_run(tmp_path / "rom", model, 0.0, "time.end=1.0")
+    with RunResults(tmp_path / "rom") as run:
+        assert run.component_names() == ["fluid", "solid_rom"] and run.recorded() == ["solid"]
+        calls = run.calls("solid")
+        assert len(calls) == run.windows.iterations.sum() and (calls.outputs["rom_out_of_range"] >= 0).all()
