@@ -28,7 +28,7 @@ campaign: $(BIN)/cosim
 	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
 
 # the ROM with memory of Mok's wall: FOM-FOM, training, ROM-FOM and FMU-FOM switching at 12 s, other inflows
-# (about 15 minutes; runs/mok_rom_demo/report)
+# (12 minutes here; runs/mok_rom_demo/report)
 demo-mok-rom: $(BIN)/cosim
 	COSIM=$(BIN)/cosim PYTHON=$(BIN)/python MOK_ROM_DOCS=1 bash scripts/mok_rom_demo.sh
 
