@@ -153,10 +153,12 @@ class StepMapRomSolid(Component):
         return dict(served)
 
     def _out_of_range(self, t: float, excess: float) -> None:
-        message = (f"input outside the training range at t = {t:g} s (a reduced force mode beyond the training "
-                   f"data by {excess:.3g} of its range, more than {self.range_margin:g})")
+        """A call beyond the training range: an error naming how far, or a warning the coupler folds into one line
+        per window (the excess of every call is recorded as the local ``rom_excess``)."""
+        message = (f"input outside the training range (a reduced force mode beyond the training data by more than "
+                   f"{self.range_margin:g} of its range)")
         if self.on_out_of_range == "fail":
-            raise ComponentError(self.name, message)
+            raise ComponentError(self.name, f"{message} at t = {t:g} s: {excess:.3g} of its range")
         self.warn(message)
 
     def _outputs(self) -> dict[str, np.ndarray]:

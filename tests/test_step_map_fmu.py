@@ -149,3 +149,26 @@ def test_a_static_model_is_refused_by_the_step_map_component(tmp_path):
     persistence.save(tmp_path / "static.npz", rom.online_arrays(), {"regressor": "rbf"})
     with pytest.raises(ComponentError, match="not a step map"):
         StepMapRomSolid().instantiate({"model": str(tmp_path / "static.npz")})
+
+
+def test_a_call_beyond_the_training_range_warns_or_fails(model):
+    """Trust as for the static ROM: the window's reduced force against the training envelope, in every arithmetic;
+    a warning the coupler folds into one line per window, or an error that says how far."""
+    from cosim.errors import ComponentError
+    from rom_component.step_map_component import StepMapRomSolid
+    path, _, data = model
+    far = data.F[50] * 40.0
+    for arithmetic in ("reproducible", "compiled"):
+        warned = StepMapRomSolid()
+        warned.instantiate({"model": str(path), "arithmetic": arithmetic})
+        inside = warned.served_step(0.0, 0.1, {"force": data.F[0]})
+        assert inside["rom_out_of_range"][0] == 0.0 and warned.take_warnings() == []
+        out = dict(warned.served_step(0.1, 0.1, {"force": far}))
+        assert out["rom_out_of_range"][0] == 1.0 and out["rom_excess"][0] > 1.0
+        assert warned.take_warnings() == ["input outside the training range (a reduced force mode beyond the training "
+                                          "data by more than 0.05 of its range)"]
+        failing = StepMapRomSolid()
+        failing.instantiate({"model": str(path), "arithmetic": arithmetic, "on_out_of_range": "fail"})
+        with pytest.raises(ComponentError, match=r"at t = 0.1 s: [0-9.e+]+ of its range"):
+            failing.served_step(0.0, 0.1, {"force": data.F[0]})
+            failing.served_step(0.1, 0.1, {"force": far})
