@@ -31,19 +31,20 @@ def cache_dir() -> Path:
     return Path(os.environ.get("COSIM_CACHE") or Path.home() / ".cache" / "cosim")
 
 
-def library_path(defines: tuple[str, ...] = ()) -> Path:
-    """The compiled solid_rom library for the present source, compiler and ``defines``, built if missing."""
+def library_path(defines: tuple[str, ...] = (), source: Path = SOURCE) -> Path:
+    """The compiled library of ``source`` (the static ROM's by default) for its present text, the compiler and
+    ``defines``, built if missing."""
     compiler = os.environ.get("CC", "cc")
-    digest = hashlib.sha256(SOURCE.read_bytes() + compiler.encode() + " ".join(defines).encode()).hexdigest()[:16]
-    target = cache_dir() / f"solid_rom-{digest}.so"
+    digest = hashlib.sha256(source.read_bytes() + compiler.encode() + " ".join(defines).encode()).hexdigest()[:16]
+    target = cache_dir() / f"{source.stem}-{digest}.so"
     if target.is_file():
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
         sources = Path(tmp)
-        write_sources(sources)
+        write_sources(sources, source)
         built = sources / target.name
-        compile_binary(sources, built, defines)
+        compile_binary(sources, built, defines, source)
         os.replace(built, target)    # atomic: processes building at once all end with a whole library
     return target
 

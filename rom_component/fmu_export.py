@@ -15,7 +15,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from cosim.component import MESH_PREFIX
-from rom_component.fmu_package import pack, real_variables, scalar_names
+from rom_component.fmu_package import description_root, pack, real_variables, scalar_names
 from rom_component.native import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
 from rom_component.online import OnlineRom
 from rom_component.persistence import load_arrays
@@ -30,17 +30,9 @@ def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
     meta = rom.metadata
     inputs = scalar_names(meta.get("input_variable", "force"), rom.n_inputs, components)
     outputs = scalar_names(meta.get("output_variable", "displacement"), rom.n_outputs, components)
-    root = ET.Element("fmiModelDescription", {
-        "fmiVersion": "2.0", "modelName": MODEL_IDENTIFIER, "guid": guid,
-        "description": (f"solid ROM: r_f={rom.E.shape[0]}, r_u={rom.A.shape[1]}, {rom.regressor} regression, "
-                        f"{'quadratic' if rom.quadratic_decoder else 'linear'} decoder"),
-        "generationTool": "cosim export-fmu", "variableNamingConvention": "structured",
-        "numberOfEventIndicators": "0"})
-    cosimulation = ET.SubElement(root, "CoSimulation", {
-        "modelIdentifier": MODEL_IDENTIFIER, "needsExecutionTool": "false",
-        "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
-        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
-    ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": SOURCE.name})
+    root, _ = description_root(MODEL_IDENTIFIER, guid,
+                               f"solid ROM: r_f={rom.E.shape[0]}, r_u={rom.A.shape[1]}, {rom.regressor} regression, "
+                               f"{'quadratic' if rom.quadratic_decoder else 'linear'} decoder", True, SOURCE.name)
     categories = ET.SubElement(root, "LogCategories")
     for name, text in LOG_CATEGORIES.items():
         ET.SubElement(categories, "Category", {"name": name, "description": text})

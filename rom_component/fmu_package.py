@@ -26,6 +26,22 @@ def scalar_names(name: str, size: int, components: int) -> list[str]:
     return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
 
 
+def description_root(identifier: str, guid: str, description: str, variable_step: bool,
+                     source: str) -> tuple[ET.Element, ET.Element]:
+    """The ``fmiModelDescription`` element of a Co-Simulation FMU that can get, set and serialise its state and
+    builds from one C ``source``, and its ``CoSimulation`` element."""
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": identifier, "guid": guid, "description": description,
+        "generationTool": "cosim export-fmu", "variableNamingConvention": "structured",
+        "numberOfEventIndicators": "0"})
+    cosimulation = ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": identifier, "needsExecutionTool": "false",
+        "canHandleVariableCommunicationStepSize": "true" if variable_step else "false", "canInterpolateInputs": "false",
+        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
+    ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": source})
+    return root, cosimulation
+
+
 def real_variables(root: ET.Element, inputs: Sequence[str], outputs: Sequence[str], locals_: Sequence[str] = ()) -> None:
     """``ModelVariables`` (value references in that order: inputs, outputs, locals) and ``ModelStructure``."""
     variables = ET.SubElement(root, "ModelVariables")

@@ -21,7 +21,7 @@ MAX_MODEL_BYTES = 1 << 30          # 1 GiB decompressed; a double-flap model wit
 MAX_METADATA_BYTES = 1 << 20
 FLOATS = {"E", "e", "A", "base", "u_mean", "Phi_u", "f_mean", "Phi_f", "force_singular_values",
           "disp_singular_values", "B", "Phi_bar", "centres", "H", "envelope_low", "envelope_high", "envelope_mean",
-          "envelope_precision", "envelope_max_distance", "W_f", "W_z", "W_h", "W_q", "c", "P", "p0"}
+          "envelope_precision", "envelope_max_distance", "W_f", "W_z", "W_q", "c", "P", "p0"}
 REQUIRED = ("E", "e", "H", "A", "base", "u_mean", "Phi_u")
 INDICES = {"quad_i", "quad_j", "cube_i", "cube_j", "cube_k"}
 MESH = re.compile(r"mesh:[A-Za-z0-9_.-]{1,64}")
@@ -59,7 +59,7 @@ def check_members(archive: zipfile.ZipFile) -> None:
                                     f"{MAX_MODEL_BYTES:,} in all")
 
 
-STEP_MAP_REQUIRED = ("E", "e", "W_f", "W_z", "W_h", "W_q", "c", "A", "base", "u_mean", "Phi_u", "P", "p0")
+STEP_MAP_REQUIRED = ("E", "e", "W_f", "W_z", "W_q", "c", "A", "base", "u_mean", "Phi_u", "P", "p0")
 
 
 def check_arrays(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) -> None:
@@ -111,7 +111,7 @@ def check_step_map(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]
             raise ModelContentError(f"it lacks the array '{name}'")
     _check_values(arrays)
     counts = {}
-    for key in ("history", "force_history", "quadratic_modes"):
+    for key in ("history", "quadratic_modes"):
         value = metadata.get(key)
         if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= 64:
             raise ModelContentError(f"its metadata's '{key}' is {value!r}; expected a whole number from 0 to 64")
@@ -125,11 +125,11 @@ def check_step_map(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]
         raise ModelContentError(f"its metadata's quadratic_modes {k} exceeds r_u = {r_u}")
     n_full, n_probe = arrays["u_mean"].size, arrays["p0"].size
     expected = {"e": (r_f,), "W_f": (r_u, r_f), "W_z": (r_u, counts["history"] * r_u),
-                "W_h": (r_u, counts["force_history"] * r_f), "W_q": (r_u, k * (k + 1) // 2), "c": (r_u,),
+                "W_q": (r_u, k * (k + 1) // 2), "c": (r_u,),
                 "base": (n_out,), "u_mean": (n_full,), "Phi_u": (n_full, r_u), "P": (n_probe, r_u), "p0": (n_probe,),
                 **_envelope_shapes(r_f)}
-    _check_shapes(arrays, expected, f"r_f = {r_f}, r_u = {r_u}, history {counts['history']}, force history "
-                                    f"{counts['force_history']}, {n_out} outputs, {n_full} field values")
+    _check_shapes(arrays, expected, f"r_f = {r_f}, r_u = {r_u}, history {counts['history']}, {n_out} outputs, "
+                                    f"{n_full} field values")
     if len(metadata.get("probes", [])) * 2 != n_probe:
         raise ModelContentError(f"its metadata names {len(metadata.get('probes', []))} probes for {n_probe} probe "
                                 "values (two each)")

@@ -64,22 +64,23 @@ def fmi_headers() -> Path:
     return Path(fmpy.__file__).parent / "c-code"
 
 
-def write_sources(folder: Path) -> None:
-    """The C source and the FMI 2.0 headers it includes, into ``folder``."""
-    shutil.copy(SOURCE, folder / SOURCE.name)
+def write_sources(folder: Path, source: Path = SOURCE) -> None:
+    """The C source (the static ROM's, or ``source``) and the FMI 2.0 headers it includes, into ``folder``."""
+    shutil.copy(source, folder / source.name)
     for header in HEADERS:
         shutil.copy(fmi_headers() / header, folder / header)
 
 
-def compile_binary(sources: Path, target: Path, defines: tuple[str, ...] = ()) -> None:
-    """Build the linux64 binary: plain flags suffice, the source fixes its floating-point contract.
+def compile_binary(sources: Path, target: Path, defines: tuple[str, ...] = (), source: Path = SOURCE) -> None:
+    """Build the linux64 binary of ``source`` (in ``sources``): plain flags suffice, the source fixes its
+    floating-point contract.
 
     ``defines``: preprocessor names to set (``SOLID_ROM_SCALAR``: no vector types, same results)."""
     compiler = os.environ.get("CC", "cc")
     if shutil.which(compiler) is None:
         raise CosimError(f"export-fmu needs a C compiler; '{compiler}' was not found (set CC)")
     command = [compiler, "-std=c99", "-O3", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
-               *(f"-D{name}" for name in defines), str(sources / SOURCE.name), "-o", str(target)]
+               *(f"-D{name}" for name in defines), str(sources / source.name), "-o", str(target)]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise CosimError(f"compiling the FMU binary failed:\n{done.stderr}")

@@ -41,6 +41,8 @@ from sklearn.linear_model import Ridge
 from rom_component.decoders import PodDecoder
 from rom_component.encoders import PodEncoder
 
+FORCE_HISTORY = 2   # Newmark's weighted sum x+ + 2 x0 + x- spans the window and the two before it
+
 
 class UnstableModel(ValueError):
     """A fitted step map whose free response grows."""
@@ -97,32 +99,28 @@ def quadratic_pairs(k: int) -> tuple[np.ndarray, np.ndarray]:
 class StepMap:
     """The fitted map's matrices in reduced units (z, x); see the module's docstring."""
 
-    W_f: np.ndarray          # (r_u, r_f)
+    W_f: np.ndarray          # (r_u, r_f), on Newmark's weighted sum x+ + 2 x0 + x-
     A: np.ndarray            # (r_u, p r_u): [A_1 ... A_p]
-    B: np.ndarray            # (r_u, q r_f): [B_1 ... B_q]
     Q: np.ndarray            # (r_u, k (k + 1) / 2)
     c: np.ndarray            # (r_u,)
     quadratic_modes: int = 0
     radius: float = 0.0              # spectral radius of the linear part as fitted
     radius_served: float = 0.0       # after stabilisation
     pairs: tuple[np.ndarray, np.ndarray] = field(init=False)
+    B: np.ndarray = field(init=False)   # [2 W_f, W_f]: the weights of the last two windows' forces
 
     def __post_init__(self) -> None:
         self.pairs = quadratic_pairs(self.quadratic_modes)
+        self.B = np.hstack([2 * self.W_f, self.W_f])
 
     @property
     def history(self) -> int:
         return self.A.shape[1] // max(self.A.shape[0], 1)
 
-    @property
-    def force_history(self) -> int:
-        return self.B.shape[1] // max(self.W_f.shape[1], 1)
-
     def step(self, x: np.ndarray, z_history: np.ndarray, x_history: np.ndarray) -> np.ndarray:
-        """z_{n+1} for the reduced force ``x`` and the histories (newest first), (p, r_u) and (q, r_f)."""
+        """z_{n+1} for the reduced force ``x`` and the histories (newest first), (p, r_u) and (2, r_f)."""
         z = self.W_f @ x + self.A @ z_history.ravel() + self.c
-        if self.B.size:
-            z += self.B @ x_history.ravel()
+        z += self.B @ x_history.ravel()
         if self.quadratic_modes:
             last = z_history[0, :self.quadratic_modes]
             z += self.Q @ (last[self.pairs[0]] * last[self.pairs[1]])
@@ -161,8 +159,6 @@ class StepMapRom:
     history, as the component does in a coupled run once each window has converged.
     """
 
-    force_history = 2           # Newmark's weighted sum x+ + 2 x0 + x- spans the window and the two before it
-
     def __init__(self, force_modes: int = 8, disp_modes: int = 6, history: int = 2, ridge: float = 1e-8,
                  quadratic_modes: int = 0, max_radius: float = 1.0):
         self.force_modes, self.disp_modes, self.history = force_modes, disp_modes, history
@@ -195,7 +191,7 @@ class StepMapRom:
         W, A, Q = np.split(ridge.coef_, [r_f, r_f + self.history * r_u], axis=1)
         W, Q = W * scale, Q / scale
         A, radius, served = stabilised(A, self.max_radius)
-        self.map_ = StepMap(W, A, np.hstack([2 * W, W]), Q, ridge.intercept_ * scale, k, radius, served)
+        self.map_ = StepMap(W, A, Q, ridge.intercept_ * scale, k, radius, served)
         self.check_free_response(xc[last], zc, xc, last)
         return self
 
@@ -212,14 +208,13 @@ class StepMapRom:
         for n, x_n in enumerate(x):       # a recurrence: each window needs the last one's answer
             Z[n] = step.step(x_n, z_history, x_history)
             z_history = np.vstack([Z[n], z_history[:-1]])
-            if len(x_history):
-                x_history = np.vstack([x_n, x_history[:-1]])
+            x_history = np.vstack([x_n, x_history[:-1]])
         return Z
 
     def history_before(self, zc: np.ndarray, xc: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
         """The histories a call of ``window`` starts from, from converged reduced rows of windows 0, 1, ..."""
         z_history = zc[np.maximum(window - 1 - np.arange(self.history), 0)]
-        x_history = xc[np.maximum(window - 1 - np.arange(self.force_history), 0)]
+        x_history = xc[np.maximum(window - 1 - np.arange(FORCE_HISTORY), 0)]
         return z_history, x_history
 
     def check_free_response(self, x_hold: np.ndarray, zc: np.ndarray, xc: np.ndarray, last: int,

@@ -10,10 +10,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import json
-import os
-import shutil
 import struct
-import subprocess
 import tempfile
 import uuid
 import xml.etree.ElementTree as ET
@@ -25,8 +22,9 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from cosim.errors import CosimError
-from rom_component.fmu_package import pack, real_variables, scalar_names
-from rom_component.native import HEADERS, NAME_BYTES, fmi_headers
+from rom_component.compiled import library_path
+from rom_component.fmu_package import description_root, pack, real_variables, scalar_names
+from rom_component.native import NAME_BYTES, compile_binary, write_sources
 
 SOURCE = Path(__file__).with_name("fmu") / "step_map_rom.c"
 MODEL_IDENTIFIER = "step_map_rom"
@@ -60,40 +58,6 @@ def model_guid(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], co
     return "{" + str(uuid.UUID(bytes=digest[:16], version=4)) + "}"
 
 
-def write_sources(folder: Path) -> None:
-    shutil.copy(SOURCE, folder / SOURCE.name)
-    for header in HEADERS:
-        shutil.copy(fmi_headers() / header, folder / header)
-
-
-def compile_binary(sources: Path, target: Path) -> None:
-    compiler = os.environ.get("CC", "cc")
-    if shutil.which(compiler) is None:
-        raise CosimError(f"the step-map ROM's C code needs a C compiler; '{compiler}' was not found (set CC)")
-    command = [compiler, "-std=c99", "-O2", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
-               str(sources / SOURCE.name), "-o", str(target)]
-    done = subprocess.run(command, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise CosimError(f"compiling the step-map ROM failed:\n{done.stderr}")
-
-
-def library_path() -> Path:
-    """The compiled library for the present source and compiler, in the cache, built if missing."""
-    from rom_component.compiled import cache_dir
-    compiler = os.environ.get("CC", "cc")
-    digest = hashlib.sha256(SOURCE.read_bytes() + compiler.encode()).hexdigest()[:16]
-    target = cache_dir() / f"step_map_rom-{digest}.so"
-    if target.is_file():
-        return target
-    target.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
-        write_sources(Path(tmp))
-        built = Path(tmp) / target.name
-        compile_binary(Path(tmp), built)
-        os.replace(built, target)
-    return target
-
-
 def bind(lib: ctypes.CDLL) -> ctypes.CDLL:
     """Argument and result types of the C functions outside FMI."""
     pointer = ctypes.c_void_p
@@ -125,7 +89,7 @@ class CompiledStepMap:
     window's last call into the history, ``history`` / ``set_history``, ``take_over``."""
 
     def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]):
-        self.lib = bind(ctypes.CDLL(str(library_path())))
+        self.lib = bind(ctypes.CDLL(str(library_path(source=SOURCE))))
         self.folder = tempfile.TemporaryDirectory(prefix="cosim-step-map-")
         guid = model_guid(arrays, metadata, 1)
         Path(self.folder.name, "rom.bin").write_bytes(resource_bytes(arrays, metadata, guid, 1))
@@ -192,17 +156,10 @@ def model_description(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, A
     outputs = scalar_names(metadata["output_variable"], n_out,
                            int(declared.get(metadata["output_variable"], {}).get("components", components)))
     probes = [name for probe in metadata.get("probes", []) for name in scalar_names(probe, 2, 1)]
-    root = ET.Element("fmiModelDescription", {
-        "fmiVersion": "2.0", "modelName": MODEL_IDENTIFIER, "guid": guid,
-        "description": (f"step-map ROM of a structure with inertia: r_f={r_f}, r_u={r_u}, history of "
-                        f"{metadata['history']} windows, window {metadata['dt']:g} s; the history is the FMU's state"),
-        "generationTool": "cosim export-fmu", "variableNamingConvention": "structured",
-        "numberOfEventIndicators": "0"})
-    cosimulation = ET.SubElement(root, "CoSimulation", {
-        "modelIdentifier": MODEL_IDENTIFIER, "needsExecutionTool": "false",
-        "canHandleVariableCommunicationStepSize": "false", "canInterpolateInputs": "false",
-        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
-    ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": SOURCE.name})
+    root, _ = description_root(MODEL_IDENTIFIER, guid,
+                               f"step-map ROM of a structure with inertia: r_f={r_f}, r_u={r_u}, history of "
+                               f"{metadata['history']} windows, window {metadata['dt']:g} s; the history is the "
+                               "FMU's state", False, SOURCE.name)
     ET.SubElement(root, "DefaultExperiment", {"stepSize": repr(float(metadata["dt"]))})
     real_variables(root, inputs, outputs, probes)
     ET.indent(root)
@@ -217,12 +174,12 @@ def export_step_map_fmu(arrays: Mapping[str, np.ndarray], metadata: Mapping[str,
         root = Path(tmp)
         for folder in ("sources", "resources", "binaries/linux64"):
             (root / folder).mkdir(parents=True)
-        write_sources(root / "sources")
+        write_sources(root / "sources", SOURCE)
         (root / "resources" / "rom.bin").write_bytes(resource_bytes(arrays, metadata, guid, components))
         (root / "modelDescription.xml").write_bytes(model_description(arrays, metadata, guid, components))
         meshes = {k[len(MESH_PREFIX):]: v.tolist() for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
         (root / "resources" / "interface.json").write_text(json.dumps(
             {"variables": metadata.get("variables", []), "meshes": meshes, "history_windows": int(metadata["history"]),
              "take_over": "step_map_take_over"}, sort_keys=True))
-        compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so")
+        compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so", source=SOURCE)
         return pack(root, out)

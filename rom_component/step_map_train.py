@@ -19,25 +19,18 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from cosim.errors import SceneError
-from cosim.results import RunResults
 from rom_component import persistence
 from rom_component.envelope import fit_envelope
 from rom_component.step_map import StepMapRom, UnstableModel, WindowData, holdout
-from rom_component.train import interface_index, read_interface
+from rom_component.train import interface_index, read_interface, recorded_calls
 
 KIND = "step-map"
 
 
 def read_window_data(results: str | Path, spec: dict[str, Any]) -> tuple[WindowData, np.ndarray, float, dict]:
     """Every recorded call of the component, its window end times, the window size, and its two-value locals."""
-    with RunResults(results) as run:
-        calls = run.calls(spec["component"])
-        times = run.windows.time
+    calls, times = recorded_calls(results, spec)
     field = spec["field"] or spec["output"]
-    for kind, name, arrays in (("inputs", spec["input"], calls.inputs), ("outputs", field, calls.outputs)):
-        if name not in arrays:
-            raise SceneError(f"'{results}': the recorded {kind} of '{spec['component']}' have no '{name}' "
-                             f"(has: {', '.join(arrays)})")
     finished = calls.window <= len(times)
     F = calls.inputs[spec["input"]][finished].reshape(int(finished.sum()), -1)
     U = calls.outputs[field][finished].reshape(len(F), -1)
@@ -71,7 +64,7 @@ def model_file(model: StepMapRom, data: WindowData, last: int, K: np.ndarray, pr
     Phi_u = np.ascontiguousarray(decoder.components_[:, :r_u])
     probe_index = np.concatenate(list(probes.values())) if probes else np.zeros(0, dtype=np.int64)
     arrays = {"E": np.ascontiguousarray(encoder.jacobian()[:r_f]), "e": encoder.online_arrays()["e"][:r_f],
-              "W_f": step.W_f, "W_z": step.A, "W_h": step.B, "W_q": step.Q, "c": step.c,
+              "W_f": step.W_f, "W_z": step.A, "W_q": step.Q, "c": step.c,
               "A": np.ascontiguousarray(Phi_u[K]), "base": decoder.mean_[K].copy(), "u_mean": decoder.mean_,
               "Phi_u": Phi_u, "P": np.ascontiguousarray(Phi_u[probe_index]), "p0": decoder.mean_[probe_index].copy(),
               "force_singular_values": encoder.singular_values_, "disp_singular_values": decoder.singular_values_,
@@ -79,7 +72,7 @@ def model_file(model: StepMapRom, data: WindowData, last: int, K: np.ndarray, pr
     metadata = {"kind": KIND, "regressor": KIND, "params": {"step_map": model.settings()},
                 "input_variable": input_name, "output_variable": output_name, "windows": last, "dt": dt,
                 "n_snapshots": int(data.select(1, last).sum()), "history": model.history,
-                "force_history": model.force_history, "quadratic_modes": model.quadratic_modes,
+                "quadratic_modes": model.quadratic_modes,
                 "radius": step.radius, "radius_served": step.radius_served, "probes": list(probes)}
     return arrays, metadata
 

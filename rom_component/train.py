@@ -17,7 +17,7 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from cosim.errors import SceneError
-from cosim.results import RunResults
+from cosim.results import Calls, RunResults
 from cosim.scene import apply_override, parse_override, read_toml
 from cosim.schema import Choice, PluginChoice, Value, validate
 from rom_component import persistence
@@ -94,16 +94,24 @@ def load_config(path: str | Path | None, overrides: Sequence[str] = ()) -> dict[
     return config
 
 
-def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Force rows, displacement rows, window end times and window numbers of the selected calls."""
+def recorded_calls(results: str | Path, spec: dict[str, Any], converged_only: bool = False) -> tuple[Calls, np.ndarray]:
+    """The recorded calls of ``spec``'s component and the run's window end times; an error naming the run and the
+    variable if the calls lack the force or the displacement (or field) the ROM learns."""
     with RunResults(results) as run:
-        calls = run.calls(spec["component"], converged_only=spec["converged_only"])
+        calls = run.calls(spec["component"], converged_only=converged_only)
         window_time = run.windows.time
     learned = spec["field"] or spec["output"]
     for kind, var, arrays in (("inputs", spec["input"], calls.inputs), ("outputs", learned, calls.outputs)):
         if var not in arrays:
             raise SceneError(f"'{results}': the recorded {kind} of '{spec['component']}' have no '{var}' "
                              f"(has: {', '.join(arrays)})")
+    return calls, window_time
+
+
+def read_snapshots(results: str | Path, spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Force rows, displacement rows, window end times and window numbers of the selected calls."""
+    calls, window_time = recorded_calls(results, spec, spec["converged_only"])
+    learned = spec["field"] or spec["output"]
     finished = calls.window <= len(window_time)            # calls of the window in flight at a crash are left out
     times = window_time[np.minimum(calls.window, len(window_time)) - 1]
     keep = finished & (times >= spec["t_min"] - 1e-9) & (times <= spec["t_max"] + 1e-9)

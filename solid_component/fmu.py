@@ -147,7 +147,7 @@ class FmuSolid(Component):
     def take_over(self, inputs: Mapping[str, np.ndarray], outputs: Mapping[str, np.ndarray]) -> None:
         """The FMU's history from a full-order run's converged windows (rows oldest first)."""
         if not self.history_windows:
-            super().take_over(inputs, outputs)
+            return super().take_over(inputs, outputs)     # refused: this FMU keeps no history
         (input_name,), (output_name,) = list(self.inputs), list(self.outputs)
         forces, displacements = inputs.get(input_name), outputs.get(output_name)
         if forces is None or displacements is None or len(forces) != len(displacements):
