@@ -9,6 +9,11 @@ Two measurements on any serial-implicit scene, each against the plain run in the
   window against eps show how exact a predictor must be before the criterion lets a window end sooner.
 - ``predictability``: how well the plain run's converged accelerated data follow from earlier windows by
   polynomial extrapolation (orders 0 to 4), as a fraction of the window's change (printed with ``oracle``).
+- ``forced``: with ``--input CSV``, a signal known ahead of time (time, value: e.g. the tube's inlet table) joins the
+  predictor: each window's change of the accelerated data is regressed, by least squares on the ``--history`` windows
+  before it, on the last ``--lags`` changes (in the POD basis of the recent changes, ``--modes``) and the signal's last
+  two changes. It is printed as a fraction of the window's change, and a run that starts every window from its own
+  last converged value plus that prediction gives the iterations per window of a predictor that good.
 - ``plain``: the plain run's data sizes, their change per window and the residual's median per iteration (also
   printed with ``oracle``).
 - ``repeat``: in every window the second iteration repeats the first's iterate (x1 = x0): the
@@ -18,7 +23,7 @@ Two measurements on any serial-implicit scene, each against the plain run in the
   criterion's limit; the rest of the window is the plain acceleration's.
 
 Usage: python -m benchmarks.coupling_floor SCENE [--out DIR] [--set KEY=VALUE ...] [--eps 0 1e-3 ...]
-       [--both] [--repeat] [--plain]
+       [--both] [--repeat] [--plain] [--input CSV [--history N] [--modes N] [--lags N]]
 """
 
 from __future__ import annotations
@@ -60,6 +65,80 @@ def predictability(results: RunResults, names: list[str], skip: int) -> list[tup
         error = np.linalg.norm(prediction - X[n], axis=1) / np.maximum(change[n - 1], np.finfo(float).tiny)
         rows.append((order, float(np.median(error)), float(np.quantile(error, 0.9))))
     return rows
+
+
+def stacked(results: RunResults, names: list[str]) -> np.ndarray:
+    """The converged values of ``names`` per window, the initial ones first: row k is after window k."""
+    fields, initial = results.fields(), results.initial()
+    return np.vstack([np.concatenate([initial[name].ravel() for name in names])] +
+                     [np.hstack([fields[name].reshape(len(fields[name]), -1) for name in names])])
+
+
+def signal_at_windows(path: str, results: RunResults) -> np.ndarray:
+    """A (time, value) CSV's value at the start and the end of every window (linear interpolation)."""
+    rows = [line.split(",") for line in Path(path).read_text().splitlines() if line.strip() and line[0] != "#"]
+    table = np.array(rows[1:] if not rows[0][0].strip().replace(".", "", 1).isdigit() else rows, dtype=float)
+    time = results.windows.time
+    return np.interp(np.r_[time[0] - (time[1] - time[0]), time], table[:, 0], table[:, 1])
+
+
+class ForcedPredictor:
+    """Each window's change of the accelerated data from the last changes and a known input's changes."""
+
+    def __init__(self, X: np.ndarray, u: np.ndarray, history: int, modes: int, lags: int) -> None:
+        self.D, self.du = np.diff(X, axis=0), np.diff(u)   # D[k - 1] = X[k] - X[k - 1]: window k's change
+        self.history, self.modes, self.lags = history, modes, lags
+
+    def first_window(self) -> int:
+        return self.history + self.lags + 2
+
+    def change(self, n: int) -> np.ndarray:
+        """The predicted change of window n (1-based), fitted on the windows before it."""
+        D, du, lags = self.D, self.du, self.lags
+        U, sigma = np.linalg.svd(D[n - 1 - self.history - lags:n - 1].T, full_matrices=False)[:2]
+        basis = U[:, :min(self.modes, int((sigma > 1e-9 * sigma[0]).sum()))]   # modes above round-off
+
+        def features(m: int) -> np.ndarray:
+            return np.concatenate([basis.T @ D[m - 1 - k] for k in range(1, lags + 1)] + [du[m - 1:m - 3:-1]])
+        fitted = np.arange(n - self.history, n)
+        X = np.array([features(int(m)) for m in fitted])
+        Y = D[fitted - 1] @ basis
+        coefficients = np.linalg.lstsq(X, Y, rcond=1e-12)[0]
+        return basis @ (features(n) @ coefficients)
+
+    def errors(self, skip: int) -> np.ndarray:
+        """|predicted - actual change| / |actual change| of every window after ``skip``."""
+        windows = range(max(skip + 1, self.first_window()), len(self.D) + 1)
+        return np.array([np.linalg.norm(self.change(n) - self.D[n - 1]) / np.linalg.norm(self.D[n - 1])
+                         for n in windows])
+
+
+def forced(scene_path: str, out: Path, overrides: list[str], signal: str, skip: int, history: int, modes: int,
+           lags: int) -> list[tuple[str, float]]:
+    """The plain run, the forced predictor's error, and a run whose windows start from it."""
+    plain = run(scene_path, out / "plain", overrides)
+    names = plain.scene["coupling"]["acceleration"]["data"] or sorted(plain.fields())
+    predictor = ForcedPredictor(stacked(plain, names), signal_at_windows(signal, plain), history, modes, lags)
+    skip = max(skip, predictor.first_window())
+    error = predictor.errors(skip)
+    print(f"forced predictor (history {history}, at most {modes} modes, {lags} lags): error / the window's change, "
+          f"median {np.median(error):.2e}, 75th percentile {np.quantile(error, 0.75):.2e}, "
+          f"90th {np.quantile(error, 0.9):.2e}")
+    original = CouplingScheme._predicted
+
+    def predicted(self: CouplingScheme) -> dict[str, np.ndarray]:
+        values = original(self)
+        if self.window > skip:      # a change over twice the last window's is the regression's failure: not taken
+            last, change = self._stack(self.values, names), predictor.change(self.window)
+            if np.linalg.norm(change) <= 2 * np.linalg.norm(predictor.D[self.window - 2]):
+                values.update(self._split(last + change, names))
+        return values
+    CouplingScheme._predicted = predicted      # type: ignore[method-assign]
+    try:
+        result = run(scene_path, out / "forced", overrides)
+    finally:
+        CouplingScheme._predicted = original    # type: ignore[method-assign]
+    return [("plain", per_window(plain, skip)), ("forced predictor", per_window(result, skip))]
 
 
 def scales(results: RunResults, skip: int) -> list[str]:
@@ -154,6 +233,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeat", action="store_true", help="measure the solvers' noise instead")
     parser.add_argument("--plain", action="store_true", help="the plain run's scales and residuals only")
     parser.add_argument("--skip", type=int, default=10, help="windows left out of the means (the start-up)")
+    parser.add_argument("--input", help="a (time, value) CSV known ahead of time: the forced predictor")
+    parser.add_argument("--history", type=int, default=40, help="forced predictor: windows fitted")
+    parser.add_argument("--modes", type=int, default=10, help="forced predictor: POD modes of the changes")
+    parser.add_argument("--lags", type=int, default=2, help="forced predictor: earlier changes as features")
     args = parser.parse_args(argv)
     out = Path(args.out) if args.out else fresh_directory("coupling_floor")
     print(f"machine: {machine()}")
@@ -170,7 +253,10 @@ def main(argv: list[str] | None = None) -> None:
         print(f"| {len(noise)} | {np.median(noise[:, 0]):.3e} ({noise[:, 0].min():.2e}, {noise[:, 0].max():.2e}) | "
               f"{np.median(noise[:, 1]):.3e} | {np.median(ratio):.2e} ({ratio.max():.2e}) |")
         return
-    rows = oracle(args.scene, out, args.overrides, args.eps, args.both, args.skip)
+    if args.input:
+        rows = forced(args.scene, out, args.overrides, args.input, args.skip, args.history, args.modes, args.lags)
+    else:
+        rows = oracle(args.scene, out, args.overrides, args.eps, args.both, args.skip)
     print("| start | iterations per window |")
     print("| --- | --- |")
     for name, value in rows:

@@ -201,3 +201,22 @@ def test_step_map_call_benchmark_small(capsys):
     timings = step_map_call.main(["--small"])
     assert {"compiled warm", "compiled cold", "reproducible warm", "fmu warm"} <= set(timings)
     assert "step-map ROM of 12 force values" in capsys.readouterr().out
+
+
+def test_forced_predictor_is_exact_on_a_linear_system_driven_by_its_input():
+    """The floor benchmark's forced predictor (a known input joins the regression of each window's change):
+    on x_k = A x_(k-1) + b u_k it predicts every change to round-off; withheld input, it cannot."""
+    from benchmarks.coupling_floor import ForcedPredictor
+    rng = np.random.default_rng(7)
+    n, steps = 6, 160
+    A = 0.6 * np.linalg.qr(rng.normal(size=(n, n)))[0]
+    b = rng.normal(size=n)
+    k = np.arange(steps + 1)
+    u = np.sin(0.1 * k) + 0.3 * np.sin(0.37 * k) + 0.05 * rng.normal(size=k.size)
+    X = np.zeros((steps + 1, n))
+    for i in range(1, steps + 1):
+        X[i] = A @ X[i - 1] + b * u[i]
+    exact = ForcedPredictor(X, u, history=30, modes=10, lags=2).errors(skip=0)
+    assert len(exact) == steps - 33 and exact.max() < 1e-8
+    blind = ForcedPredictor(X, np.zeros_like(u), history=30, modes=10, lags=2).errors(skip=0)
+    assert np.median(blind) > 1e-2
