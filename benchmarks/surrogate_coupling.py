@@ -10,6 +10,8 @@ Cases (the scenes' own settings, FOM-FOM):
 Usage: python -m benchmarks.surrogate_coupling {flap,tube} [--start N] [--set KEY=VALUE ...] [--small]
        (a --set of a coupling.surrogate key goes to the surrogate run only)
        (--small: a few windows, for the tests)
+       python -m benchmarks.surrogate_coupling {flap,tube} --start N --compare BASELINE RUN ...
+       (the same table over finished runs of the case, e.g. other acceleration settings: each against the first)
 """
 
 from __future__ import annotations
@@ -70,13 +72,36 @@ def summary(run: RunResults, start: int) -> dict[str, float]:
             "unconverged windows": int(attributes.get("windows_unconverged", 0))}
 
 
+def table(case: str, runs: dict[str, RunResults], start: int) -> dict:
+    """Print each run's summary over the windows from ``start`` and its accuracy against the first run's."""
+    rows = {label: summary(run, start - 1) for label, run in runs.items()}
+    baseline, *others = list(runs)
+    print("| | " + " | ".join(runs) + " |")
+    print("|" + " --- |" * (len(runs) + 1))
+    for key in rows[baseline]:
+        print(f"| {key} | " + " | ".join(f"{rows[label][key]:.4g}" for label in runs) + " |")
+    reductions = {label: 1.0 - rows[label]["fluid calls"] / rows[baseline]["fluid calls"] for label in others}
+    print("| fluid calls saved | | " + " | ".join(f"{reductions[label]:.1%}" for label in others) + " |")
+    differences = {label: accuracy(case, runs[baseline], runs[label], start - 1) for label in others}
+    for key in differences[others[0]]:
+        print(f"| {key} | | " + " | ".join(f"{differences[label][key]:.3e}" for label in others) + " |")
+    return {"rows": rows, "reductions": reductions}
+
+
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("case", choices=sorted(CASES))
     parser.add_argument("--start", type=int, help="the surrogate's start_window (default: the case's)")
     parser.add_argument("--set", action="append", default=[], dest="overrides")
     parser.add_argument("--small", action="store_true")
+    parser.add_argument("--compare", nargs="+", metavar="RUN", help="finished run folders: the first is the baseline")
     args = parser.parse_args(argv)
+    if args.compare:
+        if len(args.compare) < 2:
+            parser.error("--compare needs a baseline run and at least one other")
+        runs = {Path(path).name: RunResults(Path(path) / "results.h5") for path in args.compare}
+        print(f"{args.case}: windows from window {args.start or CASES[args.case][2]}")
+        return table(args.case, runs, args.start or CASES[args.case][2])
     scene, overrides, start = CASES[args.case]
     if args.small:
         overrides, start = overrides + SMALL[args.case][0], SMALL[args.case][1]
@@ -91,17 +116,10 @@ def main(argv: list[str] | None = None) -> dict:
         run_scene(load_scene(scene, overrides + extra), out / label, progress=False)
         runs[label] = RunResults(out / label / "results.h5")
     # the surrogate is used from window `start` on: the windows after its start are rows start - 1 onwards
-    rows = {label: summary(run, start - 1) for label, run in runs.items()}
-    reduction = 1.0 - rows["surrogate"]["fluid calls"] / rows["plain"]["fluid calls"]
-    print(f"{args.case}: {rows['plain']['windows']} windows from window {start} (results in {out})")
-    print("| | plain | surrogate |")
-    print("| --- | --- | --- |")
-    for key in rows["plain"]:
-        print(f"| {key} | {rows['plain'][key]:.4g} | {rows['surrogate'][key]:.4g} |")
-    print(f"| fluid calls saved | | {reduction:.1%} |")
-    for key, value in accuracy(args.case, runs["plain"], runs["surrogate"], start - 1).items():
-        print(f"| {key} | | {value:.3e} |")
-    return {"rows": rows, "reduction": reduction}
+    print(f"{args.case}: {len(runs['plain'].windows.iterations) - start + 1} windows from window {start} "
+          f"(results in {out})")
+    result = table(args.case, runs, start)
+    return {"rows": result["rows"], "reduction": result["reductions"]["surrogate"], "out": out}
 
 
 if __name__ == "__main__":

@@ -176,6 +176,11 @@ def test_surrogate_coupling_benchmark_small(capsys):
     assert online["surrogate training [s]"] > 0 and plain["surrogate training [s]"] == 0
     pressure = float(re.search(r"\| inlet pressure, relative L2 \| \| ([0-9.e+-]+) \|", text).group(1))
     assert pressure < 1e-3
+    # the same table over the finished runs, the surrogate run as the baseline this time
+    again = surrogate_coupling.main(["tube", "--start", "10", "--compare", str(results["out"] / "surrogate"),
+                                     str(results["out"] / "plain")])
+    assert again["rows"]["plain"] == plain and again["rows"]["surrogate"] == online
+    assert again["reductions"]["plain"] == pytest.approx(1 - plain["fluid calls"] / online["fluid calls"])
 
 
 def test_surrogate_blocks_benchmark_on_a_short_tube_run(tmp_path, capsys):
