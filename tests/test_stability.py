@@ -80,3 +80,14 @@ def test_the_surrogate_quasi_newton_converges_wherever_iqn_ils_does(tmp_path, ca
     for (method, factor, dt), converged in outcome.items():
         if method == "iqn-ils" and converged:
             assert outcome["iqn-surrogate", factor, dt], (factor, dt)
+
+
+def test_contraction_plot_of_a_sweep_without_plain_runs_says_so(tmp_path):
+    """The contraction is measured on unaccelerated runs only: a sweep of accelerations alone gets a plot that says
+    so, without matplotlib's empty-legend warning."""
+    import warnings
+    from cases.tube.stability import plot_contraction
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plot_contraction([{"coupling.acceleration": '{type="iqn-ils"}', "contraction": "0.5"}], [], tmp_path / "c.png")
+    assert (tmp_path / "c.png").stat().st_size > 1000

@@ -129,11 +129,14 @@ def plot_contraction(table: list[dict[str, str]], spectra: list[dict[str, float]
             axis.scatter([rho[i] for i in chosen], [measured[i] for i in chosen], marker=marker, label=label)
         axis.scatter(theory, measured, marker=".", color="0.6", label="against the continuum theory")
         axis.axvline(1.0, color="r", lw=0.6)
-    axis.set_xscale("log")
-    axis.set_yscale("log")
+        axis.set_xscale("log")
+        axis.set_yscale("log")
+        axis.legend(fontsize=8)
+    else:       # the contraction is measured on the unaccelerated runs only
+        axis.text(0.5, 0.5, 'no run without acceleration (type "none") in this sweep', ha="center",
+                  transform=axis.transAxes)
     axis.set_xlabel("spectral radius of plain Gauss-Seidel, computed [-]")
     axis.set_ylabel("measured residual contraction per iteration [-]")
-    axis.legend(fontsize=8)
     axis.grid(alpha=0.3, which="both")
     figure.savefig(png, dpi=110)
     plt.close(figure)
