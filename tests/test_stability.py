@@ -86,6 +86,7 @@ def test_contraction_plot_of_a_sweep_without_plain_runs_says_so(tmp_path):
     """The contraction is measured on unaccelerated runs only: a sweep of accelerations alone gets a plot that says
     so, without matplotlib's empty-legend warning."""
     import warnings
+
     from cases.tube.stability import plot_contraction
     with warnings.catch_warnings():
         warnings.simplefilter("error")
