@@ -54,8 +54,7 @@ def predictability(results: RunResults, names: list[str], skip: int) -> list[tup
     """How well each window's converged accelerated data follow from the earlier windows' by polynomial
     extrapolation: (order, median, 90th percentile) of |prediction - x*_n| / |x*_n - x*_(n-1)|."""
     from math import comb
-    fields = results.fields()
-    X = np.hstack([fields[name].reshape(len(fields[name]), -1) for name in names])
+    X = stacked(results, names)[1:]
     change = np.linalg.norm(np.diff(X, axis=0), axis=1)
     rows = []
     for order in range(5):
@@ -75,11 +74,12 @@ def stacked(results: RunResults, names: list[str]) -> np.ndarray:
 
 
 def signal_at_windows(path: str, results: RunResults) -> np.ndarray:
-    """A (time, value) CSV's value at the start and the end of every window (linear interpolation)."""
-    rows = [line.split(",") for line in Path(path).read_text().splitlines() if line.strip() and line[0] != "#"]
-    table = np.array(rows[1:] if not rows[0][0].strip().replace(".", "", 1).isdigit() else rows, dtype=float)
+    """A (time, value) table's value at the start and the end of every window (the inlet table's reader)."""
+    from fluid_component.inlet import TableInlet
     time = results.windows.time
-    return np.interp(np.r_[time[0] - (time[1] - time[0]), time], table[:, 0], table[:, 1])
+    start = time[0] - (time[1] - time[0])
+    table = TableInlet(path, start, time[-1])
+    return np.interp(np.r_[start, time], table.time, table.velocity)
 
 
 class ForcedPredictor:
