@@ -16,7 +16,7 @@ import json
 import os
 import zipfile
 from collections import deque
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +26,8 @@ from cosim.errors import CosimError
 
 FORMAT = "cosim-checkpoint/1"
 FILE = "checkpoint.npz"
+DOCUMENT = "document_json"
+MAX_DOCUMENT_BYTES = 64 << 20     # the JSON document: counts, settings, the scheme's tree
 
 
 class CheckpointError(CosimError):
@@ -127,31 +129,93 @@ def _is_object(value: Any) -> bool:
 
 
 def write(path: str | Path, document: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> Path:
-    """Write a checkpoint file whole (temporary name, then rename)."""
+    """Write a checkpoint file whole (temporary name, then rename); a failed write (a full disk) leaves no
+    partial file and raises ``CheckpointError`` naming the file."""
     path = Path(path)
     payload = {key: np.asarray(value) for key, value in arrays.items()}
-    payload["document_json"] = np.frombuffer(json.dumps({"format": FORMAT, **document}).encode(), dtype=np.uint8)
+    payload[DOCUMENT] = np.frombuffer(json.dumps({"format": FORMAT, **document}).encode(), dtype=np.uint8)
     partial = path.with_name(path.name + ".partial")
-    with open(partial, "wb") as f:
-        np.savez(f, **payload)  # type: ignore[arg-type]  # numpy's stub takes allow_pickle for a keyword
-        f.flush()
-        os.fsync(f.fileno())
-    partial.replace(path)
+    try:
+        with open(partial, "wb") as f:
+            np.savez(f, **payload)  # type: ignore[arg-type]  # numpy's stub takes allow_pickle for a keyword
+            f.flush()
+            os.fsync(f.fileno())
+        partial.replace(path)
+    except OSError as exc:
+        partial.unlink(missing_ok=True)
+        raise CheckpointError(f"cannot write the checkpoint '{path}': {exc.strerror or exc}") from None
     return path
 
 
-def read(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """A checkpoint file's document and arrays; a one-line error for anything else."""
+def read(path: str | Path, wanted: Callable[[str, dict[str, Any]], bool] = lambda name, document: True,
+         check: Callable[[dict[str, Any]], None] = lambda document: None,
+         max_document_bytes: int = MAX_DOCUMENT_BYTES) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """A checkpoint file's document and arrays; a one-line error for anything else. Every member is checked from
+    its header before anything is loaded: a compressed one (a checkpoint is written uncompressed) is refused, so
+    that memory stays within the file's size. The document is read first and handed to ``check``; then an array
+    that ``wanted(name, document)`` does not take is refused before it is read."""
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"no checkpoint '{path}': the run wrote none (output.checkpoint_every) or it is "
                               "not a run directory")
     try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {name: data[name] for name in data.files}
-        document = json.loads(arrays.pop("document_json").tobytes().decode())
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+        with zipfile.ZipFile(path) as archive:
+            members = {info.filename.removesuffix(".npy"): info for info in archive.infolist()}
+            for name, info in members.items():
+                _check_member(path, archive, name, info, max_document_bytes)
+            if DOCUMENT not in members:
+                raise CheckpointError(f"checkpoint '{path}' is not a {FORMAT} file (no document)")
+            with archive.open(members[DOCUMENT]) as member:
+                document = json.loads(np.lib.format.read_array(member, allow_pickle=False).tobytes().decode())
+            if not isinstance(document, dict) or document.get("format") != FORMAT:
+                raise CheckpointError(f"checkpoint '{path}' is not a {FORMAT} file")
+            check(document)
+            unknown = sorted(name for name in members if name != DOCUMENT and not wanted(name, document))
+            if unknown:
+                raise CheckpointError(f"checkpoint '{path}' holds an array '{unknown[0]}' that belongs to no part "
+                                      f"of this run ({len(unknown)} such arrays): it is not this run's checkpoint")
+            arrays = {}
+            for name, info in members.items():
+                if name != DOCUMENT:
+                    with archive.open(info) as member:
+                        arrays[name] = np.lib.format.read_array(member, allow_pickle=False)
+    except CheckpointError:
+        raise
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, UnicodeDecodeError) as exc:
         raise CheckpointError(f"checkpoint '{path}' cannot be read: {exc}") from None
-    if not isinstance(document, dict) or document.get("format") != FORMAT:
-        raise CheckpointError(f"checkpoint '{path}' is not a {FORMAT} file")
     return document, arrays
+
+
+def array_keys(document: Any) -> set[str]:
+    """The array names a packed document refers to."""
+    found: set[str] = set()
+    stack = [document]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, dict):
+            if isinstance(node.get("__array__"), str):
+                found.add(node["__array__"])
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+    return found
+
+
+def _check_member(path: Path, archive: zipfile.ZipFile, name: str, info: zipfile.ZipInfo, max_document: int) -> None:
+    """A member must be a stored ``.npy`` array of plain data whose header declares what the member holds."""
+    if not info.filename.endswith(".npy") or info.compress_type != zipfile.ZIP_STORED:
+        raise CheckpointError(f"checkpoint '{path}': member '{info.filename}' is not an uncompressed .npy array, "
+                              "as a checkpoint writes them")
+    with archive.open(info) as member:
+        version = np.lib.format.read_magic(member)
+        readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+        if version not in readers:
+            raise CheckpointError(f"checkpoint '{path}': array '{name}' is in .npy format {version}")
+        shape, _, dtype = readers[version](member)
+        header = member.tell()
+    if dtype.hasobject:
+        raise CheckpointError(f"checkpoint '{path}': array '{name}' holds Python objects")
+    size = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if size + header != info.file_size or (name == DOCUMENT and size > max_document):
+        raise CheckpointError(f"checkpoint '{path}': array '{name}' declares {size:,} bytes in a member of "
+                              f"{info.file_size:,}: the file is damaged")

@@ -45,6 +45,12 @@ class RunDirectory:
         self._last_status = 0.0
 
     def __enter__(self) -> RunDirectory:
+        if self.resume and self.overwrite:
+            raise RunDirectoryError("--resume goes on with the run in --out and --overwrite replaces it: give one")
+        # a finished run is refused before the lock is taken: nothing in the directory is touched
+        if self.resume and read_status(self.path).get("state") == "finished":
+            raise RunDirectoryError(f"'{self.path}' holds a run that finished ({describe_run(self.path)}): "
+                                    "there is nothing to resume; it is left as it is")
         fd = hold(self.path, "run")
         if self.resume:
             if not (self.path / "results.h5").exists():

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import os
 import tomllib
-from dataclasses import dataclass
+import hashlib
+import json
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -158,6 +160,7 @@ class Scene:
     text: str
     source: str
     overridden: frozenset[str] = frozenset()    # dotted keys given by --set
+    file_keys: set[str] = field(default_factory=set)     # dotted keys that name a file the run reads
 
     def __getitem__(self, key: str) -> Any:
         return self.data[key]
@@ -170,12 +173,31 @@ class Scene:
     def resolve_paths(self, keys: list[str]) -> None:
         """Make the relative file paths at the dotted ``keys`` the scene folder's, unless --set gave them
         (those stay the working directory's, as the shell gave them)."""
+        self.file_keys.update(keys)
         for key in keys:
             node, last = self._holder(key)
             value = node.get(last) if node is not None else None
             if node is not None and isinstance(value, str) and value and not Path(value).is_absolute() \
                     and not self.given(key):
                 node[last] = str(self.folder / value)
+
+    def digest(self) -> str:
+        """SHA-256 of the resolved scene: the same for scenes that mean the same (the order of keys and of
+        ``--set`` items, ``20`` against ``20.0``, comments and layout aside)."""
+        return hashlib.sha256(json.dumps(_canonical(self.data), sort_keys=True).encode()).hexdigest()
+
+    def input_files(self) -> dict[str, Path]:
+        """Every file the scene names that exists (tables, ROM models, FMUs, meshes), by its dotted key."""
+        found = {}
+        for key in sorted(self.file_keys):
+            parts = key.split(".")
+            if parts[0] == "components" and len(parts) > 3 and parts[2] in ("rom", "fmu") \
+                    and self.data["components"][parts[1]]["backend"] != parts[2]:
+                continue      # a backend the scene does not select: its files are not read
+            value = self.value(key)
+            if isinstance(value, str) and value and Path(value).is_file():
+                found[key] = Path(value)
+        return found
 
     def value(self, key: str) -> Any:
         """The value at the dotted ``key`` (None if there is none)."""
@@ -200,6 +222,17 @@ class Scene:
         parameters = {section: self.data[section] for section in spec["sections"]}
         parameters.update(spec["parameters"])
         return parameters
+
+
+def _canonical(value: Any) -> Any:
+    """``value`` with every number a float (a TOML integer and float of one value mean the same here)."""
+    if isinstance(value, dict):
+        return {str(k): _canonical(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_canonical(v) for v in value]
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 2**53:
+        return float(value)
+    return value
 
 
 def parse_override(text: str) -> tuple[list[str], Any]:

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from cosim import stop
+from cosim.checkpoint import CheckpointError
 from cosim.errors import ComponentError, CosimError, SceneError
 from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
@@ -34,7 +35,7 @@ from coupler.mapping import make_mapping
 from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
-from coupler.restart import read_checkpoint_for, restore_checkpoint, write_checkpoint
+from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identity, write_checkpoint
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant
 from coupler.surrogate import InterfaceSurrogate, load_model_class
@@ -304,9 +305,11 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
          progress: bool, resume: bool = False) -> RunSummary:
     out_dir = directory.path
     saved: tuple[dict, dict] | None = None
+    identity = run_identity(scene, n_windows)
+    backends = plan_backends(scene)
     try:
         if resume:
-            saved = read_checkpoint_for(scene, out_dir)
+            saved = read_checkpoint_for(scene, out_dir, n_windows, [b.name for b in backends])
             store = ResultsStore.resume(out_dir / "results.h5", saved[0]["results"], saved[0]["windows"])
         else:
             store = ResultsStore(out_dir / "results.h5", scene.text)
@@ -323,8 +326,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                                                      counts["warned"])
     every = scene["output"]["checkpoint_every"]
     state = "failed"
-    directory.status("starting", force=True, windows_total=n_windows, windows_completed=0)
-    backends = plan_backends(scene)
+    directory.status("starting", force=True, windows_total=n_windows, windows_completed=windows)
     scheme = None
     participants = None
     phase = "start-up"   # where an error that is not inside a window happened
@@ -392,9 +394,14 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         stopping = stop.pending() and all(b.client.can_checkpoint for b in backends)
                         if ((every and windows % every == 0) or stopping) and windows < n_windows:
                             with stop.deferred():    # a stop waits for the checkpoint it asked for
-                                write_checkpoint(out_dir, scheme, backends, store,
-                                                 {"windows": windows, "iterations": iterations,
-                                                  "unconverged": unconverged, "warned": warned, "time": result.time})
+                                try:
+                                    write_checkpoint(out_dir, scheme, backends, store,
+                                                     {"windows": windows, "iterations": iterations,
+                                                      "unconverged": unconverged, "warned": warned,
+                                                      "time": result.time}, identity)
+                                except CheckpointError as exc:
+                                    raise CheckpointError(f"{exc}; the {windows} windows before it are kept in "
+                                                          f"'{out_dir / 'results.h5'}'") from None
                         stop.check()       # Ctrl-C or SIGTERM: stop here, between two windows
                         if bar is not None:
                             bar.update(1)

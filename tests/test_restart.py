@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import json
+import shutil
 import signal
 import subprocess
+import zipfile
 import sys
 from collections import deque
 from pathlib import Path
@@ -130,15 +133,16 @@ def test_a_rom_fom_run_stopped_before_or_after_its_switch_resumes_bit_for_bit(mo
 
 
 def test_resume_refuses_another_scene_and_a_run_without_a_checkpoint(tmp_path, capsys):
-    run_scene(load_scene(TUBE_SCENE, ["time.end=1.0"]), tmp_path / "plain", progress=False)
-    assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "plain"), "--quiet", "--set", "time.end=1.0",
-                 "--resume"]) == 2
-    err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "no checkpoint" in err and "output.checkpoint_every" in err, err
     with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
         stopped_at(4, patch)
         run_scene(load_scene(TUBE_SCENE, ["time.end=1.0", "output.checkpoint_every=2"]), tmp_path / "cut",
                   progress=False)
+    shutil.copytree(tmp_path / "cut", tmp_path / "plain")
+    (tmp_path / "plain" / "checkpoint.npz").unlink()
+    assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "plain"), "--quiet", "--set", "time.end=1.0",
+                 "--set", "output.checkpoint_every=2", "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "no checkpoint" in err and "output.checkpoint_every" in err, err
     assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "cut"), "--quiet", "--set", "time.end=1.0",
                  "--set", "output.checkpoint_every=2", "--set", "inlet.h=5", "--resume"]) == 2
     assert "was run with another scene" in capsys.readouterr().err
@@ -197,3 +201,142 @@ def test_a_run_with_the_online_surrogate_resumes_bit_for_bit(tmp_path, monkeypat
     identical(tmp_path / "whole", tmp_path / "cut")
     with RunResults(tmp_path / "whole" / "results.h5") as run:
         assert run.attributes["surrogate_trainings"] >= 4 and run.attributes["surrogate_updates"] > 0
+
+
+# --- what a resume refuses, before it touches anything --------------------------------------------------------
+
+SHORT = ["time.end=1.0", "output.checkpoint_every=2"]      # 10 windows, a checkpoint every 2
+
+
+def run_files(out: Path) -> dict[str, bytes]:
+    """The bytes of every file of a run directory (its lock aside)."""
+    return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file() and p.name != ".lock"}
+
+
+@pytest.fixture
+def stopped(tmp_path) -> Path:
+    """A tube run stopped after window 5 (as Ctrl-C stops it), its last checkpoint after window 4... and 5."""
+    with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
+        stopped_at(5, patch)
+        run_scene(load_scene(TUBE_SCENE, SHORT), tmp_path / "cut", progress=False)
+    return tmp_path / "cut"
+
+
+def resume(out: Path, overrides: list[str] = SHORT, *extra: str) -> list[str]:
+    return ["run", str(TUBE_SCENE), "--out", str(out), "--quiet", *[a for item in overrides for a in ("--set", item)],
+            "--resume", *extra]
+
+
+def refused(capsys, argv: list[str], out: Path, message: str) -> str:
+    """``argv`` exits 2 with one line that says ``message``, and every file of ``out`` is as it was."""
+    before = run_files(out)
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert message in err, err
+    assert run_files(out) == before
+    return err
+
+
+def test_resume_of_a_finished_run_says_so_and_touches_nothing(tmp_path, capsys):
+    run_scene(load_scene(TUBE_SCENE, SHORT), tmp_path / "done", progress=False)
+    refused(capsys, resume(tmp_path / "done"), tmp_path / "done", "holds a run that finished (finished, 10 windows)")
+    refused(capsys, resume(tmp_path / "done", SHORT, "--overwrite"), tmp_path / "done", "give one")
+
+
+def rewrite_document(out: Path, change) -> None:
+    """The checkpoint of ``out`` with its document changed by ``change(document)`` (its arrays as they were)."""
+    from cosim.checkpoint import read, write
+    document, arrays = read(out / "checkpoint.npz")
+    change(document)
+    write(out / "checkpoint.npz", {k: v for k, v in document.items() if k != "format"}, arrays)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d.pop("results"), "'results' is null"),
+    (lambda d: d.pop("windows"), "'windows' is null; expected an integer from 1 to 9"),
+    (lambda d: d.pop("components"), "'components' is null"),
+    (lambda d: d.update(scheme=None), "'scheme' is null"),
+    (lambda d: d.update(scheme={}), "'scheme' is {}"),
+    (lambda d: d.update(windows="4"), "'windows' is \"4\""),
+    (lambda d: d.update(windows=-5), "'windows' is -5; expected an integer from 1 to 9"),
+    (lambda d: d.update(windows=10**6), "'windows' is 1000000"),
+    (lambda d: d["results"].update({"windows/time": -3}), "'results' is"),
+    (lambda d: d.update(run={"scene_sha256": "0" * 64, **{k: v for k, v in d["run"].items() if k != "scene_sha256"}}),
+     "was run with another scene"),
+])
+def test_a_damaged_checkpoint_document_is_refused_by_its_key(stopped, capsys, change, message):
+    rewrite_document(stopped, change)
+    refused(capsys, resume(stopped), stopped, message)
+
+
+def test_arrays_a_checkpoint_does_not_name_are_refused_unread(stopped, capsys):
+    import io
+    original = (stopped / "checkpoint.npz").read_bytes()
+    with zipfile.ZipFile(stopped / "checkpoint.npz", "a", compression=zipfile.ZIP_DEFLATED) as archive:
+        with archive.open("scheme/extra.npy", "w", force_zip64=True) as member:   # 256 MB of zeros, deflated
+            np.lib.format.write_array_header_1_0(member, {"descr": "<f8", "fortran_order": False,
+                                                          "shape": (1 << 25,)})
+            block = bytes(1 << 20)
+            for _ in range(256):
+                member.write(block)
+    assert (stopped / "checkpoint.npz").stat().st_size < 8 << 20
+    refused(capsys, resume(stopped), stopped, "member 'scheme/extra.npy' is not an uncompressed .npy array")
+    (stopped / "checkpoint.npz").write_bytes(original)
+    with zipfile.ZipFile(stopped / "checkpoint.npz", "a") as archive:
+        array = io.BytesIO()
+        np.save(array, np.zeros(3))
+        archive.writestr("component:other/x.npy", array.getvalue())
+    refused(capsys, resume(stopped), stopped, "holds an array 'component:other/x' that belongs to no part of this run")
+
+
+@pytest.mark.parametrize("other", ["inlet.h=4", "tube.cells=50"])
+def test_a_checkpoint_of_another_run_is_refused_before_results_are_cut(tmp_path, capsys, other):
+    with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
+        stopped_at(7, patch)
+        run_scene(load_scene(TUBE_SCENE, SHORT), tmp_path / "mine", progress=False)
+    with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
+        stopped_at(3, patch)
+        run_scene(load_scene(TUBE_SCENE, [*SHORT, other]), tmp_path / "theirs", progress=False)
+    shutil.copy(tmp_path / "theirs" / "checkpoint.npz", tmp_path / "mine" / "checkpoint.npz")
+    refused(capsys, resume(tmp_path / "mine"), tmp_path / "mine", "was run with another scene")
+
+
+def test_an_input_file_changed_since_the_stop_is_refused(tmp_path, capsys):
+    table = tmp_path / "inlet.csv"
+    shutil.copy(ROOT / "scenes" / "inlet" / "tube-inlet-mu1.csv", table)
+    overrides = [*SHORT, f"inlet.table={table}"]
+    with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
+        stopped_at(5, patch)
+        run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "cut", progress=False)
+    lines = table.read_text().splitlines()
+    table.write_text("\n".join([*lines[:3], lines[3].replace(",", ",1", 1), *lines[4:]]) + "\n")
+    refused(capsys, resume(tmp_path / "cut", overrides), tmp_path / "cut",
+            f"'inlet.table' ({table}) is not the file the run started with")
+
+
+def test_the_order_of_set_items_and_20_against_20_0_do_not_make_another_scene(tmp_path):
+    given = ["time.end=1", "output.checkpoint_every=2", "inlet.h=6"]
+    with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
+        stopped_at(5, patch)
+        run_scene(load_scene(TUBE_SCENE, given), tmp_path / "cut", progress=False)
+    assert main(resume(tmp_path / "cut", ["inlet.h=6.0", "output.checkpoint_every=2", "time.end=1.0"])) == 0
+    run_scene(load_scene(TUBE_SCENE, given), tmp_path / "whole", progress=False)
+    identical(tmp_path / "whole", tmp_path / "cut")
+
+
+def test_a_failed_checkpoint_write_fails_the_run_in_one_line_and_leaves_no_partial_file(tmp_path, capsys, monkeypatch):
+    import errno
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(np, "savez", full)
+    out = tmp_path / "run"
+    assert main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", *[a for i in SHORT for a in ("--set", i)]]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err, err
+    assert f"cannot write the checkpoint '{out / 'checkpoint.npz'}': No space left on device; the 2 windows" in err
+    assert json.loads((out / "status.json").read_text())["state"] == "failed"
+    assert not list(out.glob("*.partial"))
+    with RunResults(out) as run:
+        assert len(run.windows.iterations) == 2
