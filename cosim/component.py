@@ -84,6 +84,12 @@ class Component:
     #: a ``step`` with the same ``t`` solves that window again from the last iterate
     repeats_steps: bool = False
 
+    #: the outputs depend on the inputs of the call alone (nothing that ``do_step`` changes carries over): implicit
+    #: coupling may call it again for a window without rolling it back. Implicit coupling needs one of three
+    #: answers from a component, as FMI asks ``canGetAndSetFMUstate``: ``save_state`` and ``restore_state``,
+    #: ``repeats_steps``, or ``stateless``
+    stateless: bool = False
+
     #: how many of the last converged windows the component needs to be handed when it takes over from another
     #: backend during a run (a structure with inertia: its history); 0 for none
     history_windows: int = 0
@@ -100,6 +106,11 @@ class Component:
         return type(self).save_state is not Component.save_state
 
     @property
+    def declares_state(self) -> bool:
+        """Whether the component says how implicit coupling repeats a window with it."""
+        return declares_state(type(self)) or self.repeats_steps or self.stateless
+
+    @property
     def can_checkpoint(self) -> bool:
         """Whether ``checkpoint`` gives what a new process needs to go on (its own, or ``save_state``'s)."""
         return type(self).checkpoint is not Component.checkpoint or self.can_get_and_set_state
@@ -112,6 +123,7 @@ class Component:
             "can_get_and_set_state": self.can_get_and_set_state,
             "can_checkpoint": self.can_checkpoint,
             "repeats_steps": self.repeats_steps,
+            "stateless": self.stateless,
             "history_windows": self.history_windows,
         }
         for name, nodes in self.meshes().items():
@@ -224,6 +236,23 @@ class Component:
 
 
 MESH_PREFIX = "mesh:"
+
+STATE_METHODS = "save_state(self) -> Any and restore_state(self, state: Any) -> None"
+
+
+def declares_state(cls: type) -> bool:
+    """Whether a component class says, by itself, how implicit coupling repeats a window with it: state
+    methods, ``repeats_steps`` or ``stateless`` (an instance may still set the latter two at ``instantiate``)."""
+    return (getattr(cls, "save_state", Component.save_state) is not Component.save_state
+            or bool(getattr(cls, "repeats_steps", False)) or bool(getattr(cls, "stateless", False)))
+
+
+def undeclared_state_message(component: str, entry: str) -> str:
+    """Why implicit coupling refuses a component that does not declare how it repeats a window."""
+    return (f"component '{component}' ({entry}) is coupled implicitly, which repeats each window until it converges, "
+            f"but it neither implements {STATE_METHODS} nor declares stateless = True (or repeats_steps = True): add "
+            "the state methods if do_step changes anything that carries over to the next window, else declare it "
+            "stateless")
 
 
 def check_inputs(component: Component, values: Mapping[str, np.ndarray],

@@ -54,6 +54,7 @@ class ComponentProxy:
         self.can_get_and_set_state = False
         self.can_checkpoint = False
         self.repeats_steps = False
+        self.stateless = False
         self.warnings: list[str] = []   # delivered with replies, taken by the coupler
         self.pid: int | None = process.pid if process else None
         self.compute_seconds: list[float] = []
@@ -160,6 +161,7 @@ class ComponentProxy:
         self.can_get_and_set_state = bool(result.get("can_get_and_set_state"))
         self.can_checkpoint = bool(result.get("can_checkpoint"))
         self.repeats_steps = bool(result.get("repeats_steps"))
+        self.stateless = bool(result.get("stateless"))
         self.history_windows = int(result.get("history_windows", 0))
         return result
 

@@ -11,10 +11,10 @@ checks those tables against the chosen plug-in before anything starts.
 
 from __future__ import annotations
 
-import os
-import tomllib
 import hashlib
 import json
+import os
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any

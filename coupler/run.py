@@ -23,7 +23,8 @@ import numpy as np
 
 from cosim import stop
 from cosim.checkpoint import CheckpointError
-from cosim.errors import ComponentError, CosimError, SceneError
+from cosim.component import undeclared_state_message
+from cosim.errors import ComponentError, ComponentTimeout, CosimError, SceneError
 from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
 from cosim.results import ResultsStore
@@ -95,8 +96,10 @@ def plan_backends(scene: Scene) -> list[Backend]:
     return backends
 
 
-def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) -> None:
-    """Spawn every local backend first (they start in parallel), then handshake each."""
+def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
+                   address_deadline: float | None = None) -> None:
+    """Spawn every local backend first (they start in parallel), then handshake each; a component served by hand
+    must answer within its ``startup_timeout`` (or ``address_deadline``)."""
     components = scene["components"]
     processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(components[b.participant]),
                                         components[b.participant]["cores"], [scene.folder])
@@ -112,7 +115,15 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher) ->
         curve = spec["curve"] if process is None else ""    # a launched component is on loopback, never CURVE
         backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"], curve=curve)
         if process is None:
-            backend.client.pid = int(backend.client.call("ping", timeout=spec["startup_timeout"])[0]["pid"])
+            deadline = spec["startup_timeout"] if address_deadline is None else address_deadline
+            try:
+                backend.client.pid = int(backend.client.call("ping", timeout=deadline)[0]["pid"])
+            except ComponentTimeout:
+                keys = (f"and that '{curve}' holds this client's key and the server's public key" if curve else
+                        f"and whether it serves with --curve (then set components.{backend.participant}.curve)")
+                raise ComponentError(backend.name, f"no reply from {endpoint} within {deadline:g} s: check that "
+                                     f"`cosim serve` runs there and serves this component, that the address is the "
+                                     f"one it printed, {keys}") from None
 
 
 def placement(backend: Backend) -> dict[str, list[int]]:
@@ -163,18 +174,12 @@ def build_scheme(scene: Scene, proxies: dict[str, Participant],
                  recorders: dict[str, CallRecorder]) -> CouplingScheme:
     """The scene's coupling scheme over described components; checks every exchanged variable."""
     coupling = scene["coupling"]
+    check_described(scene, proxies)
     exchanges = []
     for i, spec in enumerate(scene["exchange"]):
         source, target = proxies[spec["from"]], proxies[spec["to"]]
         data = spec["data"]
-        out_var, in_var = source.variables.get(data), target.variables.get(data)
-        if out_var is None or out_var.causality != "output":
-            raise SceneError(f"exchange.{i}: component '{source.name}' has no output '{data}' "
-                             f"(outputs: {', '.join(source.output_names())})")
-        if in_var is None or in_var.causality != "input":
-            inputs = [v.name for v in target.variables.values() if v.causality == "input"]
-            raise SceneError(f"exchange.{i}: component '{target.name}' has no input '{data}' "
-                             f"(inputs: {', '.join(inputs)})")
+        out_var, in_var = source.variables[data], target.variables[data]
         mapping = make_mapping(spec["mapping"], source.mesh_of(data), target.mesh_of(data),
                                out_var.shape, in_var.shape, f"exchange.{i} ({data})")
         exchanges.append(Exchange(data, source, target, mapping))
@@ -191,6 +196,30 @@ def build_scheme(scene: Scene, proxies: dict[str, Participant],
     if hasattr(scheme.acceleration, "surrogate"):
         scheme.acceleration.surrogate = scheme.surrogate
     return scheme
+
+
+def check_described(scene: Scene, proxies: dict[str, Participant]) -> None:
+    """What the scene asks of its described components: each exchanged variable an output of its sender and an
+    input of its receiver, and, under implicit coupling, a participant that says how it repeats a window."""
+    for i, spec in enumerate(scene["exchange"]):
+        source, target = proxies[spec["from"]], proxies[spec["to"]]
+        data = spec["data"]
+        out_var, in_var = source.variables.get(data), target.variables.get(data)
+        if out_var is None or out_var.causality != "output":
+            raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['from']}' has "
+                             f"no output '{data}' (outputs: {', '.join(source.output_names()) or 'none'})")
+        if in_var is None or in_var.causality != "input":
+            inputs = [v.name for v in target.variables.values() if v.causality == "input"]
+            raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['to']}' has "
+                             f"no input '{data}' (inputs: {', '.join(inputs) or 'none'})")
+    if scene["coupling"]["scheme"] == "serial-explicit":
+        return
+    for name in scene["coupling"]["participants"]:
+        proxy = proxies[name]
+        if not (proxy.can_get_and_set_state or proxy.repeats_steps or proxy.stateless):
+            spec = scene["components"][name]
+            raise SceneError(f"{scene.source}: components.{name}: "
+                             + undeclared_state_message(name, spec["entry"] or spec["address"]))
 
 
 def make_surrogate(coupling: dict) -> InterfaceSurrogate | None:

@@ -55,6 +55,7 @@ class BackendSchedule:
         self.meshes = first.meshes
         self.can_get_and_set_state = False
         self.repeats_steps = any(proxy.repeats_steps for _, proxy in self.stages)
+        self.stateless = all(proxy.stateless for _, proxy in self.stages)
         self._sent: ComponentProxy | None = None
         self._served: ComponentProxy | None = None   # the backend whose outputs the last call returned
         self.backend_changed = False

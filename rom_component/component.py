@@ -51,6 +51,7 @@ class RomSolid(Component):
 
     name = "solid_rom"
     parameter_schema = ROM_SCHEMA
+    stateless = True        # quasi-static: the displacement follows the force of the call
     parameter_help = ROM_HELP
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:

@@ -31,6 +31,7 @@ class ProjectedSolid(Component):
     component's entry), ``field`` (its local holding the full displacement field); the rest go to the solid."""
 
     name = "solid"
+    repeats_steps = True    # as the Kratos solid it wraps by default; set from the wrapped solid at instantiate
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         own = {key: parameters[key] for key in OWN if key in parameters}

@@ -82,6 +82,7 @@ class FmuSolid(Component):
                                             f"{'without' if md.coSimulation is None else 'with'} Co-Simulation; "
                                             "an FMI 2.0 Co-Simulation FMU is needed")
         self.stateful = prm["stateful"]
+        self.stateless = not self.stateful      # a history FMU repeats its steps instead (interface.json)
         self.path = path
         self.can_serialize = bool(md.coSimulation.canSerializeFMUstate)
         if self.stateful and not md.coSimulation.canGetAndSetFMUstate:

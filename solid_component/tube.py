@@ -43,6 +43,7 @@ class TubeSolid(Component):
 
     name = "solid"
     parameter_schema = SOLID_SCHEMA
+    stateless = True        # quasi-static: the section follows the pressure of the call
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, SOLID_SCHEMA)

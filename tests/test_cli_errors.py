@@ -182,8 +182,35 @@ def test_check_validates_without_running_and_prints_the_resolved_scene(capsys, t
     resolved = json.loads(captured.out)
     assert resolved["time"]["end"] == 2 and resolved["coupling"]["acceleration"]["type"] == "iqn-ils"
     assert resolved["coupling"]["acceleration"]["on_map_change"] == "drop-span"   # a default the scene omits
-    assert captured.err.strip().endswith("valid; 20 windows, components fluid, solid")
+    assert captured.err.strip().endswith("valid (every component started and instantiated); 20 windows, "
+                                         "components fluid, solid")
+    assert "  solid: input pressure (101,), output section (101,)" in captured.err
     assert main(["check", str(TUBE_SCENE), "--set", "components.solid.parameters.E_smal=1"]) == 2
     assert capsys.readouterr().err.strip().splitlines() == [
         "cosim check: error: unknown key 'components.solid.parameters.E_smal' in " + str(TUBE_SCENE)
         + "; did you mean 'components.solid.parameters.E_small'?"]
+
+
+def test_check_knows_the_variables_components_declare(capsys):
+    """A variable misspelt alike in the exchange, the measure and the acceleration passes every static check; the
+    instantiated components name the ones they have."""
+    sektion = ["--set", 'exchange.1.data="sektion"', "--set", 'coupling.convergence.1.data="sektion"',
+               "--set", 'coupling.acceleration.data=["sektion"]']
+    err = one_line_error(capsys, ["check", str(TUBE_SCENE), *sektion])
+    assert err.endswith("'exchange.1.data' is 'sektion', but component 'solid' has no output 'sektion' "
+                        "(outputs: section)"), err
+    assert main(["check", str(TUBE_SCENE), "--static", *sektion]) == 0     # the static checks alone pass it
+
+
+def test_check_tries_an_address_with_a_short_deadline_and_says_what_to_check(capsys):
+    import socket
+    import time
+    with socket.socket() as free:
+        free.bind(("127.0.0.1", 0))
+        port = free.getsockname()[1]
+    started = time.monotonic()
+    err = one_line_error(capsys, ["check", str(TUBE_SCENE), "--set", "components.solid.entry=''",
+                                  "--set", f"components.solid.address='tcp://127.0.0.1:{port}'"])
+    assert time.monotonic() - started < 30.0
+    assert f"no reply from tcp://127.0.0.1:{port} within 5 s: check that `cosim serve` runs there" in err, err
+    assert "whether it serves with --curve (then set components.solid.curve)" in err, err

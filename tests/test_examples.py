@@ -42,3 +42,46 @@ def test_the_spring_wall_example_couples_to_the_tube_fluid_and_keeps_its_law(tmp
         tube_section = results.fields()["section"]
     difference = np.abs(tube_section - section).max() / np.abs(section).max()
     assert 0.1 * strain ** 2 < difference < 10 * strain ** 2, (difference, strain)
+
+
+DAMPED = ROOT / "examples/damped_wall/scene.toml"
+
+
+def test_the_damped_wall_example_keeps_its_implicit_euler_law_window_by_window(tmp_path):
+    """A component with state (save_state, restore_state): each window's iterations start from one radius."""
+    done = subprocess.run([sys.executable, "-m", "cosim", "run", str(DAMPED), "--out", str(tmp_path / "run"),
+                           "--quiet", "--set", "time.end=3.0"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    with RunResults(tmp_path / "run/results.h5") as results:
+        assert results.windows.converged.all() and len(results.windows) == 30
+        mean_iterations = results.windows.iterations.mean()
+        fields = results.fields()
+    r0, E, tau, dt = math.sqrt(1.0 / math.pi), 12500.0, 0.05, 0.1
+    radius = np.sqrt(np.vstack([np.full((1, 101), 1.0), fields["section"]]) / math.pi)
+    equilibrium = r0 + fields["pressure"] * r0 ** 2 / E
+    np.testing.assert_allclose(radius[1:], (radius[:-1] + dt / tau * equilibrium) / (1 + dt / tau), rtol=1e-7)
+    assert np.abs(radius - r0).max() > 1e-4 * r0              # the flow does move the wall
+    assert mean_iterations < 4.0
+
+
+def test_a_component_with_no_state_answer_is_refused_under_implicit_coupling(tmp_path, capsys):
+    """Without state methods and without ``stateless``, ``cosim check`` refuses it, naming the methods to add."""
+    from cosim.cli import main
+    (tmp_path / "forgetful.py").write_text(
+        "import sys\n"
+        f"sys.path.insert(0, {str(DAMPED.parent)!r})\n"
+        "from cosim.component import Component\n"
+        "from damped_wall import DampedWall\n\n\n"
+        "class ForgetfulWall(DampedWall):\n"
+        "    save_state = Component.save_state\n"
+        "    restore_state = Component.restore_state\n")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(DAMPED.read_text().replace("damped_wall:DampedWall", "forgetful:ForgetfulWall"))
+    code = main(["check", str(scene)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err, err
+    assert "components.solid: component 'solid' (forgetful:ForgetfulWall) is coupled implicitly" in err
+    assert "save_state(self) -> Any and restore_state(self, state: Any) -> None nor declares stateless = True" in err
+    # an explicit scheme repeats no window: the same component is accepted there
+    assert main(["check", str(scene), "--set", "coupling.scheme=serial-explicit", "--set",
+                 "coupling.acceleration=none"]) == 0

@@ -6,8 +6,8 @@ import json
 import shutil
 import signal
 import subprocess
-import zipfile
 import sys
+import zipfile
 from collections import deque
 from pathlib import Path
 

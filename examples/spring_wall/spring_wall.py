@@ -33,6 +33,7 @@ class SpringWall(Component):
 
     name = "solid"
     parameter_schema = SCHEMA
+    stateless = True        # the section follows the pressure of the call: nothing carries over between windows
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = validate(parameters, SCHEMA)

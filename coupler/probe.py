@@ -1,0 +1,34 @@
+"""``cosim check``'s probe: every component started and instantiated as a run would, with a deadline.
+
+The static checks (``coupler.run.prepare``) know a component's parameters, not its variables: those exist once
+the component is instantiated. The probe starts every local component in its own process (logs in a scratch
+folder), reaches every component served by hand with a short deadline, instantiates each with the scene's
+parameters, checks what the scene asks of them (``coupler.run.check_described``: the exchanged variables, how
+an implicitly coupled participant repeats a window) and stops them.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from cosim.launcher import Launcher
+from cosim.scene import Scene
+
+ADDRESS_DEADLINE = 5.0      # seconds a component served by hand has to answer cosim check
+
+
+def probe(scene: Scene) -> list[str]:
+    """Start, instantiate and check every component of ``scene``, then stop them; returns a line per backend."""
+    from coupler.run import _shutdown, check_described, participants_of, plan_backends, start_backends
+    backends = plan_backends(scene)
+    with tempfile.TemporaryDirectory(prefix="cosim-check-") as logs, Launcher(Path(logs)) as launcher:
+        try:
+            start_backends(scene, backends, launcher, address_deadline=ADDRESS_DEADLINE)
+            for backend in backends:
+                backend.client.instantiate(backend.parameters)
+            check_described(scene, participants_of(backends))
+            return [f"{b.name}: {', '.join(f'{v.causality} {v.name} {v.shape}' for v in b.client.variables.values())}"
+                    for b in backends]
+        finally:
+            _shutdown([b.proxy for b in backends if b.proxy is not None])
