@@ -48,6 +48,7 @@ class ComponentProxy:
                 raise ComponentError(name, str(exc)) from None
         self._socket.connect(endpoint)
         self._ids = itertools.count(1)
+        self._token = process.token if process is not None else ""
         self._pending: tuple[int, str] | None = None
         self.variables: dict[str, Variable] = {}
         self.meshes: dict[str, np.ndarray] = {}
@@ -69,7 +70,10 @@ class ComponentProxy:
         if self._pending is not None:
             raise ComponentError(self.name, f"request '{op}' sent while '{self._pending[1]}' is unanswered")
         request_id = next(self._ids)
-        frames = protocol.encode({"op": op, "id": request_id, "args": dict(args or {})}, arrays)
+        args = dict(args or {})
+        if self._token and op != "step":     # the launched component serves the client that shows its run's token
+            args["token"] = self._token
+        frames = protocol.encode({"op": op, "id": request_id, "args": args}, arrays)
         self._sent_at = time.perf_counter()
         try:
             self._socket.send_multipart(frames, flags=zmq.NOBLOCK, copy=False)
@@ -223,9 +227,8 @@ class ComponentProxy:
         return {k: np.array(v) for k, v in self.call("terminate")[1].items()}
 
     def shutdown(self, timeout: float = 2.0) -> None:
-        """Stop the component; one this run launched carries the run's token (it refuses any other)."""
-        token = self.process.token if self.process is not None else ""
-        self.call("shutdown", {"token": token} if token else None, timeout=timeout)
+        """Stop the component."""
+        self.call("shutdown", timeout=timeout)
 
     def close(self) -> None:
         if self._monitor is not None:

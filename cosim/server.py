@@ -132,7 +132,10 @@ class ComponentServer:
 
     def __init__(self, component: Component, token: str = ""):
         self.component = component
-        self.token = token     # non-empty: ``shutdown`` must carry it (a launched component's run secret)
+        # a launched component's run secret: a client is served once one of its requests carries it. Without one
+        # (served by hand), the first client that asks more than a ping is served, and no other
+        self.token = token
+        self.owner: bytes | None = None      # the one client served
         c = component
         self.handlers: dict[str, Callable[[dict, dict], Any]] = {
             "describe": lambda a, arr: c.describe(),
@@ -165,8 +168,22 @@ class ComponentServer:
         self.component.take_over(inputs, outputs)
 
     def _shutdown(self, args: dict, arrays: dict) -> None:
-        if self.token and not hmac.compare_digest(str(args.get("token", "")), self.token):
-            raise ProtocolError("'shutdown' refused: only the run that launched this component may stop it")
+        """Stop serving (the client was admitted: see ``admit``)."""
+
+    def admit(self, peer: bytes, op: str, args: dict) -> None:
+        """Serve ``peer``'s request only if it is the one client this component serves (or it becomes that client
+        now); a refusal is an error reply naming why."""
+        if peer == self.owner:
+            return
+        if self.owner is not None:
+            raise ProtocolError(f"'{op}' refused: this component serves another client (the run that "
+                                f"{'launched' if self.token else 'first reached'} it)")
+        if self.token:
+            if not hmac.compare_digest(str(args.get("token", "")), self.token):
+                raise ProtocolError(f"'{op}' refused: only the run that launched this component may drive it")
+            self.owner = peer
+        elif op != "ping":          # served by hand: anyone may ping; the first to ask more is the client
+            self.owner = peer
 
     def _step(self, args: dict, arrays: dict) -> Any:
         restore = args.get("restore")
@@ -174,8 +191,8 @@ class ComponentServer:
             self.component.set_state(restore)
         return self.component.served_step(protocol.number(args, "t"), protocol.number(args, "dt"), real_inputs(arrays))
 
-    def handle(self, frames: list) -> tuple[list, bool]:
-        """Reply frames for one request, and whether to stop serving."""
+    def handle(self, frames: list, peer: bytes = b"") -> tuple[list, bool]:
+        """Reply frames for one request from the client ``peer`` (its routing id), and whether to stop serving."""
         request_id = None
         try:
             header, arrays = protocol.decode(frames)
@@ -186,6 +203,7 @@ class ComponentServer:
             args = header.get("args") or {}
             if not isinstance(args, dict):
                 raise ProtocolError("'args' is not a map")
+            self.admit(peer, str(op), args)
             start = time.perf_counter()
             result = self.handlers[op](args, arrays)
             compute = time.perf_counter() - start
@@ -236,7 +254,7 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
 
 
 def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curve: str | None) -> int:
-    component = load_entry(entry)()
+    component = load_entry(entry, [Path.cwd()])()      # a module in the working directory is found, as a scene's
     if name:
         component.name = name
     server = ComponentServer(component, os.environ.pop(TOKEN_VARIABLE, ""))
@@ -273,7 +291,7 @@ def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curv
                         return 3
                 continue
             identity, *frames = socket.recv_multipart(copy=False)
-            reply, done = server.handle(frames)
+            reply, done = server.handle(frames, identity.bytes)
             socket.send_multipart([identity, *reply], copy=False)
             if done:
                 return 0

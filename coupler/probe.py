@@ -4,7 +4,9 @@ The static checks (``coupler.run.prepare``) know a component's parameters, not i
 the component is instantiated. The probe starts every local component in its own process (logs in a scratch
 folder), reaches every component served by hand with a short deadline, instantiates each with the scene's
 parameters, checks what the scene asks of them (``coupler.run.check_described``: the exchanged variables, how
-an implicitly coupled participant repeats a window) and stops them.
+an implicitly coupled participant repeats a window) and stops them. A component served by hand is pinged only:
+it serves the first client that drives it, and stops when that client is done, so the probe leaves it to the
+run.
 """
 
 from __future__ import annotations
@@ -23,12 +25,18 @@ def probe(scene: Scene) -> list[str]:
     from coupler.run import _shutdown, check_described, participants_of, plan_backends, start_backends
     backends = plan_backends(scene)
     with tempfile.TemporaryDirectory(prefix="cosim-check-") as logs, Launcher(Path(logs)) as launcher:
+        local = [b for b in backends if b.entry]
         try:
             start_backends(scene, backends, launcher, address_deadline=ADDRESS_DEADLINE)
-            for backend in backends:
+            for backend in local:
                 backend.client.instantiate(backend.parameters)
-            check_described(scene, participants_of(backends))
+            by_hand = {b.participant for b in backends if not b.entry}
+            check_described(scene, participants_of([b for b in local if b.participant not in by_hand]))
             return [f"{b.name}: {', '.join(f'{v.causality} {v.name} {v.shape}' for v in b.client.variables.values())}"
-                    for b in backends]
+                    if b.entry else f"{b.name}: served by hand at {b.address}, reached (its variables are checked "
+                                    "when the run starts)" for b in backends]
         finally:
-            _shutdown([b.proxy for b in backends if b.proxy is not None])
+            _shutdown([b.proxy for b in local if b.proxy is not None])
+            for b in backends:
+                if not b.entry and b.proxy is not None:
+                    b.proxy.close()

@@ -1,9 +1,13 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
+import subprocess
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TypeVar
 
@@ -109,3 +113,24 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.path.name in SERIAL_MODULES or item.originalname in SERIAL_TESTS:  # type: ignore[attr-defined]
             item.add_marker(pytest.mark.serial)
+
+
+@contextmanager
+def served_by_hand(entry: str, bind: str = "tcp://127.0.0.1:*", curve: Path | None = None,
+                   prefix: tuple[str, ...] = (), cwd: Path = ROOT, script: bool = False) -> Iterator[dict]:
+    """``cosim serve ENTRY --bind BIND [--curve DIR]`` by hand, as a user starts it (on another machine); yields
+    its handshake line (endpoint, pid) and stops it at the end. ``script``: through the ``cosim`` console script
+    (which, unlike ``python -m``, puts no working directory on the import path)."""
+    cosim = [str(Path(sys.executable).with_name("cosim"))] if script else [sys.executable, "-m", "cosim"]
+    process = subprocess.Popen([*prefix, *cosim, "serve", entry, "--bind", bind,
+                                *(["--curve", str(curve)] if curve else [])], cwd=cwd, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None
+        line = process.stdout.readline()       # the server prints its handshake once it is bound
+        assert line, process.stderr.read() if process.stderr else ""
+        yield json.loads(line)
+    finally:
+        if process.poll() is None:
+            process.terminate()
+        process.wait(timeout=10)

@@ -3,10 +3,8 @@ connection giving the local run's results, and clients the server does not know 
 
 from __future__ import annotations
 
-import json
 import shutil
 import subprocess
-import sys
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -18,7 +16,7 @@ from cosim.cli import main
 from cosim.results import RunResults
 from cosim.scene import load_scene
 from coupler.run import run_scene
-from tests.conftest import ROOT, TUBE_SCENE, wait_for
+from tests.conftest import TUBE_SCENE, served_by_hand, wait_for
 
 SHORT = ["time.end=0.5"]
 
@@ -30,22 +28,9 @@ def keys(tmp_path_factory) -> Path:
     return folder
 
 
-@contextmanager
 def served(entry: str, bind: str, curve: Path, prefix: tuple[str, ...] = ()):
-    """``cosim serve ENTRY --bind BIND --curve DIR`` by hand, as a user starts it on another machine; yields its
-    handshake line (endpoint, pid) and stops it at the end."""
-    process = subprocess.Popen([*prefix, sys.executable, "-m", "cosim", "serve", entry, "--bind", bind,
-                                "--curve", str(curve)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True)
-    try:
-        assert process.stdout is not None
-        line = process.stdout.readline()       # the server prints its handshake once it is bound
-        assert line, process.stderr.read() if process.stderr else ""
-        yield json.loads(line)
-    finally:
-        if process.poll() is None:
-            process.terminate()
-        process.wait(timeout=10)
+    """``cosim serve ENTRY --bind BIND --curve DIR`` by hand (tests.conftest.served_by_hand)."""
+    return served_by_hand(entry, bind, curve, prefix)
 
 
 def remote(endpoint: str, curve: Path) -> list[str]:

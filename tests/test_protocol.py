@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from cosim import protocol
-from cosim.errors import ProtocolError
+from cosim.errors import ComponentError, ProtocolError
 from cosim.server import ComponentServer
 from solid_component.tube import TubeSolid
 
@@ -143,8 +143,9 @@ def test_an_input_that_is_not_float64_gets_an_error_reply(dtype):
         assert header["error"]["message"] == f"input 'pressure' is {dtype}; every variable is float64"
 
 
-def test_a_launched_component_stops_only_for_the_run_that_launched_it(tmp_path):
-    """Any local process reaches a served component's port; only the launcher's run token stops it."""
+def test_a_launched_component_serves_only_the_run_that_launched_it(tmp_path):
+    """Any local process reaches a served component's port; only the client with the launcher's run token is
+    served, for every operation: a foreign instantiate mid-run would change the physics."""
     import os
 
     import zmq
@@ -152,28 +153,82 @@ def test_a_launched_component_stops_only_for_the_run_that_launched_it(tmp_path):
     from cosim.launcher import Launcher
     from cosim.proxy import ComponentProxy
     from tests.conftest import children_of
+
+    def ask(socket, op: str, args: dict) -> dict:
+        socket.send_multipart(protocol.encode({"op": op, "id": 1, "args": args}))
+        assert socket.poll(30_000)
+        return protocol.decode(socket.recv_multipart())[0]
+
     with Launcher(tmp_path) as launcher:
         process = launcher.spawn("solid", "solid_component.tube:TubeSolid")
         endpoint = launcher.handshake(process)
         stranger = zmq.Context.instance().socket(zmq.DEALER)
         stranger.setsockopt(zmq.LINGER, 0)
         stranger.connect(endpoint)
+        proxy = ComponentProxy("solid", endpoint, process=process)
         try:
-            for token in (None, "0" * 32, process.token[:-1]):
-                stranger.send_multipart(protocol.encode({"op": "shutdown", "id": 1,
-                                                         "args": {} if token is None else {"token": token}}))
-                assert stranger.poll(30_000)
-                header, _ = protocol.decode(stranger.recv_multipart())
+            for op, args in [("shutdown", {}), ("instantiate", {"parameters": {}}), ("ping", {}),
+                             ("shutdown", {"token": "0" * 32}), ("instantiate", {"token": process.token[:-1]})]:
+                header = ask(stranger, op, args)
                 assert header["ok"] is False
-                assert header["error"]["message"] == ("'shutdown' refused: only the run that launched this "
-                                                      "component may stop it")
-            assert process.poll() is None
+                assert header["error"]["message"] == (f"'{op}' refused: only the run that launched this component "
+                                                      "may drive it")
+            proxy.instantiate({"tube": {}})              # the run is served, and is from now on the one client
+            for op, args in [("instantiate", {"parameters": {"E_small": 1.0}, "token": process.token}),
+                             ("shutdown", {"token": process.token})]:
+                header = ask(stranger, op, args)      # even with the token: the run's client is taken
+                assert header["ok"] is False and "this component serves another client" in header["error"]["message"]
+            assert process.poll() is None and proxy.variables["section"].size == 101
             with open(f"/proc/{process.pid}/cmdline", "rb") as argv:       # the token is in no argv
                 assert process.token.encode() not in argv.read()
         finally:
             stranger.close()
-        proxy = ComponentProxy("solid", endpoint, process=process)
         proxy.shutdown(timeout=30)
         proxy.close()
         assert process.popen.wait(timeout=30) == 0
     assert children_of(os.getpid()) == []
+
+
+def test_a_component_served_by_hand_serves_the_first_client_that_drives_it(tmp_path):
+
+    from cosim.proxy import ComponentProxy
+    from tests.conftest import served_by_hand
+
+    with served_by_hand("solid_component.tube:TubeSolid") as handshake:
+        endpoint = handshake["endpoint"]
+        run = ComponentProxy("solid", endpoint)
+        stranger = ComponentProxy("stranger", endpoint, timeout=30)
+        try:
+            assert stranger.call("ping")[0]["pid"] > 0         # anyone may ping before the run takes it
+            run.instantiate({"tube": {}})
+            with pytest.raises(ComponentError, match="'shutdown' failed: ProtocolError: 'shutdown' refused: this "
+                                                     "component serves another client"):
+                stranger.shutdown(timeout=30)
+            run.shutdown(timeout=30)
+        finally:
+            stranger.close()
+            run.close()
+
+
+
+def test_check_leaves_a_component_served_by_hand_to_the_run(tmp_path):
+    """``cosim check`` pings a component served by hand; the run that follows is still served by it."""
+    from cosim.cli import main
+    from tests.conftest import TUBE_SCENE, served_by_hand
+    with served_by_hand("solid_component.tube:TubeSolid") as handshake:
+        address = ["--set", "components.solid.entry=''", "--set", f"components.solid.address='{handshake['endpoint']}'",
+                   "--set", "time.end=0.5"]
+        assert main(["check", str(TUBE_SCENE), *address]) == 0
+        assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet", *address]) == 0
+
+
+def test_cosim_serve_finds_a_module_in_the_working_directory(tmp_path):
+    from cosim.proxy import ComponentProxy
+    from tests.conftest import served_by_hand
+    (tmp_path / "my_wall.py").write_text("from solid_component.tube import TubeSolid\n\n\n"
+                                         "class MyWall(TubeSolid):\n    name = 'my wall'\n")
+    with served_by_hand("my_wall:MyWall", cwd=tmp_path, script=True) as handshake:
+        assert handshake["name"] == "my wall"
+        proxy = ComponentProxy("wall", handshake["endpoint"])
+        proxy.shutdown(timeout=30)
+        proxy.close()
