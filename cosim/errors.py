@@ -42,7 +42,7 @@ class ComponentError(CosimError):
 class ComponentDied(ComponentError):
     """A component process exited while the run needed it."""
 
-    def __init__(self, component: str, exit_code: int | None, stderr_tail: str):
+    def __init__(self, component: str, exit_code: int | None, stderr_tail: str, log: str = ""):
         detail = f"process exited with code {exit_code}"
         if exit_code is not None and exit_code < 0:
             import signal
@@ -51,6 +51,8 @@ class ComponentDied(ComponentError):
             except ValueError:
                 name = f"signal {-exit_code}"
             detail = f"process was killed by {name} (exit code {exit_code})"
+        if log:
+            detail += f" (its log: {log})"
         if stderr_tail.strip():
             detail += "; last lines of its stderr:\n" + stderr_tail.rstrip()
         super().__init__(component, detail, kind="ComponentDied")

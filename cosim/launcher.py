@@ -120,10 +120,10 @@ class Launcher:
                     chunk = os.read(stdout.fileno(), 4096)
                     if not chunk:
                         process.popen.wait(timeout=5)
-                        raise ComponentDied(process.name, process.poll(), process.stderr_tail())
+                        raise ComponentDied(process.name, process.poll(), process.stderr_tail(), str(process.log_path))
                     buffer += chunk
                 elif process.poll() is not None:
-                    raise ComponentDied(process.name, process.poll(), process.stderr_tail())
+                    raise ComponentDied(process.name, process.poll(), process.stderr_tail(), str(process.log_path))
         finally:
             selector.close()
         try:

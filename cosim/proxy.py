@@ -123,7 +123,8 @@ class ComponentProxy:
             error = header.get("error") or {}
             kind = error.get("type", "ComponentError")
             shown = "" if kind == "ComponentError" else f"{kind}: "
-            raise ComponentError(self.name, f"'{op}' failed: {shown}{error.get('message', '')}", kind=kind)
+            log = f" (its log: {self.process.log_path})" if self.process is not None and kind != "ComponentError" else ""
+            raise ComponentError(self.name, f"'{op}' failed: {shown}{error.get('message', '')}{log}", kind=kind)
         compute = float(header.get("compute_seconds", 0.0))
         self.warnings.extend(str(w) for w in header.get("warnings") or ())
         if op == "step":
@@ -142,7 +143,7 @@ class ComponentProxy:
             code = self.process.poll()
             if code is not None:
                 self._pending = None
-                raise ComponentDied(self.name, code, self.process.stderr_tail())
+                raise ComponentDied(self.name, code, self.process.stderr_tail(), str(self.process.log_path))
 
     # --- contract ---------------------------------------------------------
     def describe(self) -> dict[str, Any]:

@@ -229,3 +229,39 @@ stability = Command(
     "a theory (the tube) adds its files and lines.",
     "cosim stability scenes/mok.toml --out runs/mok_stability --grid "
     "components.structure.parameters.density=478,1500,9560 --methods none,aitken,iqn-ils")
+
+
+def _status_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("dir", help="a run's directory (--out of cosim run)")
+
+
+def _status(args: argparse.Namespace) -> int:
+    from coupler.monitor import status_lines
+    print("\n".join(status_lines(args.dir)))
+    return 0
+
+
+def _plot_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("dir", help="a run's directory (--out of cosim run)")
+    parser.add_argument("--convergence", action="store_true", help="the convergence history (the default)")
+    parser.add_argument("--out", help="the PNG to write (default: DIR/convergence.png)")
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from coupler.monitor import plot_convergence
+    print(f"wrote {plot_convergence(args.dir, args.out)}")
+    return 0
+
+
+status = Command(
+    "where a run stands, while it runs or after", _status_arguments, _status,
+    "Read DIR/status.json, which the run rewrites as it goes, and print its state, the windows done, the time, "
+    "the rate and the time left, the coupling iterations and the last window's convergence measures (a run whose "
+    "process is gone while its status says running reads as died).",
+    "cosim status runs/fom_mu1")
+plot = Command(
+    "plot a run's convergence history", _plot_arguments, _plot,
+    "Draw every convergence measure and the residual norm at every coupling iteration, and the iterations of "
+    "each window, from DIR/logs/convergence.log and DIR/logs/iterations.log (written as the run goes, so a "
+    "running run can be plotted too).",
+    "cosim plot runs/fom_mu1 --convergence")

@@ -37,6 +37,7 @@ from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identity, write_checkpoint
+from coupler.run_log import RunLog
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant
 from coupler.surrogate import InterfaceSurrogate, load_model_class
@@ -359,14 +360,20 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     every = scene["output"]["checkpoint_every"]
     state = "failed"
     directory.status("starting", force=True, windows_total=n_windows, windows_completed=windows)
+    started, windows_at_start = time.time(), windows       # for the rate and the time left (cosim status)
     scheme = None
     participants = None
     phase = "start-up"   # where an error that is not inside a window happened
+    log = RunLog(out_dir / "logs", windows if saved is not None else None)
+    log.event(f"{'resumed after window ' + str(windows) if saved is not None else 'started'}: scene "
+              f"{scene.source} ({scene.digest()[:12]}), {n_windows} windows of {dt:g} s from t = {start:g}")
     try:
-        with Launcher(out_dir / "logs") as launcher:
+        with log, Launcher(out_dir / "logs") as launcher:
             try:
                 start_backends(scene, backends, launcher)
                 for b in backends:
+                    log.event(f"component '{b.name}': {b.entry or b.address}, pid {b.client.pid}, at "
+                              f"{b.client.endpoint}" + (f", log logs/{b.name}.log" if b.entry else ""))
                     host = b.address or socket.gethostname()
                     store.add_component(b.name, b.client.pid, host, b.entry or b.address, b.client.endpoint,
                                         participant=b.participant, kind=b.kind, start_time=b.start_time,
@@ -390,6 +397,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 # results file by the scene's
                 scheme = build_scheme(scene, participants, {participants[n].name: r for n, r in recorders.items()})
                 check_plot(scene["output"], scheme.values)
+                log.open_tables(scheme.measures)
                 if saved is None:
                     store.write_initial(scheme.values)
                 else:
@@ -409,28 +417,35 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                             {n: r.take() for n, r in recorders.items()}, result.residuals)
                         windows += 1
                         iterations += result.iterations
+                        log.window(windows, result, iterations)
                         for b in backends:
                             warned += len(b.client.warnings)
                             for message, count in Counter(b.client.warnings).items():
                                 calls = f" ({count} calls)" if count > 1 else ""
                                 _warn(f"warning: component '{b.name}' in window {windows} (t = {result.time - dt:g} "
-                                      f"to {result.time:g}): {message}{calls}", bar)
+                                      f"to {result.time:g}): {message}{calls}", bar, log)
                             b.client.warnings.clear()
                         if not result.converged and result.message:
                             unconverged += 1
-                            _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar)
+                            _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar,
+                                  log)
                         directory.status("running", windows_total=n_windows, windows_completed=windows,
-                                         time=result.time)
+                                         time=result.time, iterations_total=iterations, started=started,
+                                         windows_at_start=windows_at_start, last_iterations=result.iterations,
+                                         measures={m: v for m, v in zip(labels(scheme), result.measure_history[-1])}
+                                         if result.measure_history else {})
                         # a checkpoint every `every` windows, and when a stop is asked for (even without `every`, if
                         # every component can give one): the stopped run can go on with --resume
                         stopping = stop.pending() and all(b.client.can_checkpoint for b in backends)
                         if ((every and windows % every == 0) or stopping) and windows < n_windows:
                             with stop.deferred():    # a stop waits for the checkpoint it asked for
                                 try:
-                                    write_checkpoint(out_dir, scheme, backends, store,
-                                                     {"windows": windows, "iterations": iterations,
-                                                      "unconverged": unconverged, "warned": warned,
-                                                      "time": result.time}, identity)
+                                    path = write_checkpoint(out_dir, scheme, backends, store,
+                                                            {"windows": windows, "iterations": iterations,
+                                                             "unconverged": unconverged, "warned": warned,
+                                                             "time": result.time}, identity)
+                                    log.event(f"checkpoint after window {windows}: {path.name}, "
+                                              f"{path.stat().st_size:,} bytes")
                                 except CheckpointError as exc:
                                     raise CheckpointError(f"{exc}; the {windows} windows before it are kept in "
                                                           f"'{out_dir / 'results.h5'}'") from None
@@ -447,14 +462,18 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                     if final:
                         store.write_final(b.name, final)
                 state = "finished"
+                log.event(f"finished: {windows} windows, {iterations} coupling iterations "
+                          f"(mean {iterations / max(windows, 1):.3f} per window)")
             except CosimError as exc:
                 if not exc.where:
                     exc.where = phase or (scheme.position() if scheme is not None else "")
                 directory.status("failed", force=True, windows_total=n_windows, windows_completed=windows,
                                  error=str(exc))
+                log.event(f"failed after {windows} windows: {exc}")
                 raise
             except (KeyboardInterrupt, SystemExit):
                 directory.status("interrupted", force=True, windows_total=n_windows, windows_completed=windows)
+                log.event(f"interrupted after {windows} windows")
                 raise
             finally:
                 _shutdown([b.proxy for b in backends if b.proxy is not None])
@@ -471,11 +490,20 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
         store.close()
         if state == "finished":
             directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,
-                             windows_unconverged=unconverged, wall_seconds=wall)
+                             windows_unconverged=unconverged, wall_seconds=wall, iterations_total=iterations,
+                             started=started, windows_at_start=windows_at_start,
+                             time=start + windows * dt)
     return RunSummary(out_dir, windows, iterations, wall, unconverged)
 
 
-def _warn(message: str, bar) -> None:
+def labels(scheme: CouplingScheme) -> list[str]:
+    """The convergence measures as the logs name them: ``type(data)``."""
+    return [f"{m.type_name}({m.data})" for m in scheme.measures]
+
+
+def _warn(message: str, bar, log: RunLog | None = None) -> None:
+    if log is not None:
+        log.event(message)
     if bar is not None:
         bar.write(message, file=sys.stderr)
     else:

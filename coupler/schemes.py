@@ -65,6 +65,7 @@ class WindowResult:
     measures: dict[str, float] = field(default_factory=dict)
     message: str = ""   # why an accepted window did not converge
     residuals: list[float] = field(default_factory=list)   # ||H(x) - x|| of the accelerated data, per iteration
+    measure_history: list[list[float]] = field(default_factory=list)   # every measure's value, per iteration
 
 
 class CouplingScheme:
@@ -91,6 +92,7 @@ class CouplingScheme:
         self.iteration = 0
         self.t = self.dt = 0.0
         self._residuals: list[float] = []   # ||H(x) - x|| of the accelerated data, per iteration
+        self._measure_history: list[list[float]] = []
         self._extrapolation = Extrapolation(extrapolation_order)
         self.predictor = predictor
         self._next_start: dict[str, np.ndarray] | None = None   # the acceleration's estimate for the next window
@@ -223,11 +225,13 @@ class CouplingScheme:
         self.t, self.dt = t, dt
         self.iteration = 0
         self._residuals = []
+        self._measure_history = []
 
     def _observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
         """Hand one iterate to the acceleration and keep its residual norm; a participant whose backend
         changed (ROM and solid FOM) changed the map."""
         self._residuals.append(float(np.linalg.norm(x_tilde - x)))
+        self._measure_history.append([m.value for m in self.measures])
         if any(getattr(proxy, "backend_changed", False) for proxy in (self.first, self.second)):
             self.acceleration.map_changed()
         self.acceleration.observe(x, x_tilde)
@@ -291,7 +295,7 @@ class CouplingScheme:
         if self.accelerated:
             self._extrapolation.store(self._stack(self.values, self.accelerated))
         return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message,
-                            list(self._residuals))
+                            list(self._residuals), list(getattr(self, "_measure_history", [])))
 
     def advance(self, t: float, dt: float) -> WindowResult:
         """One time window; a component that fails on inputs of a growing coupling residual is divergence."""

@@ -86,3 +86,12 @@ class FailingIdleSolid(TubeSolid):
 
     def idle(self):
         raise RuntimeError("idle work broke")
+
+
+class RaisingSolid(TubeSolid):
+    """Raises an unexpected error (a bug of its own) at t >= 0.3."""
+
+    def do_step(self, t, dt):
+        if t >= 0.3:
+            raise ZeroDivisionError("a bug in the solid")
+        super().do_step(t, dt)

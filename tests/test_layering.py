@@ -48,8 +48,8 @@ def test_the_layering_check_catches_an_upward_import(tmp_path):
 
 
 def test_every_subcommand_is_registered_and_listed():
-    assert set(commands()) == {"serve", "run", "check", "sweep", "stability", "train", "report", "export-fmu", "campaign",
-                              "keys"}
+    assert set(commands()) == {"serve", "run", "check", "sweep", "stability", "train", "report", "export-fmu",
+                               "campaign", "status", "plot", "keys"}
     text = parser().format_help()
     for name in commands():
         assert name in text

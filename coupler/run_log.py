@@ -1,0 +1,94 @@
+"""A run's own logs in ``DIR/logs``, next to each component's: what the coupler did, and its convergence history
+in the manner of preCICE's ``precice-*-iterations.log`` and ``precice-*-convergence.log``.
+
+- ``coupler.log``: one timestamped line per event: the start (scene, windows, every component's process and
+  address), warnings, checkpoints, the end or the error that stopped the run.
+- ``iterations.log``: a row per window: ``TimeWindow Time Iterations TotalIterations Converged`` and the value of
+  every convergence measure at the window's last iteration.
+- ``convergence.log``: a row per coupling iteration: ``TimeWindow Iteration``, every measure's value (as its
+  ``type(data)``) and the norm of the accelerated data's residual.
+
+The files are whitespace-separated columns under one header line, flushed every window. A resumed run first cuts
+the two tables back to the checkpoint's window.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+COUPLER, ITERATIONS, CONVERGENCE = "coupler.log", "iterations.log", "convergence.log"
+
+
+class RunLog:
+    """The coupler's three logs of one run (use as a context manager)."""
+
+    def __init__(self, folder: Path, resume_after: int | None = None):
+        self.folder = folder
+        self.resume_after = resume_after
+        folder.mkdir(parents=True, exist_ok=True)
+        self.events = open(folder / COUPLER, "a")
+        self.iterations: TextIO | None = None
+        self.convergence: TextIO | None = None
+
+    def open_tables(self, measures: list[Any]) -> None:
+        """Start (or, resuming, cut back and go on with) the two tables, a column per convergence measure."""
+        labels = [f"{m.type_name}({m.data})" for m in measures]
+        if self.resume_after is not None:
+            for name in (ITERATIONS, CONVERGENCE):
+                _cut(self.folder / name, self.resume_after)
+        self.iterations = _table(self.folder / ITERATIONS, ["TimeWindow", "Time", "Iterations", "TotalIterations",
+                                                            "Converged", *labels])
+        self.convergence = _table(self.folder / CONVERGENCE, ["TimeWindow", "Iteration", *labels, "ResidualNorm"])
+
+    def __enter__(self) -> RunLog:
+        return self
+
+    def __exit__(self, *exc_info: Any) -> None:
+        for stream in (self.events, self.iterations, self.convergence):
+            if stream is not None:
+                stream.close()
+
+    def event(self, message: str) -> None:
+        """One timestamped line of ``coupler.log``."""
+        stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime())
+        self.events.write(f"{stamp} {message}\n")
+        self.events.flush()
+
+    def window(self, window: int, result: Any, total_iterations: int) -> None:
+        """A finished window's rows in both tables."""
+        assert self.iterations is not None and self.convergence is not None, "open_tables first"
+        last = result.measure_history[-1] if result.measure_history else []
+        self.iterations.write(" ".join([str(window), f"{result.time:.12g}", str(result.iterations),
+                                        str(total_iterations), str(int(result.converged)),
+                                        *(f"{v:.6e}" for v in last)]) + "\n")
+        for i, (values, residual) in enumerate(zip(result.measure_history, result.residuals), start=1):
+            self.convergence.write(" ".join([str(window), str(i), *(f"{v:.6e}" for v in values),
+                                             f"{residual:.6e}"]) + "\n")
+        self.iterations.flush()
+        self.convergence.flush()
+
+
+def _table(path: Path, columns: list[str]) -> TextIO:
+    """``path`` opened to append rows, with its header line if it is new."""
+    fresh = not path.is_file() or path.stat().st_size == 0
+    stream = open(path, "a")
+    if fresh:
+        stream.write(" ".join(columns) + "\n")
+    return stream
+
+
+def _cut(path: Path, windows: int) -> None:
+    """Keep the header and the rows of the first ``windows`` windows of a log table."""
+    if not path.is_file():
+        return
+    header, *rows = path.read_text().splitlines(keepends=True)
+    kept = [row for row in rows if row.split() and row.split()[0].isdigit() and int(row.split()[0]) <= windows]
+    path.write_text(header + "".join(kept))
+
+
+def read_table(path: Path) -> tuple[list[str], list[list[float]]]:
+    """A log table's columns and rows (numbers)."""
+    header, *rows = path.read_text().splitlines()
+    return header.split(), [[float(v) for v in row.split()] for row in rows if row.strip()]

@@ -1,0 +1,102 @@
+"""What a run tells as it goes: the coupler's logs (coupler.log, and the iterations and convergence tables in the
+manner of preCICE's), the component's log named by its error, ``cosim status`` and ``cosim plot --convergence``."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from cosim.cli import main
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from coupler.monitor import plot_convergence, status_lines
+from coupler.run import run_scene
+from coupler.run_log import read_table
+from tests.conftest import ROOT, TUBE_SCENE, wait_for, windows_done
+
+
+def test_the_logs_hold_every_window_and_iteration_as_results_h5_does(tmp_path):
+    run_scene(load_scene(TUBE_SCENE, ["time.end=2.0"]), tmp_path / "run", progress=False)
+    logs = tmp_path / "run" / "logs"
+    columns, windows = read_table(logs / "iterations.log")
+    assert columns == ["TimeWindow", "Time", "Iterations", "TotalIterations", "Converged", "relative(pressure)",
+                       "relative(section)"]
+    header, iterations = read_table(logs / "convergence.log")
+    assert header == ["TimeWindow", "Iteration", "relative(pressure)", "relative(section)", "ResidualNorm"]
+    with RunResults(tmp_path / "run") as run:
+        counts = run.windows.iterations
+        import h5py
+        with h5py.File(tmp_path / "run" / "results.h5", "r") as f:
+            residuals = f["residuals/norm"][()]
+    table, rows = np.array(windows), np.array(iterations)
+    assert table[:, 0].tolist() == list(range(1, 21)) and table[:, 2].tolist() == counts.tolist()
+    assert table[:, 3].tolist() == np.cumsum(counts).tolist() and table[:, 4].all()
+    assert len(rows) == counts.sum()
+    np.testing.assert_allclose(rows[:, -1], residuals, rtol=1e-6)        # the log prints 7 digits
+    last = rows[np.r_[np.flatnonzero(np.diff(rows[:, 0])), len(rows) - 1]]   # each window's last iteration
+    np.testing.assert_array_equal(last[:, 2:4], table[:, 5:7])
+    assert (last[:, 3] < 1e-4).all() and (rows[:, 1] >= 1).all()
+    events = (logs / "coupler.log").read_text().splitlines()
+    assert "started: scene" in events[0] and "20 windows of 0.1 s" in events[0]
+    assert any("component 'solid': solid_component.tube:TubeSolid, pid" in line for line in events)
+    assert events[-1].endswith(f"finished: 20 windows, {counts.sum()} coupling iterations "
+                               f"(mean {counts.mean():.3f} per window)")
+
+
+def test_a_resumed_run_s_tables_hold_each_window_once(tmp_path):
+    from tests.test_restart import stopped_at
+    overrides = ["time.end=1.0", "output.checkpoint_every=2"]
+    with pytest.raises(KeyboardInterrupt), pytest.MonkeyPatch.context() as patch:
+        stopped_at(5, patch)
+        run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "run", progress=False)
+    logs = tmp_path / "run" / "logs"
+    with open(logs / "iterations.log", "a") as stream:        # a window after the checkpoint, lost at the stop
+        stream.write("6 0.6 3 30 1 1e-5 1e-5\n")
+    run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "run", progress=False, resume=True)
+    _, windows = read_table(logs / "iterations.log")
+    assert [int(row[0]) for row in windows] == list(range(1, 11))
+    _, iterations = read_table(logs / "convergence.log")
+    with RunResults(tmp_path / "run") as run:
+        assert len(iterations) == run.windows.iterations.sum()
+    assert "resumed after window 5" in (logs / "coupler.log").read_text()
+
+
+def test_a_component_s_error_names_its_log_which_holds_the_traceback(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--set", "time.end=1",
+                 "--set", "components.solid.entry=tests.components:RaisingSolid"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err, err
+    assert f"'step' failed: ZeroDivisionError: a bug in the solid (its log: {out / 'logs' / 'solid.log'})" in err
+    log = (out / "logs" / "solid.log").read_text()
+    assert "Traceback" in log and "ZeroDivisionError: a bug in the solid" in log
+    assert "failed after 3 windows: " in (out / "logs" / "coupler.log").read_text()
+
+
+def test_status_and_the_convergence_plot_of_a_running_and_a_finished_run(tmp_path, capsys):
+    out = tmp_path / "run"
+    process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet",
+                                "--set", "time.end=60"], cwd=ROOT, stderr=subprocess.PIPE)
+    try:
+        wait_for(lambda: windows_done(out) >= 20 or process.poll() is not None, "20 windows")
+        lines = status_lines(out)
+        assert lines[0].startswith(f"{out}: running, ") and "of 600 windows" in lines[0], lines
+        assert "windows/s" in lines[1] and "s left (done near" in lines[1], lines
+        assert lines[3].startswith("last measures: relative(pressure) "), lines
+        picture = plot_convergence(out)          # while the run writes its logs
+        assert picture.stat().st_size > 10_000
+    finally:
+        process.wait(timeout=120)
+    assert process.returncode == 0
+    assert main(["status", str(out)]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0] == f"{out}: finished, 600 of 600 windows (100 %), t = 60"
+    with RunResults(out) as run:
+        assert printed[2] == (f"coupling iterations: {run.windows.iterations.sum()}, mean "
+                              f"{run.windows.iterations.mean():.3f} per window")
+    assert main(["plot", str(out), "--convergence", "--out", str(tmp_path / "c.png")]) == 0
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+    assert main(["status", str(tmp_path / "none")]) == 2
