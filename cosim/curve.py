@@ -15,6 +15,7 @@ handshake fails, which the coupler sees on its socket's monitor and reports at o
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 from typing import Any
@@ -26,7 +27,10 @@ from zmq.utils.monitor import recv_monitor_message
 from cosim.errors import ComponentError, CosimError
 
 SERVER, CLIENT, CLIENTS = "server", "client", "clients"
-FAILED = zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+# a refused client key (AUTH), a peer that speaks another mechanism (PROTOCOL), a server key that is not the
+# server's (NO_DETAIL: the server cannot read the client's hello and drops it)
+FAILED = (zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+          | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL)
 
 
 def make_keys(directory: str | Path) -> list[Path]:
@@ -38,26 +42,46 @@ def make_keys(directory: str | Path) -> list[Path]:
         raise CosimError(f"'{taken[0]}' exists: keys are never overwritten (choose another directory)")
     (directory / CLIENTS).mkdir(parents=True, exist_ok=True)
     written = []
-    for name in (SERVER, CLIENT):
-        public, secret = zmq.auth.create_certificates(str(directory), name)
-        written += [Path(public), Path(secret)]
+    mask = os.umask(0o077)       # the secrets are never readable by others, not even for a moment
+    try:
+        for name in (SERVER, CLIENT):
+            public, secret = zmq.auth.create_certificates(str(directory), name)
+            written += [Path(public), Path(secret)]
+    finally:
+        os.umask(mask)
     written.append(Path(shutil.copy(directory / f"{CLIENT}.key", directory / CLIENTS / f"{CLIENT}.key")))
     for path in written:
-        if path.name.endswith("_secret"):
-            path.chmod(0o600)
+        path.chmod(0o600 if path.name.endswith("_secret") else 0o644)
     return written
 
 
 def _load(path: Path, secret: bool, what: str) -> tuple[bytes, bytes | None]:
+    """A key file's public and secret keys, each checked (40 characters of Z85, 32 bytes); a secret key file
+    must be readable by its owner alone, as ssh asks of its keys."""
     if not path.is_file():
         raise CosimError(f"CURVE key '{path}' does not exist ({what}; `cosim keys DIR` makes the key directory)")
+    if secret and path.stat().st_mode & 0o077:
+        raise CosimError(f"CURVE secret key '{path}' is readable by others (mode {path.stat().st_mode & 0o777:o}): "
+                         f"`chmod 600 {path}`, or make new keys")
     try:
         public, secret_key = zmq.auth.load_certificate(str(path))
     except (OSError, ValueError) as exc:
         raise CosimError(f"CURVE key '{path}' cannot be read: {exc}") from None
     if secret and secret_key is None:
         raise CosimError(f"CURVE key '{path}' holds no secret key")
+    for name, key in (("public-key", public), ("secret-key", secret_key)):
+        if key is not None and not _is_key(key):
+            raise CosimError(f"CURVE key '{path}': its {name} is not a key ({len(key)} characters; a CURVE key is "
+                             "40 characters of Z85, as `cosim keys` writes it)")
     return public, secret_key
+
+
+def _is_key(key: bytes) -> bool:
+    from zmq.utils import z85
+    try:
+        return len(key) == 40 and len(z85.decode(key)) == 32
+    except (ValueError, KeyError, TypeError):
+        return False
 
 
 def check_client_keys(directory: str | Path) -> None:
@@ -97,16 +121,29 @@ def connect_with_curve(socket: zmq.Socket, directory: str | Path) -> zmq.Socket:
     socket.curve_secretkey = secret
     socket.curve_publickey = public
     socket.curve_serverkey = server
+    return watch_handshake(socket)
+
+
+def watch_handshake(socket: zmq.Socket) -> zmq.Socket:
+    """A monitor socket of ``socket``'s failed handshakes (see ``handshake_failure``); call before ``connect``."""
     return socket.get_monitor_socket(FAILED)
 
 
 def handshake_failure(monitor: zmq.Socket, component: str, endpoint: str, directory: str) -> None:
-    """Raise a named error if the CURVE handshake with the server failed (the server refused this client's key,
-    or the server's key is not the one in the key directory)."""
+    """Raise a named error if the handshake with the server failed: with CURVE (``directory``), the server refused
+    this client's key, its key is not the one in the key directory, or it does not speak CURVE; without, the
+    server speaks CURVE."""
     while monitor.poll(0):
         event = recv_monitor_message(monitor)["event"]
+        if not directory:
+            raise ComponentError(component, f"the handshake with {endpoint} failed: the server speaks CURVE (`cosim "
+                                            "serve --curve`); set the component's curve to a key directory from "
+                                            "`cosim keys` that the server lists")
         if event & zmq.EVENT_HANDSHAKE_FAILED_AUTH:
             raise ComponentError(component, f"the server at {endpoint} refused this client's CURVE key "
                                             f"('{directory}/{CLIENT}.key' is not among its clients)")
-        raise ComponentError(component, f"the CURVE handshake with {endpoint} failed (is '{directory}/{SERVER}.key' "
-                                        "the server's public key?)")
+        if event & zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL:
+            raise ComponentError(component, f"the CURVE handshake with {endpoint} failed: the server does not speak "
+                                            "CURVE (serve it with `cosim serve --curve DIR`)")
+        raise ComponentError(component, f"the CURVE handshake with {endpoint} failed: '{directory}/{SERVER}.key' is "
+                                        "not the server's public key")

@@ -46,6 +46,9 @@ class ComponentProxy:
             except CosimError as exc:
                 self._socket.close(linger=0)
                 raise ComponentError(name, str(exc)) from None
+        elif process is None:       # a component served by hand may speak CURVE: a plaintext handshake then fails
+            from cosim.curve import watch_handshake
+            self._monitor = watch_handshake(self._socket)
         self._socket.connect(endpoint)
         self._ids = itertools.count(1)
         self._token = process.token if process is not None else ""

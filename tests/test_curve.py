@@ -80,6 +80,33 @@ def test_a_client_the_server_does_not_list_is_refused_at_once_naming_the_compone
     assert elapsed < 10.0      # the handshake's failure, not the 10 s start-up timeout
 
 
+@pytest.mark.parametrize("client, message", [
+    ("wrong-server-key", "the CURVE handshake with {endpoint} failed: '{keys}/server.key' is not the server's public key"),
+    ("plaintext", "the handshake with {endpoint} failed: the server speaks CURVE (`cosim serve --curve`)"),
+])
+def test_a_failed_handshake_is_named_within_seconds_not_at_the_start_up_timeout(keys, tmp_path, capsys, client,
+                                                                                message):
+    other = tmp_path / "other"
+    assert main(["keys", str(other)]) == 0
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    shutil.copy(keys / "client.key_secret", mine / "client.key_secret")
+    shutil.copy(other / "server.key", mine / "server.key")              # another server's public key
+    with served("solid_component.tube:TubeSolid", "tcp://127.0.0.1:*", keys) as handshake:
+        endpoint = handshake["endpoint"]
+        settings = [*SHORT, "components.solid.entry=''", f"components.solid.address='{endpoint}'"]
+        if client == "wrong-server-key":
+            settings.append(f"components.solid.curve='{mine}'")
+        started = time.monotonic()
+        code = main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet",
+                     *[arg for item in settings for arg in ("--set", item)]])
+        elapsed = time.monotonic() - started
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert message.format(endpoint=endpoint, keys=mine) in err, err
+    assert elapsed < 10.0          # the start-up timeout is 60 s
+
+
 def test_without_curve_keys_a_scene_or_a_bind_beyond_loopback_is_refused(keys, tmp_path, capsys):
     assert main(["serve", "solid_component.tube:TubeSolid", "--bind", "tcp://0.0.0.0:5555"]) == 2
     assert "refusing to bind 'tcp://0.0.0.0:5555' without CURVE" in capsys.readouterr().err
@@ -148,3 +175,49 @@ def test_a_remote_component_that_disappears_stops_the_run_within_its_timeout_nam
     assert elapsed < 10.0
     with RunResults(out / "results.h5") as run:
         assert len(run.windows.iterations) >= 20            # every window before is kept
+
+
+def bad_keys(keys: Path, tmp_path: Path) -> Path:
+    """A copy of the key directory, to damage."""
+    copy = tmp_path / "bad"
+    shutil.copytree(keys, copy)
+    return copy
+
+
+def test_a_malformed_or_world_readable_key_is_named_by_check_and_by_serve(keys, tmp_path, capsys):
+    bad = bad_keys(keys, tmp_path)
+    text = (bad / "server.key").read_text()
+    (bad / "server.key").write_text("\n".join('    public-key = "short"' if "public-key" in line else line
+                                              for line in text.splitlines()) + "\n")
+    scene = ["check", str(TUBE_SCENE), "--static", "--set", "components.solid.entry=''", "--set",
+             "components.solid.address='tcp://127.0.0.1:5555'", "--set", f"components.solid.curve='{bad}'"]
+    assert main(scene) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and f"CURVE key '{bad}/server.key': its public-key is not a key (5 characters" in err, err
+    shutil.copy(keys / "server.key", bad / "server.key")
+    (bad / "client.key_secret").chmod(0o644)
+    assert main(scene) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"CURVE secret key '{bad}/client.key_secret' is readable by others (mode 644)" in err, err
+    (bad / "client.key_secret").chmod(0o600)
+    text = (bad / "server.key_secret").read_text()
+    (bad / "server.key_secret").write_text("\n".join('    secret-key = "abc"' if "secret-key" in line else line
+                                                     for line in text.splitlines()) + "\n")
+    assert main(["serve", "solid_component.tube:TubeSolid", "--curve", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and f"CURVE key '{bad}/server.key_secret': its secret-key is not a key" in err, err
+
+
+def test_keys_are_written_unreadable_to_others_from_the_start(tmp_path, monkeypatch):
+    import zmq.auth
+    modes = {}
+    create = zmq.auth.create_certificates
+
+    def observed(directory, name, *args, **kwargs):
+        public, secret = create(directory, name, *args, **kwargs)
+        modes[Path(secret).name] = Path(secret).stat().st_mode & 0o777
+        return public, secret
+    monkeypatch.setattr(zmq.auth, "create_certificates", observed)
+    assert main(["keys", str(tmp_path / "keys")]) == 0
+    assert modes == {"server.key_secret": 0o600, "client.key_secret": 0o600}
+    assert (tmp_path / "keys" / "server.key").stat().st_mode & 0o777 == 0o644
