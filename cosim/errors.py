@@ -51,9 +51,13 @@ class ComponentDied(ComponentError):
             except ValueError:
                 name = f"signal {-exit_code}"
             detail = f"process was killed by {name} (exit code {exit_code})"
-        if log:
+        lines = stderr_tail.strip().splitlines()
+        refused = exit_code == 2 and lines and lines[-1].startswith("cosim serve: error: ")
+        if refused:      # `cosim serve` refused its input in one line: that line is the message
+            detail = f"did not start: {lines[-1].removeprefix('cosim serve: error: ')}"
+        elif log:
             detail += f" (its log: {log})"
-        if stderr_tail.strip():
+        if stderr_tail.strip() and not refused:
             detail += "; last lines of its stderr:\n" + stderr_tail.rstrip()
         super().__init__(component, detail, kind="ComponentDied")
         self.exit_code = exit_code

@@ -101,7 +101,7 @@ def number(args: Mapping[str, Any], key: str) -> float:
     return float(value)
 
 
-def error_reply(request_id: Any, kind: str, message: str, component: str) -> list:
-    """Frames of an error reply."""
+def error_reply(request_id: Any, kind: str, message: str, component: str, logged: bool = False) -> list:
+    """Frames of an error reply (``logged``: the component's log holds its traceback)."""
     return encode({"id": request_id, "ok": False,
-                   "error": {"type": kind, "message": message, "component": component}})
+                   "error": {"type": kind, "message": message, "component": component, "logged": logged}})

@@ -126,7 +126,7 @@ class ComponentProxy:
             error = header.get("error") or {}
             kind = error.get("type", "ComponentError")
             shown = "" if kind == "ComponentError" else f"{kind}: "
-            log = f" (its log: {self.process.log_path})" if self.process is not None and kind != "ComponentError" else ""
+            log = f" (its log: {self.process.log_path})" if self.process is not None and error.get("logged") else ""
             raise ComponentError(self.name, f"'{op}' failed: {shown}{error.get('message', '')}{log}", kind=kind)
         compute = float(header.get("compute_seconds", 0.0))
         self.warnings.extend(str(w) for w in header.get("warnings") or ())

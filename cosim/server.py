@@ -209,12 +209,13 @@ class ComponentServer:
             compute = time.perf_counter() - start
             stop = op == "shutdown"   # only once the handler accepted it
         except Exception as exc:  # every failure becomes an error reply
-            if not isinstance(exc, (CosimError, KeyError, ValueError, TypeError)):
+            logged = not isinstance(exc, (CosimError, KeyError, ValueError, TypeError))
+            if logged:
                 traceback.print_exc(file=sys.stderr)
             kind = type(exc).__name__
             message = f"missing argument {exc}" if isinstance(exc, KeyError) else \
                 exc.detail if isinstance(exc, ComponentError) else str(exc)
-            return protocol.error_reply(request_id, kind, message, self.component.name), False
+            return protocol.error_reply(request_id, kind, message, self.component.name, logged), False
         values: dict[str, Any] = {}
         out_arrays: dict[str, np.ndarray] = {}
         if isinstance(result, dict):

@@ -105,7 +105,7 @@ def _check(args: argparse.Namespace) -> int:
 
     scene = load_scene(args.scene, args.set or [])
     windows = prepare(scene)
-    described = [] if args.static else probe(scene)
+    described = [] if args.static else probe(scene, windows)
     print(json.dumps(scene.data, indent=2))
     for line in described:
         print(f"  {line}", file=sys.stderr)

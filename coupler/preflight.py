@@ -92,6 +92,9 @@ def check_backends(scene: Scene) -> None:
                 if not scene.value(dotted):
                     raise SceneError(f"{scene.source}: components.{name}.backend is '{kind}' but '{dotted}' is "
                                      "not set")
+                if Path(scene.value(dotted)).is_dir():
+                    raise SceneError(f"{scene.source}: '{dotted}' names '{scene.value(dotted)}', which is a "
+                                     "directory, not a file")
 
 
 def _check(scene: Scene, name: str, schema: dict) -> None:
@@ -119,4 +122,5 @@ def _check_file(scene: Scene, key: str) -> None:
     node = scene.value(key)
     if isinstance(node, str) and node and not Path(node).is_file():
         given = "given by --set, the working directory's" if scene.given(key) else "the scene folder's"
-        raise SceneError(f"{scene.source}: '{key}' names '{node}', which is not a file (a relative path is {given})")
+        what = "a directory" if Path(node).is_dir() else "not a file"
+        raise SceneError(f"{scene.source}: '{key}' names '{node}', which is {what} (a relative path is {given})")

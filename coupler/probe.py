@@ -20,16 +20,20 @@ from cosim.scene import Scene
 ADDRESS_DEADLINE = 5.0      # seconds a component served by hand has to answer cosim check
 
 
-def probe(scene: Scene) -> list[str]:
-    """Start, instantiate and check every component of ``scene``, then stop them; returns a line per backend."""
+def probe(scene: Scene, windows: int) -> list[str]:
+    """Start, instantiate and initialise every component of ``scene`` (over its ``windows``) and check them, then
+    stop them; returns a line per backend."""
     from coupler.run import _shutdown, check_described, participants_of, plan_backends, start_backends
     backends = plan_backends(scene)
     with tempfile.TemporaryDirectory(prefix="cosim-check-") as logs, Launcher(Path(logs)) as launcher:
         local = [b for b in backends if b.entry]
         try:
             start_backends(scene, backends, launcher, address_deadline=ADDRESS_DEADLINE)
+            start, dt = scene["time"]["start"], scene["time"]["dt"]
             for backend in local:
                 backend.client.instantiate(backend.parameters)
+                backend.client.enter_initialization_mode(start, start + windows * dt)
+                backend.client.exit_initialization_mode()
             by_hand = {b.participant for b in backends if not b.entry}
             check_described(scene, participants_of([b for b in local if b.participant not in by_hand]))
             return [f"{b.name}: {', '.join(f'{v.causality} {v.name} {v.shape}' for v in b.client.variables.values())}"

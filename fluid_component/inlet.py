@@ -53,6 +53,9 @@ class TableInlet:
             lines = path.read_text().splitlines()
         except OSError as exc:
             raise SceneError(f"inlet.table: cannot read '{path}': {exc.strerror}") from None
+        except UnicodeDecodeError as exc:
+            raise SceneError(f"inlet.table: '{path}' is not a text (CSV) file: byte 0x{exc.object[exc.start]:02x} "
+                             f"at offset {exc.start}") from None
         rows: list[tuple[float, float]] = []
         header_allowed = True
         for number, line in enumerate(lines, 1):

@@ -214,3 +214,18 @@ def test_check_tries_an_address_with_a_short_deadline_and_says_what_to_check(cap
     assert time.monotonic() - started < 30.0
     assert f"no reply from tcp://127.0.0.1:{port} within 5 s: check that `cosim serve` runs there" in err, err
     assert "whether it serves with --curve (then set components.solid.curve)" in err, err
+
+
+def test_check_refuses_what_a_run_would_refuse_before_its_first_window(capsys, tmp_path):
+    err = one_line_error(capsys, ["check", str(TUBE_SCENE), "--set", "components.solid.entry=no_such_module:Solid"])
+    assert err.endswith("component 'solid': did not start: entry 'no_such_module:Solid': cannot import module "
+                        "'no_such_module': No module named 'no_such_module' (a module of your own goes next to the "
+                        "scene file, or on PYTHONPATH)"), err
+    table = tmp_path / "inlet.png"
+    table.write_bytes(b"\x89PNG\r\n\x1a\n not a table")
+    err = one_line_error(capsys, ["check", str(TUBE_SCENE), "--set", f"inlet.table={table}"])
+    assert f"inlet.table: '{table}'" in err and "(its log" not in err, err
+    for kind, key in (("rom", "model"), ("fmu", "path")):
+        err = one_line_error(capsys, ["check", str(TUBE_SCENE), "--set", f"components.solid.backend={kind}",
+                                      "--set", f"components.solid.{kind}.{key}={tmp_path}"])
+        assert err.endswith(f"'components.solid.{kind}.{key}' names '{tmp_path}', which is a directory, not a file")
