@@ -26,6 +26,20 @@ def resolve_plugins(scene: Scene) -> None:
         exchange["mapping"] = MAPPINGS.settings(exchange["mapping"], f"exchange.{i}.mapping", source)
 
 
+def check_model(surrogate: dict, source: str) -> None:
+    """The surrogate's static model plug-in exists and takes its settings (checked now, not in the training
+    thread)."""
+    from coupler.surrogate import load_model_class
+    try:
+        model_class = load_model_class(surrogate["model_type"])
+    except KeyError as exc:
+        raise SceneError(f"{source}: 'coupling.surrogate.model_type': {exc.args[0]}") from None
+    try:
+        model_class(surrogate["model"])
+    except (ValueError, SceneError) as exc:
+        raise SceneError(f"{source}: {exc}") from None
+
+
 def resolve_surrogate(scene: Scene) -> None:
     """``coupling.surrogate`` checked and filled in; with it, the predictor and an IQN-ILS acceleration become the
     surrogate's unless the table says otherwise (``predictor``, ``jacobian``)."""
@@ -34,9 +48,9 @@ def resolve_surrogate(scene: Scene) -> None:
     surrogate = validate(given, SURROGATE_SETTINGS, "coupling.surrogate.", source)
     coupling["surrogate"] = surrogate
     on = surrogate["start_window"] > 0
-    if given and not on:
+    if given and "start_window" not in given:
         raise SceneError(f"{source}: 'coupling.surrogate' is given without 'coupling.surrogate.start_window' "
-                         "(the window the surrogate starts in, at least 1)")
+                         "(the window the surrogate starts in, at least 1; 0: no surrogate)")
     if coupling["predictor"] == "surrogate" and not on:
         raise SceneError(f"{source}: 'coupling.predictor' is \"surrogate\" but there is no 'coupling.surrogate' "
                          "table with a start_window")
@@ -45,6 +59,10 @@ def resolve_surrogate(scene: Scene) -> None:
     if coupling["scheme"] != "serial-implicit":
         raise SceneError(f"{source}: 'coupling.surrogate' needs the serial-implicit scheme, not "
                          f"'{coupling['scheme']}'")
+    if surrogate["training_windows"] == 1:
+        raise SceneError(f"{source}: 'coupling.surrogate.training_windows' is 1; allowed: 0 (every call so far) or "
+                         "at least 2 (the static model is validated across windows)")
+    check_model(surrogate, source)
     participants = coupling["participants"]
     static = surrogate["static"] or next(
         (name for name in participants if scene.data["components"].get(name, {}).get("record")), "")

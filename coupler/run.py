@@ -231,15 +231,7 @@ def make_surrogate(coupling: dict) -> InterfaceSurrogate | None:
     settings = coupling["surrogate"]
     if not settings.get("start_window"):
         return None
-    try:
-        model_class = load_model_class(settings["model_type"])
-    except KeyError as exc:
-        raise SceneError(f"'coupling.surrogate.model_type': {exc.args[0]}") from None
-    model = settings["model"]
-    try:
-        model_class(model)       # its settings are checked now, not in the training thread
-    except (ValueError, SceneError) as exc:
-        raise SceneError(str(exc)) from None
+    model_class, model = load_model_class(settings["model_type"]), settings["model"]   # checked by resolve_plugins
     return InterfaceSurrogate(settings, settings["static"] == coupling["participants"][0], lambda: model_class(model))
 
 

@@ -34,6 +34,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from cosim.errors import CosimError
 from cosim.schema import AnyTable, Positive, Value
 from coupler.extrapolation import COEFFICIENTS
 
@@ -168,7 +169,13 @@ class InterfaceSurrogate:
             self._jd = None
         if self._training is not None and self.window >= self._training[0]:
             started = time.perf_counter()
-            model, seconds = self._training[2].result()
+            try:
+                model, seconds = self._training[2].result()
+            except Exception as exc:     # the fit's own error, in the training thread
+                first, last = self._training[1]
+                windows = sorted({self._static_window[first], self._static_window[last - 1]})
+                raise CosimError(f"coupling.surrogate: the static model's training on the calls of windows "
+                                 f"{' to '.join(map(str, windows))} failed: {exc}") from None
             self.waiting_seconds += time.perf_counter() - started
             self.training_seconds += seconds
             self.model, self._model_calls, self._training = model, self._training[1], None
@@ -199,8 +206,8 @@ class InterfaceSurrogate:
 
     def _start_training(self, adopt_at: int | None = None, calls: tuple[int, int] | None = None) -> None:
         calls = self._training_calls() if calls is None else calls
-        if calls[1] - calls[0] < 3:
-            return
+        if calls[1] - calls[0] < 3 or len(set(self._static_window[calls[0]:calls[1]])) < 2:
+            return          # a model is validated across windows: it waits for the calls of two
         chosen = slice(*calls)
         inputs, outputs = np.array(self._static_in[chosen]), np.array(self._static_out[chosen])
         windows = np.array(self._static_window[chosen])

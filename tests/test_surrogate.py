@@ -168,6 +168,12 @@ def test_a_tube_run_with_the_online_surrogate_converges_every_window_to_the_plai
     (["coupling.predictor=\"surrogate\""], "no 'coupling.surrogate' table"),
     (["coupling.surrogate.start_window=3", "coupling.surrogate.static=\"pump\""], "'coupling.surrogate.static' is 'pump'"),
     (["coupling.surrogate.start_window=3", "coupling.surrogate.memory=0"], "coupling.surrogate.memory"),
+    (["coupling.surrogate.start_window=3", "coupling.surrogate.training_windows=1"],
+     "'coupling.surrogate.training_windows' is 1; allowed: 0 \\(every call so far\\) or at least 2"),
+    (["coupling.surrogate.start_window=3", "coupling.surrogate.model.bogus=1"],
+     "'coupling.surrogate.model.bogus' is not a ROM part"),
+    (["coupling.surrogate.start_window=3", "coupling.surrogate.model_type=\"nothing\""],
+     "'coupling.surrogate.model_type': no surrogate model 'nothing'"),
 ])
 def test_bad_surrogate_tables_are_named_before_a_run_starts(overrides, message):
     from cosim.errors import SceneError
@@ -186,3 +192,35 @@ def test_an_exact_oracle_start_saves_iterations_on_the_tube(capsys, tmp_path):
             if line.startswith("| plain") or line.startswith("| oracle")}
     assert rows["oracle eps=0"] < rows["plain"] - 0.5
     assert rows["oracle eps=0.1"] > rows["oracle eps=0"]
+
+
+
+@pytest.mark.parametrize("start", [0, 1])
+def test_the_surrogate_from_window_1_waits_for_two_windows_of_calls_and_window_0_is_none(tmp_path, start):
+    from coupler.run import run_scene
+    run_scene(load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=2", "tube.cells=40",
+                                                         f"coupling.surrogate.start_window={start}",
+                                                         "coupling.surrogate.retrain_every=4"]),
+              tmp_path / "run", progress=False)
+    with RunResults(tmp_path / "run/results.h5") as run:
+        assert run.windows.converged.all()
+        assert run.attributes.get("surrogate_trainings", 0) == (4 if start else 0)
+
+
+def test_a_failed_training_stops_the_run_in_one_line_with_its_status_failed(tmp_path, monkeypatch):
+    import json
+
+    from cosim.errors import CosimError
+    from coupler.run import run_scene
+    from rom_component.surrogate_model import RomResponse
+
+    def failing(self, inputs, outputs, windows):
+        raise ValueError("the fit could not be made")
+    monkeypatch.setattr(RomResponse, "fit", failing)
+    with pytest.raises(CosimError) as caught:
+        run_scene(load_scene(ROOT / "scenes/tube_fom.toml", ["time.end=2", "tube.cells=40",
+                                                             "coupling.surrogate.start_window=5"]),
+                  tmp_path / "run", progress=False)
+    assert str(caught.value).endswith("coupling.surrogate: the static model's training on the calls of windows 1 to "
+                                      "3 failed: the fit could not be made")
+    assert json.loads((tmp_path / "run" / "status.json").read_text())["state"] == "failed"
