@@ -6,35 +6,48 @@
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
+# the tube needs none of Kratos nor gmsh: `make demo` installs its extras only (about 0.4 GB); the Kratos cases and
+# the test suite install every extra on first use (Kratos and gmsh add about 0.4 GB)
+TUBE_EXTRAS := .[rom,fmu]
 EXTRAS := .[test,lint,docs,rom,fmu,kratos,mesh,sweep]
 LOCK := constraints.txt
+PIP := $(BIN)/pip install --progress-bar on --constraint $(LOCK)
 
 .PHONY: demo demo-flap demo-mok-rom campaign mok test lint docs test-latest lock bench figures clean
 
-$(BIN)/cosim: pyproject.toml $(LOCK)
-	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet --constraint $(LOCK) --upgrade pip
-	$(BIN)/pip install --quiet --constraint $(LOCK) -e '$(EXTRAS)'
+# one stamp per set of extras, newer than the project's files once installed
+$(VENV)/.tube: pyproject.toml $(LOCK)
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	@echo "installing the tube's dependencies into $(VENV) (numpy, scipy, pyzmq, h5py, matplotlib, scikit-learn, fmpy)"
+	$(PIP) --quiet --upgrade pip
+	$(PIP) -e '$(TUBE_EXTRAS)'
 	touch $@
 
-demo: $(BIN)/cosim
+$(VENV)/.all: pyproject.toml $(LOCK)
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	@echo "installing every extra into $(VENV): Kratos Multiphysics, gmsh, Dask, the test and lint tools"
+	$(PIP) --quiet --upgrade pip
+	$(PIP) -e '$(EXTRAS)'
+	touch $@ $(VENV)/.tube
+
+demo: $(VENV)/.tube
 	COSIM=$(BIN)/cosim bash scripts/tube_demo.sh
 
 # the short double-flap ROM protocol (about 15 minutes) and the paper's whole campaign (hours; rerun to resume)
-demo-flap: $(BIN)/cosim
+demo-flap: $(VENV)/.all
 	$(BIN)/cosim campaign scenes/double_flap_short.toml --out runs/flap_demo
 
-campaign: $(BIN)/cosim
+campaign: $(VENV)/.all
 	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
 
 # the ROM with memory of Mok's wall: FOM-FOM, training, ROM-FOM and FMU-FOM switching at 12 s, other inflows
 # (12 minutes here; runs/mok_rom_demo/report)
-demo-mok-rom: $(BIN)/cosim
+demo-mok-rom: $(VENV)/.all
 	COSIM=$(BIN)/cosim PYTHON=$(BIN)/python MOK_ROM_DOCS=1 bash scripts/mok_rom_demo.sh
 
 # Mok's benchmark: 250 windows through our coupler and through Kratos's own, side by side (about 10 minutes);
 # rewrites its table in docs/mok.md
-mok: $(BIN)/cosim
+mok: $(VENV)/.all
 	$(BIN)/python -m benchmarks.mok_run 250 --docs
 
 # the suite on two workers, then the tests that race a run against the clock alone (tests/conftest.py: serial)
@@ -43,12 +56,12 @@ test: lint docs
 	$(BIN)/python -m pytest -q -m serial --durations=5
 
 # ruff and mypy (configured in pyproject.toml): no findings
-lint: $(BIN)/cosim
+lint: $(VENV)/.all
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 
 # the documentation site (build/site/); a broken link or a page outside the nav fails it
-docs: $(BIN)/cosim
+docs: $(VENV)/.all
 	$(BIN)/mkdocs build --strict --quiet
 
 # the suite against the newest versions (a scratch .venv-latest, the lock untouched): drift shows here first
@@ -73,10 +86,10 @@ lock:
 	  .venv-lock/bin/pip freeze --all --exclude-editable | grep -v -i '^setuptools=='; } > $(LOCK)
 	rm -rf .venv-lock
 
-figures: $(BIN)/cosim
+figures: $(VENV)/.all
 	$(BIN)/python -m scripts.figures
 
-bench: $(BIN)/cosim
+bench: $(VENV)/.all
 	$(BIN)/python -m benchmarks.tube_run
 	$(BIN)/python -m benchmarks.rom_call
 
