@@ -13,6 +13,9 @@ u~ = H z with z = [kernel values or polynomial terms, x, 1], in the scaled input
 
 from __future__ import annotations
 
+import re
+import warnings
+
 import numpy as np
 from scipy.spatial.distance import cdist
 from scipy.special import xlogy
@@ -50,7 +53,7 @@ class RbfRegression(Regressor):
         self.smoothing = smoothing
 
     def fit(self, X: np.ndarray, Y: np.ndarray, groups: np.ndarray | None = None) -> RbfRegression:
-        from scipy.linalg import LinAlgError, solve
+        from scipy.linalg import LinAlgError, LinAlgWarning, solve
         _, keep = np.unique(X, axis=0, return_index=True)  # repeated centres make the system singular
         keep.sort()
         X, Y = X[keep], Y[keep]
@@ -65,8 +68,19 @@ class RbfRegression(Regressor):
         lhs[:m, m:] = P
         lhs[m:, :m] = P.T
         rhs = np.vstack([Y, np.zeros((d + 1, Y.shape[1]))])
+        self.notes_: list[str] = []      # what the fit has to say (cosim train prints it)
         try:
-            coefficients = solve(lhs, rhs, assume_a="sym")
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", LinAlgWarning)
+                coefficients = solve(lhs, rhs, assume_a="sym")
+            for warning in caught:
+                if issubclass(warning.category, LinAlgWarning):
+                    rcond = re.search(r"rcond\s*=\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)", str(warning.message))
+                    self.notes_.append(
+                        f"the thin-plate-spline system of {m} snapshots is ill-conditioned (rcond "
+                        f"{float(rcond.group(1)) if rcond else float('nan'):.1e}): sub-iterations of one window give "
+                        f"nearly equal reduced forces; model.regressor.smoothing > 0 (it is {self.smoothing:g}) "
+                        "regularises it, and the training error above says how well it fits")
         except LinAlgError:
             raise ValueError(f"the {m} reduced force vectors are affinely dependent (they lie on a hyperplane "
                              f"of their {d}-dimensional space): the thin-plate-spline system is singular") from None

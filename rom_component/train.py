@@ -29,7 +29,7 @@ CONFIG: dict[str, dict[str, Any]] = {
                   "t_min": 0.0, "t_max": 1e300, "converged_only": False},
     "model": {kind: PluginChoice(name) for kind, name in DEFAULT_PARTS.items()},
     "output": {"plots": True},
-    "selection": {"choose": Choice("fixed", ("fixed", "holdout", "energy")), "table": True,
+    "selection": {"choose": Choice("fixed", ("fixed", "holdout", "energy")), "table": False,
                   "force_modes": [1, 2, 3, 4, 5, 6], "disp_modes": [1, 3, 5, 7, 9, 11, 13],
                   "test_fraction": Value(0.2, low=0.0, high=1.0, low_open=True, high_open=True),
                   "seed": 0, "energy": Value(0.9999, low=0.0, high=1.0, low_open=True),
@@ -56,7 +56,8 @@ MEANINGS = {
     "output.plots": "write the singular values, the hold-out table and the kept terms next to the model (.png)",
     "selection.choose": "the numbers of modes: 'fixed' (the encoder's and decoder's modes), 'holdout' (the "
                         "hold-out table's choice) or 'energy' (the energy criterion)",
-    "selection.table": "print the hold-out table even when it chooses nothing",
+    "selection.table": "print the hold-out table even when it chooses nothing (choose = \"fixed\" or \"energy\"; "
+                       "off by default: it refits the model for every pair of mode counts)",
     "selection.force_modes": "the r_f of the hold-out grid",
     "selection.disp_modes": "the r_u of the hold-out grid",
     "selection.test_fraction": "the share of snapshots (or windows) held out",
@@ -256,5 +257,7 @@ def train(results: str | Path | Sequence[str | Path], out: str | Path, config: d
         echo(f"plots: {', '.join(str(p) for p in written)}")
     echo(f"fitted r_f = {model.modes[0]}, r_u = {model.modes[1]}, {params['regressor']['type']} regression, "
          f"{params['decoder']['type']} decoder in {fit_seconds:.3f} s (training time); mean training error {training_error:.3e}")
+    for note in getattr(model.parts()["regressor"], "notes_", []):
+        echo(f"note: {note}")
     echo(f"saved {out}")
     return metadata

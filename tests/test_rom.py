@@ -379,3 +379,18 @@ def test_the_jacobians_factors_are_thin_and_multiply_to_it():
     left, right = model.jacobian_factors(F[3])
     assert left.shape == (U.shape[1], 3) and right.shape == (3, F.shape[1])
     np.testing.assert_allclose(left @ right, model.jacobian(F[3]), rtol=1e-12, atol=1e-14)
+
+
+
+def test_an_ill_conditioned_spline_system_is_explained_not_warned_raw():
+    """Sub-iterations of one window give nearly equal reduced forces: scipy's LinAlgWarning becomes a note."""
+    import warnings
+
+    from rom_component.regression import RbfRegression
+    x = np.concatenate([np.linspace(0.0, 1.0, 20), np.linspace(0.0, 1.0, 20) + 1e-13])[:, None]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # no raw warning may escape
+        fitted = RbfRegression(smoothing=0.0).fit(x, np.sin(x))
+    assert len(fitted.notes_) == 1 and "thin-plate-spline system of 40 snapshots is ill-conditioned" in fitted.notes_[0]
+    assert "model.regressor.smoothing > 0 (it is 0)" in fitted.notes_[0]
+    assert RbfRegression(smoothing=1e-3).fit(x, np.sin(x)).notes_ == []

@@ -41,7 +41,7 @@ def model(fom, tmp_path_factory):
     path = tmp_path_factory.mktemp("model") / "model.npz"
     done = cosim("train", str(fom / "results.h5"), "--config", "scenes/tube_rom.toml", "--out", str(path),
                  "--set", f"snapshots.t_max={TRAIN_END}", "--set", "selection.disp_modes=[1, 5, 9]",
-                 "--set", "selection.force_modes=[1, 3]")
+                 "--set", "selection.force_modes=[1, 3]", "--set", "selection.table=true")
     assert done.returncode == 0, done.stderr
     assert "hold-out error eps" in done.stdout and "training time" in done.stdout and "energy criterion" in done.stdout
     # the table's best is not what the tube's configuration fits (3 and 9, fixed): the output says so
@@ -369,3 +369,12 @@ def test_a_rom_serving_alone_from_the_start_is_recorded_under_its_participant(mo
         assert run.component_names() == ["fluid", "solid_rom"] and run.recorded() == ["solid"]
         calls = run.calls("solid")
         assert len(calls) == run.windows.iterations.sum() and (calls.outputs["rom_out_of_range"] >= 0).all()
+
+
+
+def test_train_with_fixed_modes_fits_them_without_a_hold_out_table(fom, tmp_path):
+    done = cosim("train", str(fom / "results.h5"), "--config", "scenes/tube_rom.toml", "--out",
+                 str(tmp_path / "model.npz"), "--set", f"snapshots.t_max={TRAIN_END}")
+    assert done.returncode == 0, done.stderr
+    assert "hold-out" not in done.stdout and "cross-validation time" not in done.stdout, done.stdout
+    assert "fitted r_f = 3, r_u = 9" in done.stdout
