@@ -61,7 +61,8 @@ class ComponentProxy:
         self.stateless = False
         self.warnings: list[str] = []   # delivered with replies, taken by the coupler
         self.pid: int | None = process.pid if process else None
-        self.compute_seconds: list[float] = []
+        self.compute_seconds: list[float] = []     # per step: wall time inside the component
+        self.cpu_seconds: list[float] = []         # per step: the component process's CPU time
         self.roundtrip_seconds: list[float] = []
         self._sent_at = 0.0
 
@@ -132,6 +133,7 @@ class ComponentProxy:
         self.warnings.extend(str(w) for w in header.get("warnings") or ())
         if op == "step":
             self.compute_seconds.append(compute)
+            self.cpu_seconds.append(float(header.get("cpu_seconds", compute)))
             self.roundtrip_seconds.append(roundtrip)
         return header.get("result") or {}, arrays, compute
 

@@ -2,8 +2,8 @@
 
 Layout (see DESIGN.md; ``Layout`` below is its only spelling): root attributes ``scene``,
 ``scene_resolved`` and ``versions``; ``/windows/{time,iterations,converged,wall_seconds}``;
-``/fields/<data>``; ``/initial/<data>``; ``/residuals/{window,norm}`` (one row per coupling iteration); ``/components/<name>`` with ``compute_seconds`` and
-``roundtrip_seconds`` per call, ``final/`` arrays, ``meshes/<mesh>`` node coordinates and a
+``/fields/<data>``; ``/initial/<data>``; ``/residuals/{window,norm}`` (one row per coupling iteration); ``/components/<name>`` with ``compute_seconds``,
+``cpu_seconds`` (the component process's CPU time) and ``roundtrip_seconds`` per call, ``final/`` arrays, ``meshes/<mesh>`` node coordinates and a
 ``variables`` attribute (JSON: name, causality, size, mesh, components of each variable); ``/snapshots/<name>/{inputs,outputs}/<var>``
 with ``window``, ``iteration`` and ``converged`` per call. The writer appends and flushes every
 window: a crash loses at most the window in flight.
@@ -16,7 +16,7 @@ import platform
 import shutil
 import socket
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -164,7 +164,7 @@ class ResultsStore:
 
     def append_window(self, time: float, iterations: int, converged: bool, wall_seconds: float,
                       fields: Mapping[str, np.ndarray],
-                      timings: Mapping[str, tuple[list[float], list[float]]],
+                      timings: Mapping[str, tuple[list[float], ...]],
                       snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float] = ()) -> None:
         """One window: its summary, converged fields, per-call timings, recorded calls and residual norms.
 
@@ -181,7 +181,7 @@ class ResultsStore:
         self.file.flush()
 
     def _window_rows(self, time: float, iterations: int, converged: bool, wall_seconds: float,
-                     fields: Mapping[str, np.ndarray], timings: Mapping[str, tuple[list[float], list[float]]],
+                     fields: Mapping[str, np.ndarray], timings: Mapping[str, tuple[list[float], ...]],
                      snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float]) -> list:
         """(dataset, rows) of one window, in the order they are written."""
         rows = [(Layout.window("time"), np.array([time]))]
@@ -192,10 +192,11 @@ class ResultsStore:
                  (Layout.window("converged"), np.array([converged])),
                  (Layout.window("wall_seconds"), np.array([wall_seconds]))]
         rows += [(Layout.field(name), np.asarray(value)[None]) for name, value in fields.items()]
-        for name, (compute, roundtrip) in timings.items():
+        for name, (compute, roundtrip, *cpu) in timings.items():
             if compute:
                 rows += [(Layout.timing(name, "compute"), np.array(compute)),
                          (Layout.timing(name, "roundtrip"), np.array(roundtrip))]
+                rows += [(Layout.timing(name, "cpu"), np.array(cpu[0]))] if cpu else []
         for name, calls in snapshots.items():
             if not calls["window"]:
                 continue
@@ -275,6 +276,7 @@ class ComponentRecord:
     final: dict[str, np.ndarray]
     variables: list[dict[str, Any]]
     meshes: dict[str, np.ndarray]
+    cpu_seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))   # the process's CPU time, per call
 
 
 @dataclass
@@ -352,13 +354,15 @@ class RunResults:
             raise CosimError(f"'{self.path}' has no component '{name}' (has: {', '.join(self.component_names())})")
         group = self.file[Layout.component(name)]
         timings = [self.file[p][:] if p in self.file else np.zeros(0)
-                   for p in (Layout.timing(name, "compute"), Layout.timing(name, "roundtrip"))]
+                   for p in (Layout.timing(name, "compute"), Layout.timing(name, "roundtrip"),
+                             Layout.timing(name, "cpu"))]
         final = {k: v[:] for k, v in self.file.get(Layout.final(name), {}).items()}
         attributes = {k: (v.item() if getattr(v, "size", 0) == 1 else v.tolist() if hasattr(v, "tolist") else v)
                       for k, v in group.attrs.items()}
         variables = json.loads(attributes.pop("variables", "[]"))
         meshes = {k: v[:] for k, v in self.file.get(Layout.meshes(name), {}).items()}
-        return ComponentRecord(name, attributes, timings[0], timings[1], final, variables, meshes)
+        return ComponentRecord(name, attributes, timings[0], timings[1], final, variables, meshes,
+                               timings[2] if len(timings[2]) == len(timings[0]) else timings[0])
 
     # --- snapshots --------------------------------------------------------------
     def recorded(self) -> list[str]:

@@ -204,9 +204,9 @@ class ComponentServer:
             if not isinstance(args, dict):
                 raise ProtocolError("'args' is not a map")
             self.admit(peer, str(op), args)
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             result = self.handlers[op](args, arrays)
-            compute = time.perf_counter() - start
+            compute, cpu = time.perf_counter() - start, time.process_time() - cpu
             stop = op == "shutdown"   # only once the handler accepted it
         except Exception as exc:  # every failure becomes an error reply
             logged = not isinstance(exc, (CosimError, KeyError, ValueError, TypeError))
@@ -221,7 +221,7 @@ class ComponentServer:
         if isinstance(result, dict):
             for key, value in result.items():
                 (out_arrays if isinstance(value, np.ndarray) else values)[key] = value
-        reply = {"id": request_id, "ok": True, "result": values, "compute_seconds": compute}
+        reply = {"id": request_id, "ok": True, "result": values, "compute_seconds": compute, "cpu_seconds": cpu}
         warnings = self.component.take_warnings()
         if warnings:
             reply["warnings"] = warnings

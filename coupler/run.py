@@ -502,10 +502,10 @@ def _warn(message: str, bar, log: RunLog | None = None) -> None:
         print(message, file=sys.stderr)
 
 
-def _take_timings(proxy: ComponentProxy) -> tuple[list[float], list[float]]:
-    compute, roundtrip = proxy.compute_seconds, proxy.roundtrip_seconds
-    proxy.compute_seconds, proxy.roundtrip_seconds = [], []
-    return compute, roundtrip
+def _take_timings(proxy: ComponentProxy) -> tuple[list[float], list[float], list[float]]:
+    compute, roundtrip, cpu = proxy.compute_seconds, proxy.roundtrip_seconds, proxy.cpu_seconds
+    proxy.compute_seconds, proxy.roundtrip_seconds, proxy.cpu_seconds = [], [], []
+    return compute, roundtrip, cpu
 
 
 def _shutdown(proxies: list[ComponentProxy]) -> None:

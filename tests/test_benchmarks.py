@@ -118,7 +118,7 @@ def test_flap_speedup_benchmark_small(capsys):
     calls.write_text(json.dumps({"median_seconds": {"solid FOM, Kratos, sparse_qr (the authors)": 0.15}}))
     again = flap_speedup.main(["--report", str(out), "--calls", str(calls)])   # the table of the recorded runs, again
     assert again["row"]["total_speedup"] == row["total_speedup"] and again["switch_time"] == pytest.approx(4 * 0.008)
-    rom_call = row["solid"]["rom_compute_per_call_s"]
+    rom_call = row["solid"]["rom_cpu_per_call_s"]
     assert f"against the authors' sparse_qr (150.0 ms a call, flap_rom_call.py; the ROM's mean call, " \
            f"{rom_call * 1e6:.0f} us): {0.15 / rom_call:.0f}" in capsys.readouterr().out
 
