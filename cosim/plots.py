@@ -42,6 +42,8 @@ def iterations_panel(axis: Any, time: np.ndarray, iterations: np.ndarray) -> Non
     mean = iterations.mean() if iterations.size else float("nan")
     axis.axhline(mean, color="k", ls="--", lw=0.8, label=f"mean {mean:.2f}")
     axis.set_ylabel("coupling iterations per window [count]")
+    from matplotlib.ticker import MaxNLocator
+    axis.yaxis.set_major_locator(MaxNLocator(integer=True))     # a count: whole ticks
     axis.set_xlabel("time [s]")
     axis.legend(loc="upper right")
     axis.grid(alpha=0.3)

@@ -113,19 +113,22 @@ def iterations_figure(plt, label: str, items: list):
     ax_i.set_ylabel("accumulated coupling iterations,\nROM-FOM over FOM-FOM [%]")
     ax_i.set_xlabel("time [s]")
     ax_i.axhline(0, color="k", lw=0.5)
+    if not errors:       # a run against a full-order run has no ROM and no e(t)
+        ax_e.text(0.5, 0.5, "no ROM in these runs: no e(t)", ha="center", va="center", transform=ax_e.transAxes)
     for ax in (ax_e, ax_i):
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
     ax_e.set_title(f"ROM-FOM runs against the FOM-FOM reference '{label}'")
     return fig
 
 
 def solid_cost(row: dict[str, Any]) -> float | None:
-    """Solid cost of a ROM-FOM run in solid-FOM-call equivalents (calls weighted by median compute time)."""
+    """Solid cost of a ROM-FOM run in solid-FOM-call equivalents (calls weighted by their median CPU time)."""
     solid = row.get("solid")
     if not solid:
         return None
-    ratio = solid["rom_compute_median_s"] / solid["fom_compute_median_s"]
+    ratio = solid["rom_cpu_quartiles_s"][1] / solid["fom_cpu_quartiles_s"][1]
     return row["fom_solid_calls"] + row["rom_solid_calls"] * ratio
 
 
@@ -137,40 +140,58 @@ def _error_of(row: dict[str, Any]) -> tuple[float, str]:
 
 
 def error_vs_cost(pairs, rows, out: Path) -> Path:
-    """Error against solid cost, one panel per FOM-FOM reference: the reference itself at error 0 and every
-    ROM-FOM variant run against it (labelled with its modes, regressor and decoder)."""
+    """Error against solid cost, one panel per FOM-FOM reference: the reference's cost as a line (its error is 0)
+    and every ROM-FOM variant run against it (labelled with its modes, regressor and decoder). Runs of one model
+    (a ROM and its FMU) are joined: their costs differ only by the timing of their calls. The legend goes below
+    the axes, where it hides no point."""
     plt = _pyplot()
     by_reference: dict[str, list] = defaultdict(list)
     for (run, reference), row in zip(pairs, rows):
         if solid_cost(row) is not None:
-            by_reference[reference.label].append((run, row))
-    n = max(len(by_reference), 1)
-    fig, axes = plt.subplots(1, n, figsize=(6.5 * n, 5), constrained_layout=True, squeeze=False)
-    for ax, (label, items) in zip(axes[0], by_reference.items()):
-        calls = items[0][1]["reference_solid_calls"]
-        ax.plot([calls], [0.0], "ks", ms=8, label=f"FOM-FOM '{label}': {calls} solid calls, error 0")
-        for run, row in items:
-            error, kind = _error_of(row)
-            model = row.get("model", {})
-            variant = (f"r_f={model.get('encoder', {}).get('modes')}, {model.get('regressor', {}).get('type')}, "
-                       f"{model.get('decoder', {}).get('type')}" if model else "")
-            ax.plot([solid_cost(row)], [100 * error], "o", label=f"{run.label}: {variant}")
-        costs = [calls] + [solid_cost(row) for _, row in items]
-        errors = [100 * _error_of(row)[0] for _, row in items]
-        ax.set_xscale("log")
-        ax.set_xlim(0.7 * min(costs), 1.4 * max(costs))
-        ax.set_yscale("symlog", linthresh=1e-2)
-        ax.set_ylim(-1e-3, 3 * max(errors + [1e-2]))
-        ax.set_xlabel("solid cost [solid-FOM-call equivalents: calls x median compute / FOM median]")
-        ax.set_ylabel(f"{kind} [%]")
-        ax.set_title(f"reference '{label}'", fontsize=10)
-        ax.legend(fontsize=7, loc="upper right")
-        ax.grid(alpha=0.3, which="both")
-    fig.suptitle("Accuracy against solid cost: ROM-FOM variants and their FOM-FOM reference")
+            by_reference[reference.label].append((run.label, row))
+    fig = cost_figure(plt, by_reference)
     path = out / "error_vs_cost.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def cost_figure(plt, by_reference: dict[str, list]):
+    """The panels of ``error_vs_cost``: (run label, report row) pairs by reference label."""
+    import json
+    n = max(len(by_reference), 1)
+    rows_of_legend = max((len(items) for items in by_reference.values()), default=1) + 2
+    fig, axes = plt.subplots(1, n, figsize=(6.5 * n, 4.5 + 0.22 * rows_of_legend), constrained_layout=True,
+                             squeeze=False)
+    for ax, (label, items) in zip(axes[0], by_reference.items()):
+        calls = items[0][1]["reference_solid_calls"]
+        ax.axvline(calls, color="k", ls="--", lw=1, label=f"FOM-FOM '{label}': {calls} solid calls (error 0)")
+        models: dict[str, list[tuple[float, float, str]]] = defaultdict(list)
+        for run_label, row in items:
+            error, kind = _error_of(row)
+            model = row.get("model", {})
+            variant = (f"r_f={model.get('encoder', {}).get('modes')}, {model.get('regressor', {}).get('type')}, "
+                       f"{model.get('decoder', {}).get('type')}" if model else "")
+            key = json.dumps(model, sort_keys=True)
+            twin = next((name for _, _, name in models[key]), None) if model else None
+            same = f" (the model of {twin}: the cost differs by its calls' timing)" if twin else ""
+            cost = float(solid_cost(row) or 0.0)        # the rows here all have a cost
+            ax.plot([cost], [100 * max(error, 1e-12)], "o", label=f"{run_label}: {variant}{same}")
+            models[key].append((cost, 100 * max(error, 1e-12), run_label))
+        for points in models.values():
+            if len(points) > 1:
+                ax.plot([p[0] for p in points], [p[1] for p in points], color="0.6", lw=0.8, zorder=0)
+        costs = [calls] + [solid_cost(row) for _, row in items]
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlim(0.7 * min(costs), 1.4 * max(costs))
+        ax.set_xlabel("solid cost [solid-FOM-call equivalents: calls x median CPU time / FOM median]")
+        ax.set_ylabel(f"{kind} [%]")
+        ax.set_title(f"reference '{label}'", fontsize=10)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1, frameon=False)
+        ax.grid(alpha=0.3, which="both")
+    fig.suptitle("Accuracy against solid cost: ROM-FOM variants and their FOM-FOM reference")
+    return fig
 
 
 def scene_plots(run, reference, out: Path) -> list[Path]:

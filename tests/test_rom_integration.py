@@ -398,3 +398,42 @@ def test_train_with_fixed_modes_fits_them_without_a_hold_out_table(fom, tmp_path
     assert done.returncode == 0, done.stderr
     assert "hold-out" not in done.stdout and "cross-validation time" not in done.stdout, done.stdout
     assert "fitted r_f = 3, r_u = 9" in done.stdout
+
+
+def test_the_cost_plot_keeps_every_point_visible_and_says_when_one_model_has_two_costs():
+    from rom_component.report_plots import _pyplot, cost_figure
+
+    def row(calls: int, error: float, rom_cpu: float, modes: int) -> dict:
+        return {"reference_solid_calls": 3800, "fom_solid_calls": 600, "rom_solid_calls": calls,
+                "displacement_error": {"mean": error},
+                "solid": {"rom_cpu_quartiles_s": [0.0, rom_cpu, 0.0], "fom_cpu_quartiles_s": [0.0, 18e-6, 0.0]},
+                "model": {"encoder": {"modes": modes}, "regressor": {"type": "rbf"}, "decoder": {"type": "linear"}}}
+    plt = _pyplot()
+    fig = cost_figure(plt, {"fom_mu1": [("rom_mu1", row(3300, 4e-4, 40e-6, 3)), ("fmu_mu1", row(3300, 4e-4, 17e-6, 3)),
+                                        ("poly", row(3400, 3e-2, 30e-6, 2))]})
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    assert ax.get_yscale() == "log"                     # no symlog and no bare "0" tick
+    legend = ax.get_legend()
+    assert legend.get_window_extent().y1 < ax.get_window_extent().y0     # below the axes: it hides no point
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels[2] == "fmu_mu1: r_f=3, rbf, linear (the model of rom_mu1: the cost differs by its calls' timing)"
+    assert labels[0] == "FOM-FOM 'fom_mu1': 3800 solid calls (error 0)"
+    plt.close(fig)
+
+
+def test_the_run_plot_s_iteration_axis_has_whole_ticks_and_a_fom_report_no_warning(fom, tmp_path):
+    import warnings
+
+    from cosim.plots import iterations_panel
+    from rom_component.report import Run, write_report
+    from rom_component.report_plots import _pyplot
+    plt = _pyplot()
+    fig, ax = plt.subplots()
+    iterations_panel(ax, np.arange(40) * 0.1, np.array([2, 3] * 20))
+    fig.canvas.draw()
+    assert all(float(t).is_integer() for t in ax.get_yticks())
+    plt.close(fig)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        write_report([(Run.read(fom), Run.read(fom))], tmp_path / "report", echo=lambda text: None)
