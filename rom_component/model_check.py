@@ -10,6 +10,7 @@ so no C code is ever handed an array shorter than it expects.
 
 from __future__ import annotations
 
+import math
 import re
 import zipfile
 from collections.abc import Mapping
@@ -133,7 +134,26 @@ def check_step_map(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]
     if len(metadata.get("probes", [])) * 2 != n_probe:
         raise ModelContentError(f"its metadata names {len(metadata.get('probes', []))} probes for {n_probe} probe "
                                 "values (two each)")
+    dt = metadata.get("dt")
+    if not isinstance(dt, int | float) or isinstance(dt, bool) or not math.isfinite(dt) or dt <= 0:
+        raise ModelContentError(f"its metadata's 'dt' (the window it was trained on) is {dt!r}; expected a number > 0")
+    radius, given = companion_radius(arrays["W_z"]), metadata.get("radius_served")
+    known = isinstance(given, int | float) and not isinstance(given, bool) and math.isfinite(given)
+    recorded = float(given) if isinstance(given, int | float) and known else 1.0     # without a record: at most 1
+    if (radius - recorded > 1e-6 * max(1.0, abs(recorded))) if not known else \
+            abs(radius - recorded) > 1e-6 * max(1.0, abs(recorded)):
+        raise ModelContentError(f"its history matrix W_z has spectral radius {radius:.6g}, not the {recorded:.6g} "
+                                "its training left: the arrays were changed, and the model's free response may grow")
     _check_meshes(arrays)
+
+
+def companion_radius(A: np.ndarray) -> float:
+    """Spectral radius of z_{n+1} = sum_k A_k z_{n+1-k}: the companion matrix of [A_1 ... A_p]."""
+    r, pr = A.shape
+    companion = np.zeros((pr, pr))
+    companion[:r] = A
+    companion[r:, :pr - r] = np.eye(pr - r)
+    return float(np.max(np.abs(np.linalg.eigvals(companion)))) if pr else 0.0
 
 
 def _check_shapes(arrays: Mapping[str, np.ndarray], expected: Mapping[str, tuple[int, ...]], sizes: str) -> None:

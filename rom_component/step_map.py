@@ -40,6 +40,7 @@ from sklearn.linear_model import Ridge
 
 from rom_component.decoders import PodDecoder
 from rom_component.encoders import PodEncoder
+from rom_component.model_check import companion_radius
 
 FORCE_HISTORY = 2   # Newmark's weighted sum x+ + 2 x0 + x- spans the window and the two before it
 
@@ -128,15 +129,6 @@ class StepMap:
 
     def companion_radius(self) -> float:
         return companion_radius(self.A)
-
-
-def companion_radius(A: np.ndarray) -> float:
-    """Spectral radius of z_{n+1} = sum_k A_k z_{n+1-k}: the companion matrix of [A_1 ... A_p]."""
-    r, pr = A.shape
-    companion = np.zeros((pr, pr))
-    companion[:r] = A
-    companion[r:, :pr - r] = np.eye(pr - r)
-    return float(np.max(np.abs(np.linalg.eigvals(companion)))) if pr else 0.0
 
 
 def stabilised(A: np.ndarray, max_radius: float) -> tuple[np.ndarray, float, float]:

@@ -55,6 +55,28 @@ def unpack_directory() -> Path:
     return Path(tempfile.mkdtemp(prefix=f"{os.getpid()}-", dir=root))
 
 
+# fmpy's logger proxy keeps the last logger it was given in a global of its native library, for every FMU of the
+# process: the logger is one function that lives as long as the process, and hands each message to the messages
+# of the instance that wrote it
+_LISTENERS: dict[str, list[str]] = {}
+_LOGGER: Any = None
+
+
+def _process_logger() -> Any:
+    """The process's one FMI logger (made once, never freed)."""
+    global _LOGGER
+    if _LOGGER is None:
+        from fmpy.fmi2 import fmi2CallbackLoggerTYPE
+
+        def logger(environment, instance, status, category, message):
+            name = instance.decode(errors="replace") if instance else "?"
+            text = message.decode(errors="replace") if message else ""
+            _LISTENERS.get(name, []).append(text)
+            print(f"FMU {name} [status {status}]: {text}", file=sys.stderr)
+        _LOGGER = fmi2CallbackLoggerTYPE(logger)
+    return _LOGGER
+
+
 class FmuSolid(Component):
     """A Co-Simulation FMU behind the component contract."""
 
@@ -176,21 +198,11 @@ class FmuSolid(Component):
     def _callbacks(self):
         """FMI callbacks whose logger keeps the FMU's messages (and writes them to the log)."""
         from fmpy import calloc, free
-        from fmpy.fmi2 import (
-            fmi2CallbackAllocateMemoryTYPE,
-            fmi2CallbackFreeMemoryTYPE,
-            fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
-        )
+        from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions
         self.messages: list[str] = []
-
-        def logger(environment, instance, status, category, message):
-            text = message.decode(errors="replace") if message else ""
-            self.messages.append(text)
-            print(f"FMU {self.name} [status {status}]: {text}", file=sys.stderr)
-
+        _LISTENERS[self.name] = self.messages
         callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        callbacks.logger = _process_logger()
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         try:

@@ -15,6 +15,7 @@ from cosim.errors import ComponentError
 from rom_component import persistence
 from rom_component.fmu_export import export_fmu
 from solid_component.fmu import FmuSolid
+from tests.conftest import ROOT
 from tests.roms import solid_rom
 from tests.test_rom import smooth_data
 
@@ -317,9 +318,88 @@ def test_an_fmu_that_cannot_serialise_its_state_is_named_when_checkpointed(model
     assert component.can_checkpoint and component.describe()["can_checkpoint"]
     state = component.checkpoint()
     component.restore_checkpoint(state)              # the exported FMU serialises its state (magic, sizes checked)
-    assert state["fmu_state"][:8].tobytes() == b"CSROMST1"
+    assert state["fmu_state"][:8].tobytes() == b"CSROMST2"
     component.can_serialize = False                  # as an FMU whose modelDescription says it cannot
     assert not component.describe()["can_checkpoint"]
     with pytest.raises(ComponentError, match=r"FMU '.*rbf.fmu' cannot serialise its state \(canSerializeFMUstate"):
         component.checkpoint()
     component.terminate()
+
+
+def test_a_serialised_state_of_another_model_or_not_finite_is_refused_and_set_state_leaves_an_error(models,
+                                                                                                  tmp_path):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave
+
+    def start(fmu) -> tuple[FMU2Slave, dict]:
+        md = read_model_description(str(fmu))
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
+                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="rom")
+        slave.instantiate()
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        return slave, {v.name: v.valueReference for v in md.modelVariables}
+
+    _, fmu, F = models["rbf"]
+    other_path, _ = train(tmp_path, "rbf", 101, 101, 1, "pressure", "section", r_f=3, r_u=3)   # same sizes
+    other = export_fmu(other_path, tmp_path / "other.fmu")
+    mine, refs = start(fmu)
+    theirs, _ = start(other)
+    inputs = [refs[f"pressure[{i + 1}]"] for i in range(101)]
+    mine.setReal(inputs, list(F[0]))
+    mine.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.1)
+    state = mine.getFMUState()
+    serialised = bytes(mine.serializeFMUstate(state))
+    assert serialised[:8] == b"CSROMST2"
+    with pytest.raises(FMICallException):
+        theirs.deSerializeFMUstate(serialised)                  # another model's state
+    header = 8 + 40 + 12
+    values = np.frombuffer(serialised[header:], dtype=np.float64).copy()
+    values[3] = np.nan
+    with pytest.raises(FMICallException):
+        mine.deSerializeFMUstate(serialised[:header] + values.tobytes())
+    with pytest.raises(FMICallException):
+        mine.setReal(inputs[:1], [float("nan")])                # an error: the instance is in its error state
+    with pytest.raises(FMICallException):
+        mine.setReal(inputs, list(F[1]))
+    mine.setFMUState(state)                                     # the state saved before the error: going on
+    mine.setReal(inputs, list(F[1]))
+    mine.doStep(currentCommunicationPoint=0.1, communicationStepSize=0.1)
+    mine.freeFMUState(state)
+    mine.terminate()
+    mine.freeInstance()
+    theirs.freeInstance()
+
+
+def test_an_fmu_logs_safely_after_an_fmu_component_of_the_same_process_is_gone(models, tmp_path):
+    """fmpy's logger proxy keeps one logger for the whole process: a component's logger must outlive it (a freed
+    one crashed the next FMU that logged an error). Run in its own process: a crash must not take the tests."""
+    import subprocess
+    import sys
+    _, fmu, _ = models["rbf"]
+    script = f"""
+import gc
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi1 import FMICallException
+from solid_component.fmu import FmuSolid
+component = FmuSolid()
+component.instantiate({{"path": {str(fmu)!r}}})
+component.enter_initialization_mode(0.0, 1.0)
+component.exit_initialization_mode()
+component.terminate()
+del component
+gc.collect()
+md = read_model_description({str(fmu)!r})
+slave = FMU2Slave(guid=md.guid, unzipDirectory=extract({str(fmu)!r}), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="after")
+slave.instantiate()
+try:
+    slave.deSerializeFMUstate(b"not a state")
+except FMICallException:
+    print("refused")
+"""
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "refused", (done.returncode, done.stderr[-2000:])

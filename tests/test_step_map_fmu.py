@@ -172,3 +172,81 @@ def test_a_call_beyond_the_training_range_warns_or_fails(model):
         with pytest.raises(ComponentError, match=r"at t = 0.1 s: [0-9.e+]+ of its range"):
             failing.served_step(0.0, 0.1, {"force": data.F[0]})
             failing.served_step(0.1, 0.1, {"force": far})
+
+
+def test_a_serialised_state_is_refused_by_another_model_and_when_damaged_and_an_error_is_left_by_set_state(
+        model, tmp_path):
+    """The state carries its model's GUID and only finite values; fmi2SetFMUstate to a state saved before an error
+    leaves the error state, as FMI 2.0 allows."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave
+
+    from rom_component import persistence
+    from rom_component.fmu_export import export_fmu
+    path, fmu_path, data = model
+    arrays, metadata = persistence.load_arrays(path)
+    other = {**arrays, "c": arrays["c"] + 1e-3}              # another model of the same sizes
+    persistence.save(tmp_path / "other.npz", other, metadata)
+    export_fmu(tmp_path / "other.npz", tmp_path / "other.fmu")
+
+    def start(fmu) -> tuple[FMU2Slave, dict]:
+        md = read_model_description(str(fmu))
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
+                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="step_map")
+        slave.instantiate()
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        return slave, {v.name: v.valueReference for v in md.modelVariables}
+
+    mine, refs = start(fmu_path)
+    theirs, _ = start(tmp_path / "other.fmu")
+    inputs = [refs[f"force[{i + 1}]"] for i in range(N)]
+    mine.setReal(inputs, list(data.F[5]))
+    mine.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.1)
+    state = mine.getFMUState()
+    serialised = bytes(mine.serializeFMUstate(state))
+    with pytest.raises(FMICallException):                     # the other model's FMU refuses it
+        theirs.deSerializeFMUstate(serialised)
+    values = np.frombuffer(serialised[8 + 40 + 16:], dtype=np.float64)
+    for damage in (np.nan, np.inf):
+        broken = values.copy()
+        broken[0] = damage
+        with pytest.raises(FMICallException):
+            mine.deSerializeFMUstate(serialised[:8 + 40 + 16] + broken.tobytes())
+    outputs = [refs[f"displacement[{i + 1}].{axis}"] for i in range(N) for axis in "xy"]
+    for size in (1e300, 1.7e308):              # finite values that are no state: never a NaN output with fmi2OK
+        restored = mine.deSerializeFMUstate(serialised[:8 + 40 + 16] + np.full_like(values, size).tobytes())
+        mine.setFMUState(restored)
+        try:
+            mine.doStep(currentCommunicationPoint=0.1, communicationStepSize=0.1)
+        except FMICallException:
+            continue
+        assert size < 1e308 and np.isfinite(mine.getReal(outputs)).all()
+    with pytest.raises(FMICallException):      # the last one overflows: the step says so
+        mine.doStep(currentCommunicationPoint=0.1, communicationStepSize=0.1)
+    mine.setFMUState(state)                                   # back to the state saved before the error
+    mine.setReal(inputs, list(data.F[6]))
+    mine.doStep(currentCommunicationPoint=0.1, communicationStepSize=0.1)
+    assert np.isfinite(mine.getReal([refs["displacement[1].x"]])).all()
+    mine.terminate()
+    mine.freeInstance()
+    theirs.freeInstance()            # left in the error state by the refused state
+
+
+def test_a_step_map_model_with_a_bad_window_or_a_grown_history_matrix_is_refused(model, tmp_path, capsys):
+    from cosim.cli import main
+    from rom_component import persistence
+    path, _, _ = model
+    arrays, metadata = persistence.load_arrays(path)
+    with pytest.raises(persistence.ModelFileError, match="its metadata's 'dt'"):
+        persistence.save(tmp_path / "nan.npz", arrays, {**metadata, "dt": float("nan")})
+    bad = tmp_path / "grown.npz"
+    np.savez(bad, **{**arrays, "W_z": arrays["W_z"] * 1e6},
+             metadata_json=np.frombuffer(__import__("json").dumps({"format": persistence.FORMAT, **metadata}).encode(),
+                                         dtype=np.uint8))
+    assert main(["export-fmu", str(bad), "--out", str(tmp_path / "grown.fmu")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "its history matrix W_z has spectral radius" in err, err
+    assert not (tmp_path / "grown.fmu").exists()

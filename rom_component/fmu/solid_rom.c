@@ -67,6 +67,7 @@ typedef struct {
 typedef struct State {
     double *inputs, *outputs;
     double time;
+    int machine;              /* the instance's FMI state when it was taken: restoring it leaves an error */
     struct State *next;       /* every state an instance hands out, freed with it at the latest */
 } State;
 
@@ -764,6 +765,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     memcpy(state->inputs, inst->inputs, sizeof(double) * (size_t)inst->model.n_in);
     memcpy(state->outputs, inst->outputs, sizeof(double) * (size_t)inst->model.n_out);
     state->time = inst->time;
+    state->machine = inst->state;
     *FMUstate = state;
     return fmi2OK;
 }
@@ -784,6 +786,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     memcpy(inst->outputs, state->outputs, sizeof(double) * (size_t)inst->model.n_out);
     inst->time = state->time;
     inst->dirty = 0;
+    inst->state = state->machine;      /* FMI 2.0 lets an importer go on from a state saved before an error */
     return fmi2OK;
 }
 
@@ -807,13 +810,14 @@ static fmi2Status unsupported(fmi2Component c, const char *function) {
     FAIL(inst, "%s is not supported by this FMU", function);
 }
 
-/* A serialised state: "CSROMST1", n_in and n_out (int32), the time and the inputs and outputs (doubles), in the
- * machine's byte order: a checkpoint is read back by the same FMU on the same kind of machine. */
-static const char STATE_MAGIC[8] = {'C', 'S', 'R', 'O', 'M', 'S', 'T', '1'};
+/* A serialised state: "CSROMST2", the model's GUID (40 characters, a digest of its arrays), n_in, n_out and the
+ * FMI state it was taken in (int32), the time and the inputs and outputs (doubles), in the machine's byte order: a
+ * checkpoint is read back by the same FMU on the same kind of machine. */
+static const char STATE_MAGIC[8] = {'C', 'S', 'R', 'O', 'M', 'S', 'T', '2'};
+#define STATE_HEADER (sizeof STATE_MAGIC + GUID_LENGTH + 3 * sizeof(int32_t))
 
 static size_t serialized_size(const Instance *inst) {
-    return sizeof STATE_MAGIC + 2 * sizeof(int32_t) + sizeof(double) * (1 + (size_t)inst->model.n_in
-                                                                            + (size_t)inst->model.n_out);
+    return STATE_HEADER + sizeof(double) * (1 + (size_t)inst->model.n_in + (size_t)inst->model.n_out);
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *size) {
@@ -828,7 +832,7 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *s
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte bytes[], size_t size) {
     const State *state = (const State *)s;
     char *out = (char *)bytes;
-    int32_t sizes[2];
+    int32_t sizes[3];
     INSTANCE(c);
     REQUIRE(inst, ANY, "fmi2SerializeFMUstate");
     if (state == NULL || !owns_state(inst, state)) FAIL(inst, "fmi2SerializeFMUstate: not a state of this instance");
@@ -836,8 +840,11 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte bytes
         FAIL(inst, "fmi2SerializeFMUstate: a buffer of %zu bytes is needed", serialized_size(inst));
     sizes[0] = inst->model.n_in;
     sizes[1] = inst->model.n_out;
+    sizes[2] = state->machine;
     memcpy(out, STATE_MAGIC, sizeof STATE_MAGIC);
     out += sizeof STATE_MAGIC;
+    memcpy(out, inst->model.guid, GUID_LENGTH);
+    out += GUID_LENGTH;
     memcpy(out, sizes, sizeof sizes);
     out += sizeof sizes;
     memcpy(out, &state->time, sizeof(double));
@@ -850,22 +857,35 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte bytes
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate *s) {
     const char *in = (const char *)bytes;
-    int32_t sizes[2];
+    int32_t sizes[3];
+    size_t i, n_values;
+    double value;
     State *state;
     fmi2FMUstate handle = NULL;
     INSTANCE(c);
     REQUIRE(inst, ANY, "fmi2DeSerializeFMUstate");
     if (bytes == NULL || s == NULL) FAIL(inst, "fmi2DeSerializeFMUstate: NULL argument");
-    if (size != serialized_size(inst) || memcmp(in, STATE_MAGIC, sizeof STATE_MAGIC) != 0)
+    if (size < STATE_HEADER || memcmp(in, STATE_MAGIC, sizeof STATE_MAGIC) != 0)
         FAIL(inst, "fmi2DeSerializeFMUstate: not a serialised state of this FMU (%zu bytes)", size);
-    memcpy(sizes, in + sizeof STATE_MAGIC, sizeof sizes);
-    if (sizes[0] != inst->model.n_in || sizes[1] != inst->model.n_out)
+    if (memcmp(in + sizeof STATE_MAGIC, inst->model.guid, GUID_LENGTH) != 0)
+        FAIL(inst, "fmi2DeSerializeFMUstate: a state of another model (GUID %.40s, this FMU's is %s)",
+             in + sizeof STATE_MAGIC, inst->model.guid);
+    memcpy(sizes, in + sizeof STATE_MAGIC + GUID_LENGTH, sizeof sizes);
+    if (sizes[0] != inst->model.n_in || sizes[1] != inst->model.n_out || size != serialized_size(inst))
         FAIL(inst, "fmi2DeSerializeFMUstate: a state of %d inputs and %d outputs, this FMU has %d and %d",
              (int)sizes[0], (int)sizes[1], (int)inst->model.n_in, (int)inst->model.n_out);
+    if (sizes[2] != INSTANTIATED && sizes[2] != INITIALIZATION && sizes[2] != STEP_COMPLETE && sizes[2] != TERMINATED)
+        FAIL(inst, "fmi2DeSerializeFMUstate: the state was taken in no valid FMI state (%d)", (int)sizes[2]);
+    n_values = 1 + (size_t)inst->model.n_in + (size_t)inst->model.n_out;
+    for (i = 0; i < n_values; i++) {
+        memcpy(&value, in + STATE_HEADER + i * sizeof(double), sizeof value);
+        if (!finite(value)) FAIL(inst, "fmi2DeSerializeFMUstate: value %zu of the state is %g, not finite", i, value);
+    }
     handle = (*s != NULL && owns_state(inst, (const State *)*s)) ? *s : NULL;
     if (fmi2GetFMUstate(c, &handle) != fmi2OK) return fmi2Error;    /* a state of this instance to fill */
     state = (State *)handle;
-    in += sizeof STATE_MAGIC + sizeof sizes;
+    state->machine = sizes[2];
+    in += STATE_HEADER;
     memcpy(&state->time, in, sizeof(double));
     in += sizeof(double);
     memcpy(state->inputs, in, sizeof(double) * (size_t)inst->model.n_in);

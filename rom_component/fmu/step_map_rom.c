@@ -8,8 +8,9 @@
  *   u   = At^T z + base,  probes = Pt^T z + p0         interface displacement and probe points
  *
  * after which z and x join the history (z_1 <- z, x_1 <- x). An importer repeats a window (a coupling iteration)
- * the FMI way: fmi2GetFMUstate before it, fmi2SetFMUstate before each repeat. The state (history, inputs,
- * outputs, time) serialises to bytes (fmi2SerializeFMUstate).
+ * the FMI way: fmi2GetFMUstate before it, fmi2SetFMUstate before each repeat (which also leaves an error state,
+ * as FMI 2.0 allows). The state (history, inputs, outputs, time) serialises to bytes with the model's GUID
+ * (fmi2SerializeFMUstate); a state of another model or with a value that is not finite is refused.
  *
  * resources/rom.bin (little-endian):
  *   char magic[8] = "CSSTEP1"; char guid[40]; char input_name[32], output_name[32];
@@ -60,6 +61,7 @@ typedef struct {
 /* everything a window changes: the history, the last inputs and outputs, the time */
 typedef struct State {
     double *values;
+    int machine;              /* the instance's FMI state when it was taken: restoring it leaves an error */
     struct State *next;
 } State;
 
@@ -497,6 +499,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
         inst->states = state;
     }
     memcpy(state->values, inst->values, sizeof(double) * inst->n_values);
+    state->machine = inst->state;
     *FMUstate = state;
     return fmi2OK;
 }
@@ -506,6 +509,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     INSTANCE(c);
     if (state == NULL || !owns_state(inst, state)) FAIL(inst, "fmi2SetFMUstate: not a state of this instance");
     memcpy(inst->values, state->values, sizeof(double) * inst->n_values);
+    inst->state = state->machine;      /* FMI 2.0 lets an importer go on from a state saved before an error */
     return fmi2OK;
 }
 
@@ -523,11 +527,13 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     return fmi2OK;
 }
 
-/* a serialised state: "CSSTPST1", its number of doubles (int64), the doubles, in the machine's byte order */
-static const char STATE_MAGIC[8] = {'C', 'S', 'S', 'T', 'P', 'S', 'T', '1'};
+/* a serialised state: "CSSTPST2", the model's GUID (40 characters, a digest of its arrays), its number of doubles
+ * (int64), the FMI state it was taken in (int64), the doubles, in the machine's byte order */
+static const char STATE_MAGIC[8] = {'C', 'S', 'S', 'T', 'P', 'S', 'T', '2'};
+#define STATE_HEADER (sizeof STATE_MAGIC + GUID_LENGTH + 2 * sizeof(int64_t))
 
 static size_t serialized_size(const Instance *inst) {
-    return sizeof STATE_MAGIC + sizeof(int64_t) + sizeof(double) * inst->n_values;
+    return STATE_HEADER + sizeof(double) * inst->n_values;
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *size) {
@@ -540,30 +546,49 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *s
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte bytes[], size_t size) {
     const State *state = (const State *)s;
-    int64_t count;
+    int64_t count, machine;
     INSTANCE(c);
     if (state == NULL || !owns_state(inst, state)) FAIL(inst, "fmi2SerializeFMUstate: not a state of this instance");
     if (bytes == NULL || size != serialized_size(inst))
         FAIL(inst, "fmi2SerializeFMUstate: a buffer of %lu bytes is needed", (unsigned long)serialized_size(inst));
     count = (int64_t)inst->n_values;
+    machine = (int64_t)state->machine;
     memcpy(bytes, STATE_MAGIC, sizeof STATE_MAGIC);
-    memcpy(bytes + sizeof STATE_MAGIC, &count, sizeof count);
-    memcpy(bytes + sizeof STATE_MAGIC + sizeof count, state->values, sizeof(double) * inst->n_values);
+    memcpy(bytes + sizeof STATE_MAGIC, inst->model.guid, GUID_LENGTH);
+    memcpy(bytes + sizeof STATE_MAGIC + GUID_LENGTH, &count, sizeof count);
+    memcpy(bytes + sizeof STATE_MAGIC + GUID_LENGTH + sizeof count, &machine, sizeof machine);
+    memcpy(bytes + STATE_HEADER, state->values, sizeof(double) * inst->n_values);
     return fmi2OK;
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate *s) {
-    int64_t count;
+    int64_t count, machine;
+    size_t i;
+    double value;
     fmi2FMUstate handle = NULL;
     INSTANCE(c);
     if (bytes == NULL || s == NULL) FAIL(inst, "fmi2DeSerializeFMUstate: NULL argument");
-    if (size != serialized_size(inst) || memcmp(bytes, STATE_MAGIC, sizeof STATE_MAGIC) != 0)
+    if (size < STATE_HEADER || memcmp(bytes, STATE_MAGIC, sizeof STATE_MAGIC) != 0)
         FAIL(inst, "fmi2DeSerializeFMUstate: not a serialised state of this FMU (%lu bytes)", (unsigned long)size);
-    memcpy(&count, bytes + sizeof STATE_MAGIC, sizeof count);
-    if (count != (int64_t)inst->n_values) FAIL(inst, "fmi2DeSerializeFMUstate: a state of another model");
+    if (memcmp(bytes + sizeof STATE_MAGIC, inst->model.guid, GUID_LENGTH) != 0)
+        FAIL(inst, "fmi2DeSerializeFMUstate: a state of another model (GUID %.40s, this FMU's is %s)",
+             (const char *)bytes + sizeof STATE_MAGIC, inst->model.guid);
+    memcpy(&count, bytes + sizeof STATE_MAGIC + GUID_LENGTH, sizeof count);
+    memcpy(&machine, bytes + sizeof STATE_MAGIC + GUID_LENGTH + sizeof count, sizeof machine);
+    if (count != (int64_t)inst->n_values || size != serialized_size(inst))
+        FAIL(inst, "fmi2DeSerializeFMUstate: a state of %ld values in %lu bytes, this model has %lu", (long)count,
+             (unsigned long)size, (unsigned long)inst->n_values);
+    if (machine != INSTANTIATED && machine != INITIALIZATION && machine != STEP_COMPLETE && machine != TERMINATED)
+        FAIL(inst, "fmi2DeSerializeFMUstate: the state was taken in no valid FMI state (%ld)", (long)machine);
+    for (i = 0; i < inst->n_values; i++) {
+        memcpy(&value, bytes + STATE_HEADER + i * sizeof(double), sizeof value);
+        if (!finite(value)) FAIL(inst, "fmi2DeSerializeFMUstate: value %lu of the state is %g, not finite",
+                                 (unsigned long)i, value);
+    }
     handle = (*s != NULL && owns_state(inst, (const State *)*s)) ? *s : NULL;
     if (fmi2GetFMUstate(c, &handle) != fmi2OK) return fmi2Error;
-    memcpy(((State *)handle)->values, bytes + sizeof STATE_MAGIC + sizeof count, sizeof(double) * inst->n_values);
+    memcpy(((State *)handle)->values, bytes + STATE_HEADER, sizeof(double) * inst->n_values);
+    ((State *)handle)->machine = (int)machine;
     *s = handle;
     return fmi2OK;
 }
@@ -596,6 +621,13 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     if (!finite(currentCommunicationPoint) || !(communicationStepSize > 0.0) || !finite(communicationStepSize))
         FAIL(inst, "fmi2DoStep: communication point %g and step %g", currentCommunicationPoint, communicationStepSize);
     evaluate(inst);
+    {   /* a state of values out of range (a damaged serialisation, say) gives no number: say so, never fmi2OK */
+        int32_t i;
+        for (i = 0; i < inst->model.n_out + inst->model.n_probe; i++)
+            if (!finite(inst->outputs[i]))
+                FAIL(inst, "fmi2DoStep: output %d at t = %g is not finite (the state or the inputs are out of range)",
+                     (int)i, currentCommunicationPoint);
+    }
     commit(inst);
     *inst->time = currentCommunicationPoint + communicationStepSize;
     return fmi2OK;
