@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from cosim.results import RunResults
 from tests.conftest import ROOT
@@ -85,3 +86,54 @@ def test_a_component_with_no_state_answer_is_refused_under_implicit_coupling(tmp
     # an explicit scheme repeats no window: the same component is accepted there
     assert main(["check", str(scene), "--set", "coupling.scheme=serial-explicit", "--set",
                  "coupling.acceleration=none"]) == 0
+
+
+def c_component(tmp_path) -> str:
+    """examples/c_spring_wall built with the machine's C compiler against libzmq and msgpack-c (or a skip)."""
+    import shutil
+    compiler = shutil.which("cc")
+    if compiler is None:
+        pytest.skip("no C compiler (cc)")
+    binary = tmp_path / "c_spring_wall"
+    built = subprocess.run([compiler, "-O2", "-std=c99", "-D_DEFAULT_SOURCE", "-o", str(binary),
+                            str(ROOT / "examples/c_spring_wall/spring_wall.c"), "-lzmq", "-lmsgpackc", "-lm"],
+                           capture_output=True, text=True, timeout=120)
+    if built.returncode != 0:
+        pytest.skip(f"libzmq and msgpack-c are not installed (Debian: libzmq3-dev libmsgpack-dev): "
+                    f"{built.stderr.strip().splitlines()[0] if built.stderr.strip() else built.returncode}")
+    return str(binary)
+
+
+def test_a_component_in_c_speaks_the_wire_and_couples_as_the_python_one_does(tmp_path):
+    """The wire's handshake and requests are all a component needs: the spring wall in C, served by hand, gives the
+    Python spring wall's run (docs/contract.md, "A component in another language")."""
+    import json
+    binary = c_component(tmp_path)
+    process = subprocess.Popen([binary, "tcp://127.0.0.1:*"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    try:
+        assert process.stdout is not None
+        handshake = json.loads(process.stdout.readline())
+        run(tmp_path / "c", "components.solid.entry=''", f"components.solid.address='{handshake['endpoint']}'")
+        assert process.wait(timeout=30) == 0          # the run's shutdown ends it
+    finally:
+        if process.poll() is None:
+            process.kill()
+    run(tmp_path / "python")
+    with RunResults(tmp_path / "c/results.h5") as c, RunResults(tmp_path / "python/results.h5") as python:
+        np.testing.assert_array_equal(c.windows.iterations, python.windows.iterations)
+        np.testing.assert_allclose(c.fields()["section"], python.fields()["section"], rtol=1e-10)
+        assert c.component("solid").attributes["host"] == handshake["endpoint"]
+
+
+def test_the_h5py_example_reads_what_the_results_file_holds(tmp_path):
+    run(tmp_path / "run", "time.end=2.0")
+    done = subprocess.run([sys.executable, str(ROOT / "examples/read_results/read_results.py"), str(tmp_path / "run")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    lines = dict(line.split(": ", 1) for line in done.stdout.splitlines())
+    with RunResults(tmp_path / "run/results.h5") as results:
+        assert lines["windows"] == str(len(results.windows)) == "20"
+        assert lines["iterations"] == str(int(results.windows.iterations.sum()))
+        assert float(lines["inlet_pressure_max"]) == results.fields()["pressure"][:, 0].max()
+    assert "'solid': {'calls':" in lines["components"] and lines["dt"] == "0.1"
