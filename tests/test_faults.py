@@ -235,6 +235,11 @@ def test_a_killed_coupler_leaves_a_status_that_says_so_and_the_windows_it_stored
     wait_for(lambda: not alive_with(str(out)), "the killed run's components to exit on their own")
     status = read_status(out)
     assert status["state"] == "died" and status["pid"] == coupler.pid
+    # the file itself cannot say so (its writer was killed), as the docs say; cosim status does
+    import json
+    assert json.loads((out / "status.json").read_text())["state"] == "running"
+    from coupler.monitor import status_lines
+    assert status_lines(out)[0].startswith(f"{out}: died, ") and "is gone without saying why" in status_lines(out)[0]
     with RunResults(out) as results:
         assert results.attributes["windows_completed"] == len(results.windows) >= 5
     code = subprocess.run([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet"],

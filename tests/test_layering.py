@@ -148,3 +148,22 @@ def test_cosim_names_no_module_of_an_upper_package():
              for path in sorted((ROOT / "cosim").rglob("*.py"))
              for number, line in enumerate(path.read_text().splitlines(), 1) if upper.search(line)]
     assert named == []
+
+
+def test_make_demo_installs_the_tube_s_extras_only_and_the_kratos_targets_every_extra(tmp_path):
+    """`make demo` on a fresh machine installs no Kratos and no gmsh (make -n prints what it would run)."""
+    import shutil
+    import subprocess
+    if shutil.which("make") is None:
+        pytest.skip("no make")
+
+    def planned(target: str) -> str:
+        done = subprocess.run(["make", "-n", target, f"VENV={tmp_path / 'venv'}"], cwd=ROOT, capture_output=True,
+                              text=True, timeout=60)
+        assert done.returncode == 0, done.stderr
+        return done.stdout
+    demo = planned("demo")
+    assert "-e '.[rom,fmu]'" in demo and "kratos" not in demo.lower() and "mesh" not in demo
+    assert "scripts/tube_demo.sh" in demo
+    for target in ("demo-flap", "mok", "test"):
+        assert "kratos,mesh" in planned(target), target
