@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from cosim.errors import CosimError
+from cosim.npz import member_header
 
 FORMAT = "cosim-checkpoint/1"
 FILE = "checkpoint.npz"
@@ -206,16 +207,13 @@ def _check_member(path: Path, archive: zipfile.ZipFile, name: str, info: zipfile
     if not info.filename.endswith(".npy") or info.compress_type != zipfile.ZIP_STORED:
         raise CheckpointError(f"checkpoint '{path}': member '{info.filename}' is not an uncompressed .npy array, "
                               "as a checkpoint writes them")
-    with archive.open(info) as member:
-        version = np.lib.format.read_magic(member)
-        readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
-        if version not in readers:
-            raise CheckpointError(f"checkpoint '{path}': array '{name}' is in .npy format {version}")
-        shape, _, dtype = readers[version](member)
-        header = member.tell()
-    if dtype.hasobject:
+    try:
+        declared = member_header(archive, info)
+    except ValueError as exc:
+        raise CheckpointError(f"checkpoint '{path}': array '{name}': {exc}") from None
+    if declared.dtype.hasobject:
         raise CheckpointError(f"checkpoint '{path}': array '{name}' holds Python objects")
-    size = int(np.prod(shape, dtype=object)) * dtype.itemsize
-    if size + header != info.file_size or (name == DOCUMENT and size > max_document):
+    size = declared.data_bytes
+    if size + declared.header_bytes != info.file_size or (name == DOCUMENT and size > max_document):
         raise CheckpointError(f"checkpoint '{path}': array '{name}' declares {size:,} bytes in a member of "
                               f"{info.file_size:,}: the file is damaged")

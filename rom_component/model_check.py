@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from cosim.npz import member_header
+
 MAX_MODEL_BYTES = 1 << 30          # 1 GiB decompressed; a double-flap model with its full field is a few MB
 MAX_METADATA_BYTES = 1 << 20
 FLOATS = {"E", "e", "A", "base", "u_mean", "Phi_u", "f_mean", "Phi_f", "force_singular_values",
@@ -44,15 +46,13 @@ def check_members(archive: zipfile.ZipFile) -> None:
         if not info.filename.endswith(".npy") or not known(name):
             raise ModelContentError(f"it holds an unknown array '{info.filename}' (a model file holds only a ROM's "
                                     "arrays)")
-        with archive.open(info) as member:
-            version = np.lib.format.read_magic(member)
-            readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
-            if version not in readers:
-                raise ModelContentError(f"array '{name}' is in .npy format {version}; known: 1.0, 2.0")
-            shape, _, dtype = readers[version](member)
-        if dtype.hasobject:
+        try:
+            declared = member_header(archive, info)
+        except ValueError as exc:
+            raise ModelContentError(f"array '{name}': {exc}") from None
+        if declared.dtype.hasobject:
             raise ModelContentError(f"array '{name}' holds Python objects")
-        size = int(np.prod(shape, dtype=object)) * dtype.itemsize
+        size = declared.data_bytes
         limit = MAX_METADATA_BYTES if name == "metadata_json" else MAX_MODEL_BYTES
         total += size
         if size > limit or total > MAX_MODEL_BYTES:

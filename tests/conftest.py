@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import pytest
 
@@ -134,3 +134,18 @@ def served_by_hand(entry: str, bind: str = "tcp://127.0.0.1:*", curve: Path | No
         if process.poll() is None:
             process.terminate()
         process.wait(timeout=10)
+
+
+def fmpy_slave(fmu: Path, instance: str = "fmu") -> tuple[Any, dict[str, int]]:
+    """An FMI 2.0 Co-Simulation FMU instantiated and initialised at t = 0 by fmpy, an importer of its own, and its
+    value references by name."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    md = read_model_description(str(fmu))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName=instance)
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    return slave, {v.name: v.valueReference for v in md.modelVariables}

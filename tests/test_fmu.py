@@ -328,25 +328,14 @@ def test_an_fmu_that_cannot_serialise_its_state_is_named_when_checkpointed(model
 
 def test_a_serialised_state_of_another_model_or_not_finite_is_refused_and_set_state_leaves_an_error(models,
                                                                                                   tmp_path):
-    from fmpy import extract, read_model_description
     from fmpy.fmi1 import FMICallException
-    from fmpy.fmi2 import FMU2Slave
 
-    def start(fmu) -> tuple[FMU2Slave, dict]:
-        md = read_model_description(str(fmu))
-        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
-                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="rom")
-        slave.instantiate()
-        slave.setupExperiment(startTime=0.0)
-        slave.enterInitializationMode()
-        slave.exitInitializationMode()
-        return slave, {v.name: v.valueReference for v in md.modelVariables}
-
+    from tests.conftest import fmpy_slave
     _, fmu, F = models["rbf"]
     other_path, _ = train(tmp_path, "rbf", 101, 101, 1, "pressure", "section", r_f=3, r_u=3)   # same sizes
     other = export_fmu(other_path, tmp_path / "other.fmu")
-    mine, refs = start(fmu)
-    theirs, _ = start(other)
+    mine, refs = fmpy_slave(fmu, "rom")
+    theirs, _ = fmpy_slave(other, "rom")
     inputs = [refs[f"pressure[{i + 1}]"] for i in range(101)]
     mine.setReal(inputs, list(F[0]))
     mine.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.1)

@@ -83,11 +83,12 @@ def test_fmpy_repeats_windows_by_the_fmu_state_and_resumes_from_its_serialisatio
     """fmpy drives the FMU as FMI 2.0 says: fmi2GetFMUstate at a window's start, fmi2SetFMUstate before each
     repeat; its answers are the component's. Serialised after window 10 and read into a new instance, the FMU goes
     on with the same bits."""
-    from fmpy import extract, read_model_description
+    from fmpy import read_model_description
     from fmpy.fmi2 import FMU2Slave
     from fmpy.validation import validate_fmu
 
     from rom_component.step_map_component import StepMapRomSolid
+    from tests.conftest import fmpy_slave
     path, fmu_path, data = model
     assert validate_fmu(str(fmu_path)) == []
     md = read_model_description(str(fmu_path))
@@ -96,13 +97,7 @@ def test_fmpy_repeats_windows_by_the_fmu_state_and_resumes_from_its_serialisatio
     outputs = [refs[f"displacement[{i + 1}].{axis}"] for i in range(N) for axis in "xy"]
 
     def start() -> FMU2Slave:
-        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path)),
-                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="step_map")
-        slave.instantiate()
-        slave.setupExperiment(startTime=0.0)
-        slave.enterInitializationMode()
-        slave.exitInitializationMode()
-        return slave
+        return fmpy_slave(fmu_path, "step_map")[0]
 
     component = StepMapRomSolid()
     component.instantiate({"model": str(path)})
@@ -178,30 +173,19 @@ def test_a_serialised_state_is_refused_by_another_model_and_when_damaged_and_an_
         model, tmp_path):
     """The state carries its model's GUID and only finite values; fmi2SetFMUstate to a state saved before an error
     leaves the error state, as FMI 2.0 allows."""
-    from fmpy import extract, read_model_description
     from fmpy.fmi1 import FMICallException
-    from fmpy.fmi2 import FMU2Slave
 
     from rom_component import persistence
     from rom_component.fmu_export import export_fmu
+    from tests.conftest import fmpy_slave
     path, fmu_path, data = model
     arrays, metadata = persistence.load_arrays(path)
     other = {**arrays, "c": arrays["c"] + 1e-3}              # another model of the same sizes
     persistence.save(tmp_path / "other.npz", other, metadata)
     export_fmu(tmp_path / "other.npz", tmp_path / "other.fmu")
 
-    def start(fmu) -> tuple[FMU2Slave, dict]:
-        md = read_model_description(str(fmu))
-        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
-                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="step_map")
-        slave.instantiate()
-        slave.setupExperiment(startTime=0.0)
-        slave.enterInitializationMode()
-        slave.exitInitializationMode()
-        return slave, {v.name: v.valueReference for v in md.modelVariables}
-
-    mine, refs = start(fmu_path)
-    theirs, _ = start(tmp_path / "other.fmu")
+    mine, refs = fmpy_slave(fmu_path, "step_map")
+    theirs, _ = fmpy_slave(tmp_path / "other.fmu", "step_map")
     inputs = [refs[f"force[{i + 1}]"] for i in range(N)]
     mine.setReal(inputs, list(data.F[5]))
     mine.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.1)
