@@ -84,7 +84,7 @@ def test_status_and_the_convergence_plot_of_a_running_and_a_finished_run(tmp_pat
         wait_for(lambda: windows_done(out) >= 20 or process.poll() is not None, "20 windows")
         lines = status_lines(out)
         assert lines[0].startswith(f"{out}: running, ") and "of 600 windows" in lines[0], lines
-        assert "windows/s" in lines[1] and "s left (done near" in lines[1], lines
+        assert lines[1].startswith("rate ") and "s left (done near" in lines[1], lines
         assert lines[3].startswith("last measures: relative(pressure) "), lines
         picture = plot_convergence(out)          # while the run writes its logs
         assert picture.stat().st_size > 10_000

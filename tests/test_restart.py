@@ -261,7 +261,7 @@ def rewrite_document(out: Path, change) -> None:
     (lambda d: d.update(windows="4"), "'windows' is \"4\""),
     (lambda d: d.update(windows=-5), "'windows' is -5; expected an integer from 1 to 9"),
     (lambda d: d.update(windows=10**6), "'windows' is 1000000"),
-    (lambda d: d["results"].update({"windows/time": -3}), "'results' is"),
+    (lambda d: d["results"].update({next(iter(d["results"])): -3}), "'results' is"),
     (lambda d: d.update(run={"scene_sha256": "0" * 64, **{k: v for k, v in d["run"].items() if k != "scene_sha256"}}),
      "was run with another scene"),
 ])
