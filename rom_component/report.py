@@ -367,7 +367,8 @@ def _table(rows: list[dict[str, Any]]) -> str:
     head = (f"{'run':<16}{'reference':<12}{'T_switch':>9}{'monitor err':>12}{'e(t) mean':>11}{'iter ratio':>11}"
             f"{'sigma':>8}{'sigma rt':>9}{'speed-up':>9}{'bound':>7}{'wall s':>8}  model")
     lines = [head]
-    notes = []
+    notes: list[str] = []
+    costs: list[str] = []
     for r in rows:
         solid = r.get("solid", {})
         model = r.get("model", {})
@@ -379,6 +380,12 @@ def _table(rows: list[dict[str, Any]]) -> str:
             f"{(r['iterations_ratio'] - 1) * 100:>+10.2f}%{_num(solid.get('speedup_compute'), '8.1f')}"
             f"{_num(solid.get('speedup_roundtrip'), '9.2f')}{speedup}"
             f"{_num(r.get('total_speedup_bound'), '7.2f')}{r['wall_seconds']:>8.2f}  {desc}")
+        if solid:
+            fom_q, rom_q = (np.array(solid[k]) * 1e6 for k in ("fom_cpu_quartiles_s", "rom_cpu_quartiles_s"))
+            low, high = solid["speedup_compute_range"]
+            costs.append(f"{r['label']}: CPU time per call, median [quartiles]: solid FOM {fom_q[1]:.1f} "
+                         f"[{fom_q[0]:.1f}, {fom_q[2]:.1f}] us, ROM {rom_q[1]:.1f} [{rom_q[0]:.1f}, {rom_q[2]:.1f}] us; "
+                         f"sigma {solid['speedup_compute']:.2f} [{low:.2f}, {high:.2f}]")
         if r.get("total_speedup_noise"):
             notes.append(f"{r['label']}: the wall times give {r['total_speedup']:.2f}, above the {r['total_speedup_bound']:.2f} "
                          "the ROM's cost allows at these iterations: the machine's load moved them; not a result")
@@ -395,7 +402,7 @@ def _table(rows: list[dict[str, Any]]) -> str:
                  "times (T_f fluid, T_s solid; T_s,FOM before the switch, T_s,ROM after it) at the reference's "
                  "iterations; below 1 when a ROM call costs more than a solid call. A speed-up above its bound (and "
                  "the iterations saved) is the wall clock's noise, shown as such")
-    lines += [f"note: {note}" for note in notes]
+    lines += costs + [f"note: {note}" for note in notes]
     return "\n".join(lines)
 
 

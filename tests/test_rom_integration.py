@@ -136,7 +136,8 @@ def test_a_speed_up_above_its_bound_is_shown_as_noise_never_as_a_result():
     from rom_component.report import _table
     row = {"label": "mu2", "reference_label": "fom_mu2", "switch_time": 0.1, "monitor_error": 1e-3,
            "iterations_ratio": 1.0, "wall_seconds": 10.0, "total_speedup": 1.55, "total_speedup_bound": 0.93,
-           "total_speedup_noise": True, "solid": {"speedup_compute": 1.0, "speedup_roundtrip": 1.0,
+           "total_speedup_noise": True, "solid": {"speedup_compute": 1.2, "speedup_roundtrip": 1.0,
+                                                 "speedup_compute_range": [0.5, 2.0],
                                                  "fom_cpu_quartiles_s": [1e-5, 1.8e-5, 2e-5],
                                                  "rom_cpu_quartiles_s": [1e-5, 1.5e-5, 2e-5]}}
     text = _table([row])
@@ -144,6 +145,8 @@ def test_a_speed_up_above_its_bound_is_shown_as_noise_never_as_a_result():
     assert "noise" in line and "1.55" not in line
     assert "note: mu2: the wall times give 1.55, above the 0.93 the ROM's cost allows" in text
     assert "note: mu2: the solid takes 18 us of CPU per call and the ROM 15 us" in text
+    assert ("mu2: CPU time per call, median [quartiles]: solid FOM 18.0 [10.0, 20.0] us, ROM 15.0 [10.0, 20.0] us; "
+            "sigma 1.20 [0.50, 2.00]") in text
 
 
 def test_the_iterations_interval_has_the_spread_of_the_windows_and_widens_with_their_correlation():
