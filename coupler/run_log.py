@@ -9,12 +9,15 @@ in the manner of preCICE's ``precice-*-iterations.log`` and ``precice-*-converge
   ``type(data)``) and the norm of the accelerated data's residual.
 
 The files are whitespace-separated columns under one header line, flushed every window. A resumed run first cuts
-the two tables back to the checkpoint's window.
+the two tables back to the checkpoint's window. The logs never stop a run: a log that cannot be written (a full
+disk) stops being written, and the results file's own checks stop the run with their message.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -27,20 +30,32 @@ class RunLog:
     def __init__(self, folder: Path, resume_after: int | None = None):
         self.folder = folder
         self.resume_after = resume_after
-        folder.mkdir(parents=True, exist_ok=True)
-        self.events = open(folder / COUPLER, "a")
+        self.events: TextIO | None = None
         self.iterations: TextIO | None = None
         self.convergence: TextIO | None = None
+        self.broken = False          # a write failed (a full disk): the logs stop, the run goes on
+        with self._guard():
+            folder.mkdir(parents=True, exist_ok=True)
+            self.events = open(folder / COUPLER, "a")
+
+    @contextmanager
+    def _guard(self) -> Iterator[None]:
+        try:
+            yield
+        except OSError:
+            self.broken = True
 
     def open_tables(self, measures: list[Any]) -> None:
         """Start (or, resuming, cut back and go on with) the two tables, a column per convergence measure."""
         labels = [f"{m.type_name}({m.data})" for m in measures]
-        if self.resume_after is not None:
-            for name in (ITERATIONS, CONVERGENCE):
-                _cut(self.folder / name, self.resume_after)
-        self.iterations = _table(self.folder / ITERATIONS, ["TimeWindow", "Time", "Iterations", "TotalIterations",
-                                                            "Converged", *labels])
-        self.convergence = _table(self.folder / CONVERGENCE, ["TimeWindow", "Iteration", *labels, "ResidualNorm"])
+        with self._guard():
+            if self.resume_after is not None:
+                for name in (ITERATIONS, CONVERGENCE):
+                    _cut(self.folder / name, self.resume_after)
+            self.iterations = _table(self.folder / ITERATIONS, ["TimeWindow", "Time", "Iterations",
+                                                                "TotalIterations", "Converged", *labels])
+            self.convergence = _table(self.folder / CONVERGENCE, ["TimeWindow", "Iteration", *labels,
+                                                                  "ResidualNorm"])
 
     def __enter__(self) -> RunLog:
         return self
@@ -48,26 +63,32 @@ class RunLog:
     def __exit__(self, *exc_info: Any) -> None:
         for stream in (self.events, self.iterations, self.convergence):
             if stream is not None:
-                stream.close()
+                with self._guard():
+                    stream.close()
 
     def event(self, message: str) -> None:
         """One timestamped line of ``coupler.log``."""
+        if self.broken or self.events is None:
+            return
         stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime())
-        self.events.write(f"{stamp} {message}\n")
-        self.events.flush()
+        with self._guard():
+            self.events.write(f"{stamp} {message}\n")
+            self.events.flush()
 
     def window(self, window: int, result: Any, total_iterations: int) -> None:
         """A finished window's rows in both tables."""
-        assert self.iterations is not None and self.convergence is not None, "open_tables first"
+        if self.broken or self.iterations is None or self.convergence is None:
+            return
         last = result.measure_history[-1] if result.measure_history else []
-        self.iterations.write(" ".join([str(window), f"{result.time:.12g}", str(result.iterations),
-                                        str(total_iterations), str(int(result.converged)),
-                                        *(f"{v:.6e}" for v in last)]) + "\n")
-        for i, (values, residual) in enumerate(zip(result.measure_history, result.residuals), start=1):
-            self.convergence.write(" ".join([str(window), str(i), *(f"{v:.6e}" for v in values),
-                                             f"{residual:.6e}"]) + "\n")
-        self.iterations.flush()
-        self.convergence.flush()
+        with self._guard():
+            self.iterations.write(" ".join([str(window), f"{result.time:.12g}", str(result.iterations),
+                                            str(total_iterations), str(int(result.converged)),
+                                            *(f"{v:.6e}" for v in last)]) + "\n")
+            for i, (values, residual) in enumerate(zip(result.measure_history, result.residuals), start=1):
+                self.convergence.write(" ".join([str(window), str(i), *(f"{v:.6e}" for v in values),
+                                                 f"{residual:.6e}"]) + "\n")
+            self.iterations.flush()
+            self.convergence.flush()
 
 
 def _table(path: Path, columns: list[str]) -> TextIO:

@@ -207,7 +207,7 @@ def test_a_full_disk_stops_the_run_with_every_dataset_at_the_same_window(tmp_pat
             calls = results.calls("solid")
             assert calls.window.max() == windows and len(calls) == results.windows.iterations.sum()
         # the disk full from the start: one line, exit 2, and no half-made results file left behind
-        with open(disk / "filler", "wb") as filler:
+        with open(disk / "filler", "wb", buffering=0) as filler:       # unbuffered: closing writes nothing more
             try:
                 while True:
                     filler.write(b"\0" * 65536)

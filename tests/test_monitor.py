@@ -100,3 +100,25 @@ def test_status_and_the_convergence_plot_of_a_running_and_a_finished_run(tmp_pat
     assert main(["plot", str(out), "--convergence", "--out", str(tmp_path / "c.png")]) == 0
     assert (tmp_path / "c.png").stat().st_size > 10_000
     assert main(["status", str(tmp_path / "none")]) == 2
+
+
+def test_a_log_that_cannot_be_written_stops_being_written_never_the_run(tmp_path):
+    import errno
+
+    from coupler.run_log import RunLog
+
+    class FullDisk:
+        def write(self, text):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def flush(self):
+            pass
+
+        def close(self):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    with RunLog(tmp_path / "logs") as log:
+        log.events = FullDisk()
+        log.event("a line the disk has no room for")
+        assert log.broken
+        log.event("and no more tries")
