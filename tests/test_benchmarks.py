@@ -225,3 +225,18 @@ def test_forced_predictor_is_exact_on_a_linear_system_driven_by_its_input():
     assert len(exact) == steps - 33 and exact.max() < 1e-8
     blind = ForcedPredictor(X, np.zeros_like(u), history=30, modes=10, lags=2).errors(skip=0)
     assert np.median(blind) > 1e-2
+
+
+def test_coupler_cost_benchmark_small(capsys):
+    """The per-iteration split of four short runs: every run above its floor, the split's parts positive, the trivial
+    components cheaper to compute than the tube's."""
+    from benchmarks import coupler_cost
+    results = coupler_cost.main(["--small"])
+    rows = results["rows"]
+    assert set(rows) == {"tube FOM-FOM", "tube ROM-FOM", "tube FMU-FOM", "two trivial components"}
+    for label, row in rows.items():
+        assert row["iterations"] >= row["windows"] > 0, label
+        assert row["compute_us"] > 0 and row["wire_us"] > 0 and row["coupler_us"] > 0, label
+        assert row["over_floor"] > 1.0 and row["window_over_floor"] <= row["over_floor"], label
+    assert rows["two trivial components"]["compute_us"] < rows["tube FOM-FOM"]["compute_us"]
+    assert "wall/floor" in capsys.readouterr().out
