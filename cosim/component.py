@@ -106,11 +106,6 @@ class Component:
         return type(self).save_state is not Component.save_state
 
     @property
-    def declares_state(self) -> bool:
-        """Whether the component says how implicit coupling repeats a window with it."""
-        return declares_state(type(self)) or self.repeats_steps or self.stateless
-
-    @property
     def can_checkpoint(self) -> bool:
         """Whether ``checkpoint`` gives what a new process needs to go on (its own, or ``save_state``'s)."""
         return type(self).checkpoint is not Component.checkpoint or self.can_get_and_set_state

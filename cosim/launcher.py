@@ -38,7 +38,7 @@ class ComponentProcess:
     popen: subprocess.Popen
     log_path: Path
     endpoint: str = ""
-    token: str = ""      # the run's secret that ``shutdown`` must carry (given in the environment, never on argv)
+    token: str = ""      # the run's secret its requests carry (given in the environment, never on argv)
 
     @property
     def pid(self) -> int:

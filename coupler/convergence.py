@@ -54,6 +54,10 @@ class ConvergenceMeasure:
     def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
         raise NotImplementedError
 
+    def label(self) -> str:
+        """The measure as the coupler's logs and status name it: ``type(data)``."""
+        return f"{self.type_name}({self.data})"
+
     def summary(self) -> str:
         return f"{self.data} {self.type_name} {self.value:.3e} (limit {self.limit:g})"
 

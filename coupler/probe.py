@@ -23,7 +23,7 @@ ADDRESS_DEADLINE = 5.0      # seconds a component served by hand has to answer c
 def probe(scene: Scene, windows: int) -> list[str]:
     """Start, instantiate and initialise every component of ``scene`` (over its ``windows``) and check them, then
     stop them; returns a line per backend."""
-    from coupler.run import _shutdown, check_described, participants_of, plan_backends, start_backends
+    from coupler.run import check_described, participants_of, plan_backends, shutdown_proxies, start_backends
     backends = plan_backends(scene)
     with tempfile.TemporaryDirectory(prefix="cosim-check-") as logs, Launcher(Path(logs)) as launcher:
         local = [b for b in backends if b.entry]
@@ -40,7 +40,7 @@ def probe(scene: Scene, windows: int) -> list[str]:
                     if b.entry else f"{b.name}: served by hand at {b.address}, reached (its variables are checked "
                                     "when the run starts)" for b in backends]
         finally:
-            _shutdown([b.proxy for b in local if b.proxy is not None])
+            shutdown_proxies([b.proxy for b in local if b.proxy is not None])
             for b in backends:
                 if not b.entry and b.proxy is not None:
                     b.proxy.close()

@@ -358,7 +358,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     phase = "start-up"   # where an error that is not inside a window happened
     log = RunLog(out_dir / "logs", windows if saved is not None else None)
     log.event(f"{'resumed after window ' + str(windows) if saved is not None else 'started'}: scene "
-              f"{scene.source} ({scene.digest()[:12]}), {n_windows} windows of {dt:g} s from t = {start:g}")
+              f"{scene.source} ({identity['scene_sha256'][:12]}), {n_windows} windows of {dt:g} s from t = {start:g}")
     try:
         with log, Launcher(out_dir / "logs") as launcher:
             try:
@@ -390,6 +390,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 scheme = build_scheme(scene, participants, {participants[n].name: r for n, r in recorders.items()})
                 check_plot(scene["output"], scheme.values)
                 log.open_tables(scheme.measures)
+                measure_names = [m.label() for m in scheme.measures]
                 if saved is None:
                     store.write_initial(scheme.values)
                 else:
@@ -424,7 +425,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         directory.status("running", windows_total=n_windows, windows_completed=windows,
                                          time=result.time, iterations_total=iterations, started=started,
                                          windows_at_start=windows_at_start, last_iterations=result.iterations,
-                                         measures={m: v for m, v in zip(labels(scheme), result.measure_history[-1])}
+                                         measures=dict(zip(measure_names, result.measure_history[-1]))
                                          if result.measure_history else {})
                         # a checkpoint every `every` windows, and when a stop is asked for (even without `every`, if
                         # every component can give one): the stopped run can go on with --resume
@@ -468,7 +469,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 log.event(f"interrupted after {windows} windows")
                 raise
             finally:
-                _shutdown([b.proxy for b in backends if b.proxy is not None])
+                shutdown_proxies([b.proxy for b in backends if b.proxy is not None])
                 if scheme is not None and scheme.surrogate is not None:
                     scheme.surrogate.close()
     finally:
@@ -488,11 +489,6 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     return RunSummary(out_dir, windows, iterations, wall, unconverged)
 
 
-def labels(scheme: CouplingScheme) -> list[str]:
-    """The convergence measures as the logs name them: ``type(data)``."""
-    return [f"{m.type_name}({m.data})" for m in scheme.measures]
-
-
 def _warn(message: str, bar, log: RunLog | None = None) -> None:
     if log is not None:
         log.event(message)
@@ -508,7 +504,7 @@ def _take_timings(proxy: ComponentProxy) -> tuple[list[float], list[float], list
     return compute, roundtrip, cpu
 
 
-def _shutdown(proxies: list[ComponentProxy]) -> None:
+def shutdown_proxies(proxies: list[ComponentProxy]) -> None:
     """Ask each live component to stop (the launcher kills the rest)."""
     for proxy in proxies:
         try:

@@ -47,7 +47,7 @@ class RunLog:
 
     def open_tables(self, measures: list[Any]) -> None:
         """Start (or, resuming, cut back and go on with) the two tables, a column per convergence measure."""
-        labels = [f"{m.type_name}({m.data})" for m in measures]
+        labels = [m.label() for m in measures]
         with self._guard():
             if self.resume_after is not None:
                 for name in (ITERATIONS, CONVERGENCE):

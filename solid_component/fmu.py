@@ -199,8 +199,7 @@ class FmuSolid(Component):
         """FMI callbacks whose logger keeps the FMU's messages (and writes them to the log)."""
         from fmpy import calloc, free
         from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions
-        self.messages: list[str] = []
-        _LISTENERS[self.name] = self.messages
+        _LISTENERS[self.name] = self.messages      # made before the instance, which may log as it starts
         callbacks = fmi2CallbackFunctions()
         callbacks.logger = _process_logger()
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
