@@ -10,6 +10,7 @@ before use and raises ``ProtocolError`` naming what was wrong.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -105,3 +106,44 @@ def error_reply(request_id: Any, kind: str, message: str, component: str, logged
     """Frames of an error reply (``logged``: the component's log holds its traceback)."""
     return encode({"id": request_id, "ok": False,
                    "error": {"type": kind, "message": message, "component": component, "logged": logged}})
+
+
+# --- the same messages over a byte stream (a pipe between two processes of one run) -------------------------------
+_COUNT = struct.Struct("<I")
+
+
+def to_stream(frames: Sequence[Any]) -> bytes:
+    """One message's bytes on a stream: its frame count, each frame's length, then the frames."""
+    views = [_frame_bytes(f) for f in frames]
+    return b"".join([struct.pack(f"<I{len(views)}Q", len(views), *(v.nbytes for v in views)), *views])
+
+
+class StreamReader:
+    """Cuts the bytes read from a stream into messages (``to_stream``'s), whatever pieces they arrive in."""
+
+    def __init__(self, max_bytes: int = MAX_MESSAGE_BYTES):
+        self.buffer = bytearray()
+        self.max_bytes = max_bytes
+
+    def feed(self, data: bytes) -> list[list[bytes]]:
+        """Every message completed by ``data``, as its frames."""
+        self.buffer += data
+        messages, start, size = [], 0, len(self.buffer)
+        while size - start >= _COUNT.size:
+            (count,) = _COUNT.unpack_from(self.buffer, start)
+            head = _COUNT.size + 8 * count
+            if size - start < head:
+                break
+            lengths = struct.unpack_from(f"<{count}Q", self.buffer, start + _COUNT.size)
+            if sum(lengths) > self.max_bytes:
+                raise ProtocolError(f"message of {sum(lengths)} bytes exceeds the limit of {self.max_bytes}")
+            if size - start < head + sum(lengths):
+                break
+            frames, offset = [], start + head
+            for length in lengths:
+                frames.append(bytes(self.buffer[offset:offset + length]))
+                offset += length
+            messages.append(frames)
+            start = offset
+        del self.buffer[:start]
+        return messages

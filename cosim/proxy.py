@@ -236,7 +236,13 @@ class ComponentProxy:
         """Stop the component."""
         self.call("shutdown", timeout=timeout)
 
+    @property
+    def closed(self) -> bool:
+        return self._socket.closed
+
     def close(self) -> None:
+        if self._socket.closed:
+            return
         if self._monitor is not None:
             self._socket.disable_monitor()
             self._monitor.close(linger=0)

@@ -82,6 +82,39 @@ def versions() -> dict[str, str]:
             "msgpack": ".".join(map(str, msgpack.version))}
 
 
+Rows = list[tuple[str, np.ndarray]]       # one window's rows: (dataset, rows) in the order they are written
+
+
+def window_rows(window: int, time: float, iterations: int, converged: bool, wall_seconds: float,
+                fields: Mapping[str, np.ndarray], timings: Mapping[str, tuple[list[float], ...]],
+                snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float]) -> Rows:
+    """(dataset, rows) of window number ``window`` (from 1): its summary, converged fields, per-call timings,
+    recorded calls and residual norms."""
+    rows: Rows = [(Layout.window("time"), np.array([time]))]
+    if len(residuals):
+        rows += [(Layout.residual("window"), np.full(len(residuals), window, dtype=np.int32)),
+                 (Layout.residual("norm"), np.asarray(residuals, dtype=np.float64))]
+    rows += [(Layout.window("iterations"), np.array([iterations], dtype=np.int32)),
+             (Layout.window("converged"), np.array([converged])),
+             (Layout.window("wall_seconds"), np.array([wall_seconds]))]
+    rows += [(Layout.field(name), np.asarray(value)[None]) for name, value in fields.items()]
+    for name, (compute, roundtrip, *cpu) in timings.items():
+        if compute:
+            rows += [(Layout.timing(name, "compute"), np.array(compute)),
+                     (Layout.timing(name, "roundtrip"), np.array(roundtrip))]
+            rows += [(Layout.timing(name, "cpu"), np.array(cpu[0]))] if cpu else []
+    for name, calls in snapshots.items():
+        if not calls["window"]:
+            continue
+        base = Layout.calls(name)
+        rows += [(f"{base}/{kind}/{var}", np.stack(values)) for kind in ("inputs", "outputs")
+                 for var, values in calls[kind].items()]
+        rows += [(f"{base}/window", np.array(calls["window"], dtype=np.int32)),
+                 (f"{base}/iteration", np.array(calls["iteration"], dtype=np.int32)),
+                 (f"{base}/converged", np.array(calls["converged"]))]
+    return rows
+
+
 class DiskFullError(CosimError):
     """The results' file system has no room for the next window."""
 
@@ -166,60 +199,63 @@ class ResultsStore:
                       fields: Mapping[str, np.ndarray],
                       timings: Mapping[str, tuple[list[float], ...]],
                       snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float] = ()) -> None:
-        """One window: its summary, converged fields, per-call timings, recorded calls and residual norms.
+        """One window: its summary, converged fields, per-call timings, recorded calls and residual norms."""
+        self.append_windows([window_rows(self._windows_written + 1, time, iterations, converged, wall_seconds,
+                                         fields, timings, snapshots, residuals)])
 
-        The window is written whole or not at all: a window the disk has no room for is refused
-        (``DiskFullError``) before any of it is written, and a run acts on Ctrl-C and SIGTERM only
-        between windows (``cosim.stop``), so every dataset holds the same windows whenever it stops.
+    def append_windows(self, windows: Sequence[Rows]) -> None:
+        """Windows' rows (``window_rows``), each dataset's rows of every window written at once, then flushed.
+
+        A window is written whole or not at all: one the disk has no room for is refused (``DiskFullError``)
+        before any of it is written, every window before it written, so every dataset holds the same windows
+        whenever a run stops.
         """
-        rows = self._window_rows(time, iterations, converged, wall_seconds, fields, timings, snapshots, residuals)
-        self._check_room(rows)
-        for name, value in rows:
-            self._append(name, value)
-        self._windows_written += 1
+        if not windows:
+            return
+        if not self._has_room(windows):
+            for window in windows:          # as many whole windows as the disk holds, one at a time
+                if not self._has_room([window]):
+                    raise DiskFullError(self._no_room([window]))
+                self.append_windows([window])
+            return
+        merged: dict[str, list[np.ndarray]] = {}
+        for window in windows:
+            for name, value in window:
+                merged.setdefault(name, []).append(value)
+        for name, values in merged.items():
+            self._append(name, values[0] if len(values) == 1 else np.concatenate(values))
+        self._windows_written += len(windows)
         self.file.attrs["windows_completed"] = self._windows_written   # true after a crash too
         self.file.flush()
 
-    def _window_rows(self, time: float, iterations: int, converged: bool, wall_seconds: float,
-                     fields: Mapping[str, np.ndarray], timings: Mapping[str, tuple[list[float], ...]],
-                     snapshots: Mapping[str, Mapping[str, Any]], residuals: Sequence[float]) -> list:
-        """(dataset, rows) of one window, in the order they are written."""
-        rows = [(Layout.window("time"), np.array([time]))]
-        if len(residuals):
-            rows += [(Layout.residual("window"), np.full(len(residuals), self._windows_written + 1, dtype=np.int32)),
-                     (Layout.residual("norm"), np.asarray(residuals, dtype=np.float64))]
-        rows += [(Layout.window("iterations"), np.array([iterations], dtype=np.int32)),
-                 (Layout.window("converged"), np.array([converged])),
-                 (Layout.window("wall_seconds"), np.array([wall_seconds]))]
-        rows += [(Layout.field(name), np.asarray(value)[None]) for name, value in fields.items()]
-        for name, (compute, roundtrip, *cpu) in timings.items():
-            if compute:
-                rows += [(Layout.timing(name, "compute"), np.array(compute)),
-                         (Layout.timing(name, "roundtrip"), np.array(roundtrip))]
-                rows += [(Layout.timing(name, "cpu"), np.array(cpu[0]))] if cpu else []
-        for name, calls in snapshots.items():
-            if not calls["window"]:
-                continue
-            base = Layout.calls(name)
-            rows += [(f"{base}/{kind}/{var}", np.stack(values)) for kind in ("inputs", "outputs")
-                     for var, values in calls[kind].items()]
-            rows += [(f"{base}/window", np.array(calls["window"], dtype=np.int32)),
-                     (f"{base}/iteration", np.array(calls["iteration"], dtype=np.int32)),
-                     (f"{base}/converged", np.array(calls["converged"]))]
-        return rows
+    @property
+    def windows_written(self) -> int:
+        return self._windows_written
 
-    def _check_room(self, rows: list) -> None:
-        """Refuse a window the disk cannot hold before any of it is written: a write that fails half-way leaves
-        HDF5's state undefined, so every dataset keeps the same windows only if none is ever attempted."""
+    def _needed_bytes(self, windows: Sequence[Rows]) -> int:
+        """Bytes the file may grow by when ``windows`` are appended, HDF5's reserve included."""
         needed = RESERVED_BYTES
-        for name, value in rows:
+        counts: dict[str, int] = {}
+        first: dict[str, np.ndarray] = {}
+        for window in windows:
+            for name, value in window:
+                counts[name] = counts.get(name, 0) + len(value)
+                first.setdefault(name, value)
+        for name, count in counts.items():
             column = self._columns.get(name)
-            needed += column.bytes_to_append(len(value)) if column else _GrowingDataset.first_bytes(np.asarray(value))
+            needed += column.bytes_to_append(count) if column else \
+                _GrowingDataset.first_bytes(np.repeat(np.asarray(first[name])[:1], count, axis=0))
+        return needed
+
+    def _has_room(self, windows: Sequence[Rows]) -> bool:
+        return shutil.disk_usage(self.path.parent).free >= self._needed_bytes(windows)
+
+    def _no_room(self, windows: Sequence[Rows]) -> str:
+        """Why the next window is refused: the free bytes against those it needs."""
         free = shutil.disk_usage(self.path.parent).free
-        if free < needed:
-            raise DiskFullError(f"no room for window {self._windows_written + 1} in '{self.path.parent}': "
-                                f"{free:,} bytes free, the window needs up to {needed:,}; the "
-                                f"{self._windows_written} windows before it are kept")
+        return (f"no room for window {self._windows_written + 1} in '{self.path.parent}': {free:,} bytes free, the "
+                f"window needs up to {self._needed_bytes(windows):,}; the {self._windows_written} windows before it "
+                "are kept")
 
     def write_description(self, component: str, variables: list[dict[str, Any]],
                           meshes: Mapping[str, np.ndarray]) -> None:
@@ -246,6 +282,11 @@ class ResultsStore:
     def set_attributes(self, **attributes: Any) -> None:
         """Root attributes of the run."""
         self.file.attrs.update(attributes)
+
+    def add_to_attributes(self, **increments: float) -> None:
+        """Add to root attributes (counts and totals; an absent one counts from 0)."""
+        for name, value in increments.items():
+            self.file.attrs[name] = self.file.attrs.get(name, 0) + value
 
     def close(self) -> None:
         if self.file.id.valid:

@@ -29,7 +29,8 @@ from typing import Any
 import numpy as np
 
 from cosim.checkpoint import FILE, CheckpointError, array_keys, pack, read, unpack, write
-from cosim.results import ResultsStore, versions
+from cosim.results import versions
+from cosim.results_writer import ResultsWriter
 from cosim.scene import Scene
 
 COMPONENTS = "component:"     # the checkpoint's own prefix of a component's arrays
@@ -52,7 +53,7 @@ def file_digest(path: Path) -> str:
     return digest.hexdigest()
 
 
-def write_checkpoint(out_dir: Path, scheme: Any, backends: list, store: ResultsStore,
+def write_checkpoint(out_dir: Path, scheme: Any, backends: list, store: ResultsWriter,
                      counts: dict[str, Any], identity: dict[str, Any]) -> Path:
     """Write the run's checkpoint (between windows); its size and write time go to the results' attributes."""
     started = time.perf_counter()
@@ -66,10 +67,8 @@ def write_checkpoint(out_dir: Path, scheme: Any, backends: list, store: ResultsS
     arrays.update(scheme_arrays)
     path = write(out_dir / FILE, {**counts, "run": identity, "results": store.lengths(), "scheme": scheme_document,
                                   "components": components}, arrays)
-    seconds = time.perf_counter() - started
-    written = int(store.file.attrs.get("checkpoints_written", 0)) + 1
-    store.set_attributes(checkpoints_written=written, checkpoint_bytes=path.stat().st_size,
-                         checkpoint_seconds_total=float(store.file.attrs.get("checkpoint_seconds_total", 0.0)) + seconds)
+    store.set_attributes(checkpoint_bytes=path.stat().st_size)
+    store.add_to_attributes(checkpoints_written=1, checkpoint_seconds_total=time.perf_counter() - started)
     return path
 
 

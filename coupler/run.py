@@ -27,7 +27,8 @@ from cosim.component import undeclared_state_message
 from cosim.errors import ComponentError, ComponentTimeout, CosimError, SceneError
 from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
-from cosim.results import ResultsStore
+from cosim.results import DiskFullError
+from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
 from cosim.scene import BACKEND, Scene
 from coupler.acceleration import make_acceleration
@@ -286,14 +287,8 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
     out_dir = directory.path
     n_windows = prepare(scene)
     start, dt = scene["time"]["start"], scene["time"]["dt"]
-    with directory:
-        summary = _run(scene, directory, start, dt, n_windows, progress, resume)
-        # under the lock: no other run may take the directory over while its plots are drawn
-        from cosim.plots import plot_run
-        plot_run(out_dir / "results.h5", out_dir / "run.png", scene["output"])
-        for hook in run_plot_hooks(scene):
-            hook(out_dir / "results.h5", out_dir)
-    return summary
+    with directory:     # the plots are drawn under the lock: no other run may take the directory over meanwhile
+        return _run(scene, directory, start, dt, n_windows, progress, resume)
 
 
 def check_plot(output: dict, values: dict) -> None:
@@ -332,17 +327,13 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     saved: tuple[dict, dict] | None = None
     identity = run_identity(scene, n_windows)
     backends = plan_backends(scene)
-    try:
-        if resume:
-            saved = read_checkpoint_for(scene, out_dir, n_windows, [b.name for b in backends])
-            store = ResultsStore.resume(out_dir / "results.h5", saved[0]["results"], saved[0]["windows"])
-        else:
-            store = ResultsStore(out_dir / "results.h5", scene.text)
-            store.set_attributes(scene_resolved=json.dumps(scene.data))
-    except OSError as exc:
-        error = f"cannot create '{out_dir / 'results.h5'}': {exc.strerror or exc}"
-        directory.status("failed", force=True, windows_total=n_windows, windows_completed=0, error=error)
-        raise CosimError(error) from None
+    if resume:
+        saved = read_checkpoint_for(scene, out_dir, n_windows, [b.name for b in backends])
+    # the results file's own process starts first: it is ready by the time the components are
+    store = ResultsWriter(out_dir / "results.h5", out_dir / "logs" / "results.log", scene.text,
+                          (saved[0]["results"], saved[0]["windows"]) if saved is not None else None)
+    if saved is None:
+        store.set_attributes(scene_resolved=json.dumps(scene.data))
     wall_start = time.perf_counter()
     windows = iterations = unconverged = warned = 0
     if saved is not None:
@@ -362,7 +353,9 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     try:
         with log, Launcher(out_dir / "logs") as launcher:
             try:
+                components_started = time.perf_counter()
                 start_backends(scene, backends, launcher)
+                store.ready()
                 for b in backends:
                     log.event(f"component '{b.name}': {b.entry or b.address}, pid {b.client.pid}, at "
                               f"{b.client.endpoint}" + (f", log logs/{b.name}.log" if b.entry else ""))
@@ -388,6 +381,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 # the scheme knows a participant by its proxy's name (a ROM serving alone: '<name>_rom'); the
                 # results file by the scene's
                 scheme = build_scheme(scene, participants, {participants[n].name: r for n, r in recorders.items()})
+                store.set_attributes(components_startup_seconds=time.perf_counter() - components_started,
+                                     first_window_started=time.time())
                 check_plot(scene["output"], scheme.values)
                 log.open_tables(scheme.measures)
                 measure_names = [m.label() for m in scheme.measures]
@@ -449,17 +444,26 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 finally:
                     if bar is not None:
                         bar.close()
+                store.set_attributes(last_window_ended=time.time())
                 phase = "terminate"
                 for b in backends:
                     final = b.client.terminate()
                     if final:
                         store.write_final(b.name, final)
+                phase = "results"
+                _final_attributes(store, scheme, participants, time.perf_counter() - wall_start, unconverged, warned)
+                # the writer closes the file and draws the plots while the components stop
+                store.close(plots={"png": str(out_dir / "run.png"), "output": scene["output"],
+                                   "folder": str(out_dir), "hooks": list(scene["output"]["plots"])}, wait=False)
+                shutdown_proxies([b.proxy for b in backends if b.proxy is not None])
+                store.wait_closed()
                 state = "finished"
                 log.event(f"finished: {windows} windows, {iterations} coupling iterations "
                           f"(mean {iterations / max(windows, 1):.3f} per window)")
             except CosimError as exc:
-                if not exc.where:
+                if not exc.where and not isinstance(exc, DiskFullError):
                     exc.where = phase or (scheme.position() if scheme is not None else "")
+                windows = min(windows, store.windows)        # a window the results file refused is not done
                 directory.status("failed", force=True, windows_total=n_windows, windows_completed=windows,
                                  error=str(exc))
                 log.event(f"failed after {windows} windows: {exc}")
@@ -474,19 +478,29 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                     scheme.surrogate.close()
     finally:
         wall = time.perf_counter() - wall_start
-        fallback = sum(len(p.fallback_windows) for p in (participants or {}).values()
-                       if isinstance(p, BackendSchedule))
-        store.set_attributes(wall_seconds=wall, windows_completed=windows, windows_unconverged=unconverged,
-                             component_warnings=warned, rom_fallback_windows=fallback)
-        if scheme is not None and scheme.surrogate is not None:
-            store.set_attributes(**surrogate_attributes(scheme))
-        store.close()
-        if state == "finished":
+        if state != "finished":      # what a stopped run knows is kept; an error under way is the one reported
+            try:
+                _final_attributes(store, scheme, participants, wall, unconverged, warned)
+                store.close()
+            except CosimError:
+                store.abandon()
+        else:
             directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,
                              windows_unconverged=unconverged, wall_seconds=wall, iterations_total=iterations,
                              started=started, windows_at_start=windows_at_start,
                              time=start + windows * dt)
     return RunSummary(out_dir, windows, iterations, wall, unconverged)
+
+
+def _final_attributes(store: ResultsWriter, scheme: CouplingScheme | None,
+                      participants: dict[str, Participant] | None, wall: float, unconverged: int, warned: int) -> None:
+    """The run's closing attributes: its wall time, the windows accepted unconverged, the warnings, the ROM's
+    fallback windows, the surrogate's counts."""
+    fallback = sum(len(p.fallback_windows) for p in (participants or {}).values() if isinstance(p, BackendSchedule))
+    store.set_attributes(wall_seconds=wall, windows_unconverged=unconverged, component_warnings=warned,
+                         rom_fallback_windows=fallback)
+    if scheme is not None and scheme.surrogate is not None:
+        store.set_attributes(**surrogate_attributes(scheme))
 
 
 def _warn(message: str, bar, log: RunLog | None = None) -> None:
@@ -505,8 +519,10 @@ def _take_timings(proxy: ComponentProxy) -> tuple[list[float], list[float], list
 
 
 def shutdown_proxies(proxies: list[ComponentProxy]) -> None:
-    """Ask each live component to stop (the launcher kills the rest)."""
+    """Ask each live component to stop (the launcher kills the rest); a proxy closed already is left alone."""
     for proxy in proxies:
+        if proxy.closed:
+            continue
         try:
             if proxy.process is None or proxy.process.poll() is None:
                 proxy.shutdown(timeout=2.0)

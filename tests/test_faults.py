@@ -165,19 +165,22 @@ def test_failing_idle_work_is_stopped_and_the_component_still_serves(tmp_path):
 
 
 def test_a_run_keeps_its_directory_locked_while_it_draws_its_plots(tmp_path, monkeypatch):
-    """Another run taking the directory over (--overwrite) while the first one plots is refused."""
-    import cosim.plots
+    """The results writer draws run.png once the file is closed; until it is drawn, another run taking the
+    directory over (--overwrite) is refused."""
+    from cosim.results_writer import ResultsWriter
     from cosim.rundir import RunDirectory, RunDirectoryError
     refused = []
+    wait_closed = ResultsWriter.wait_closed
 
-    def plot_while_another_run_tries(results, png, output):
+    def try_to_take_the_directory_first(self):
         with pytest.raises(RunDirectoryError, match="is in use by a run in progress") as error:
             with RunDirectory(tmp_path / "plot", overwrite=True):
                 pass
         refused.append(str(error.value))
-        return png
+        wait_closed(self)
+        assert (tmp_path / "plot" / "run.png").stat().st_size > 10_000
 
-    monkeypatch.setattr(cosim.plots, "plot_run", plot_while_another_run_tries)
+    monkeypatch.setattr(ResultsWriter, "wait_closed", try_to_take_the_directory_first)
     run(tmp_path / "plot", "time.end=0.3")
     assert len(refused) == 1
     with RunResults(tmp_path / "plot") as results:

@@ -17,7 +17,8 @@ import pytest
 from cosim import stop
 from cosim.checkpoint import CheckpointError, object_state, pack, read, restore_object, unpack
 from cosim.cli import main
-from cosim.results import ResultsStore, RunResults
+from cosim.results import RunResults
+from cosim.results_writer import ResultsWriter
 from cosim.scene import load_scene
 from coupler.run import run_scene
 from tests.conftest import ROOT, TUBE_SCENE, wait_for, windows_done
@@ -100,13 +101,13 @@ def test_a_run_killed_in_a_window_resumes_from_its_checkpoint_bit_for_bit(tmp_pa
 
 def stopped_at(window: int, monkeypatch) -> None:
     """Ask the run to stop (as Ctrl-C does) once it has written ``window`` windows."""
-    append = ResultsStore.append_window
+    append = ResultsWriter.append_window
 
     def append_then_stop(self, *args, **kwargs):
         append(self, *args, **kwargs)
-        if self._windows_written == window:
+        if self.windows == window:
             stop._requested = signal.SIGINT
-    monkeypatch.setattr(ResultsStore, "append_window", append_then_stop)
+    monkeypatch.setattr(ResultsWriter, "append_window", append_then_stop)
 
 
 @pytest.mark.parametrize("backend, stop_window", [("rom", 58), ("rom", 66), ("fmu", 66)])
