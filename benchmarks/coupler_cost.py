@@ -1,16 +1,24 @@
 """Where a coupling iteration's time goes: the components' compute, the wire, the coupler itself, against the
-floor of compute plus two raw ZeroMQ ping-pongs, measured in one run.
+floor of compute plus two raw ZeroMQ ping-pongs, measured in one run; and the run's start-up and end.
 
 For the tube FOM-FOM, ROM-FOM and FMU-FOM runs and two trivial components (benchmarks/trivial_components.py),
-each a ``cosim run`` in its own process, the table gives per coupling iteration (medians over the run's calls):
+each a ``cosim run`` in its own process, the table gives per coupling iteration (over the run's calls):
 - compute: the CPU time of each component's step call, in its own process (``cpu_seconds``);
-- wire: round trip minus the component's own wall time, per call, summed over the iteration's calls;
+- wire: round trip minus the component's own wall time, summed over an iteration's calls, and the median call's
+  over one raw ping-pong (``wire/ping``);
 - coupler: the windows' wall time less every round trip, per iteration (acceleration, measures, recording, the
   results file);
-- outside the windows: the process's wall time less the windows' (start-up, the components' start, the plots);
-- the floor: (compute + 2 ping-pongs) per iteration times the iterations, and the wall time over it.
+- the floor: (compute + 2 ping-pongs) per iteration times the iterations, and the wall time over it;
+- start-up: from the launch of ``cosim run`` to its first window, less the components' own start-up (spawn to the
+  end of their initialisation, ``components_startup_seconds``); end: from the last window to the process's exit,
+  ``run.png`` written.
 
-Usage: python -m benchmarks.coupler_cost [--small]   (--small: short runs, for the tests)
+``--repeat N`` runs every case N times, interleaved, and prints the median with the range of each figure.
+``--baseline TREE`` runs the same cases with the code of another checkout (a worktree of an earlier commit),
+interleaved with this one, for a before/after in one run (its start-up and end split need this tree's results
+attributes; the baseline gives the totals).
+
+Usage: python -m benchmarks.coupler_cost [--small] [--repeat N] [--baseline TREE]
 """
 
 from __future__ import annotations
@@ -22,6 +30,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from benchmarks.common import fresh_directory, machine
 from benchmarks.trivial_components import SCENE as TRIVIAL_SCENE
 from benchmarks.tube_run import zmq_ping_floor
@@ -29,50 +39,70 @@ from cosim.results import RunResults
 
 ROOT = Path(__file__).resolve().parent.parent
 TUBE = ROOT / "scenes" / "tube_fom.toml"
+COLUMNS = [("iterations", "iters", "{:.0f}"), ("compute_us", "compute us", "{:.0f}"), ("wire_us", "wire us", "{:.0f}"),
+           ("wire_per_ping", "wire/ping", "{:.2f}"), ("coupler_us", "coupler us", "{:.0f}"),
+           ("startup_s", "start-up s", "{:.2f}"), ("end_s", "end s", "{:.2f}"), ("process_wall", "wall s", "{:.2f}"),
+           ("floor_s", "floor s", "{:.2f}"), ("over_floor", "wall/floor", "{:.2f}"),
+           ("window_over_floor", "windows/floor", "{:.2f}"), ("iterations_per_second", "iter/s", "{:.0f}")]
 
 
-def cosim_run(scene: Path, out: Path, overrides: list[str]) -> float:
-    """``cosim run`` in its own process, as a user runs it; its wall time from launch to exit."""
-    started = time.perf_counter()
+def cosim_run(scene: Path, out: Path, overrides: list[str], tree: Path = ROOT) -> tuple[float, float]:
+    """``cosim run`` in its own process, as a user runs it, with the code of ``tree``; the Unix times of its
+    launch and exit."""
+    launched = time.time()
     done = subprocess.run([sys.executable, "-m", "cosim", "run", str(scene), "--out", str(out), "--quiet",
-                           *[a for item in overrides for a in ("--set", item)]], cwd=ROOT, capture_output=True,
+                           *[a for item in overrides for a in ("--set", item)]], cwd=tree, capture_output=True,
                           text=True, timeout=3600)
     if done.returncode != 0:
         raise RuntimeError(f"cosim run {scene} failed: {done.stderr.strip()[-500:]}")
-    return time.perf_counter() - started
+    return launched, time.time()
 
 
-def split(out: Path, process_wall: float, ping: float) -> dict[str, Any]:
-    """The per-iteration split of the run in ``out`` (``ping``: the raw ping-pong's median, s)."""
+def split(out: Path, launched: float, exited: float, ping: float) -> dict[str, Any]:
+    """The per-iteration split of the run in ``out`` (``ping``: the raw ping-pong's median, s), its start-up and
+    end."""
     with RunResults(out) as results:
         windows = results.windows
+        attributes = results.attributes
         iterations = int(windows.iterations.sum())
-        cpu = wire = roundtrips = 0.0
+        cpu = roundtrips = 0.0
+        wires = []
         for name in results.component_names():
             record = results.component(name)
             if not len(record.cpu_seconds):
                 continue
             cpu += float(record.cpu_seconds.sum())
-            wire += float((record.roundtrip_seconds - record.compute_seconds).sum())
             roundtrips += float(record.roundtrip_seconds.sum())
+            wires.append(record.roundtrip_seconds - record.compute_seconds)
         window_wall = float(windows.wall_seconds.sum())
+    wire = np.concatenate(wires)
+    process_wall = exited - launched
     floor = cpu + 2 * ping * iterations
-    return {"windows": len(windows), "iterations": iterations, "process_wall": process_wall,
-            "compute_us": cpu / iterations * 1e6, "wire_us": wire / iterations * 1e6,
-            "coupler_us": (window_wall - roundtrips) / iterations * 1e6,
-            "outside_s": process_wall - window_wall, "floor_s": floor, "over_floor": process_wall / floor,
-            "window_over_floor": window_wall / floor}
+    row = {"windows": len(windows), "iterations": iterations, "process_wall": process_wall,
+           "compute_us": cpu / iterations * 1e6, "wire_us": float(wire.sum()) / iterations * 1e6,
+           "wire_per_ping": float(np.median(wire)) / ping,
+           "coupler_us": (window_wall - roundtrips) / iterations * 1e6,
+           "floor_s": floor, "over_floor": process_wall / floor, "window_over_floor": window_wall / floor,
+           "iterations_per_second": iterations / process_wall, "startup_s": float("nan"), "end_s": float("nan")}
+    if "first_window_started" in attributes:
+        row["startup_s"] = attributes["first_window_started"] - launched - attributes["components_startup_seconds"]
+        row["end_s"] = exited - attributes["last_window_ended"]
+    return row
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--small", action="store_true", help="short runs (for the tests)")
-    args = parser.parse_args(argv)
-    out = fresh_directory("coupler_cost")
-    end, train_end = (4.0, 2.0) if args.small else (120.0, 18.0)
-    print(f"machine: {machine()}")
-    ping = zmq_ping_floor(300 if args.small else 3000)
-    print(f"raw ZeroMQ ping-pong, 808 bytes, us: {ping}")
+def summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Each figure's median over repeated runs, with its range (``<key>_range``)."""
+    merged: dict[str, Any] = {}
+    for key in rows[0]:
+        values = np.array([row[key] for row in rows], dtype=float)
+        merged[key] = float(np.median(values))
+        merged[f"{key}_range"] = (float(values.min()), float(values.max()))
+    return merged
+
+
+def cases(out: Path, small: bool) -> dict[str, tuple[Path, list[str]]]:
+    """The four runs, with a ROM trained on a short FOM run and its FMU."""
+    end, train_end = (4.0, 2.0) if small else (120.0, 18.0)
     model, fmu = out / "model.npz", out / "rom.fmu"
     subprocess.run([sys.executable, "-m", "cosim", "run", str(TUBE), "--out", str(out / "train"), "--quiet",
                     "--set", f"time.end={train_end:g}"], cwd=ROOT, check=True, capture_output=True)
@@ -82,8 +112,8 @@ def main(argv: list[str] | None = None) -> dict:
     subprocess.run([sys.executable, "-m", "cosim", "export-fmu", str(model), "--out", str(fmu)], cwd=ROOT,
                    check=True, capture_output=True)
     trivial = out / "trivial.toml"
-    trivial.write_text(TRIVIAL_SCENE.format(end=1.0 if args.small else 10.0))
-    cases = {
+    trivial.write_text(TRIVIAL_SCENE.format(end=1.0 if small else 10.0))
+    return {
         "tube FOM-FOM": (TUBE, [f"time.end={end:g}"]),
         "tube ROM-FOM": (TUBE, [f"time.end={end:g}", "components.solid.backend=rom",
                                 f"components.solid.rom.model={model}", "components.solid.rom.switch_time=0"]),
@@ -91,20 +121,54 @@ def main(argv: list[str] | None = None) -> dict:
                                 f"components.solid.fmu.path={fmu}", "components.solid.fmu.switch_time=0"]),
         "two trivial components": (trivial, []),
     }
-    rows = {}
-    print(f"\n{'per coupling iteration':<24}{'windows':>8}{'iters':>7}{'compute us':>11}{'wire us':>9}"
-          f"{'coupler us':>11}{'outside s':>10}{'wall s':>8}{'floor s':>8}{'wall/floor':>11}{'iter/s':>8}")
-    for label, (scene, overrides) in cases.items():
-        directory = out / label.replace(" ", "_")
-        wall = cosim_run(scene, directory, overrides)
-        row = rows[label] = split(directory, wall, ping.median * 1e-6)
-        print(f"{label:<24}{row['windows']:>8}{row['iterations']:>7}{row['compute_us']:>11.0f}{row['wire_us']:>9.0f}"
-              f"{row['coupler_us']:>11.0f}{row['outside_s']:>10.2f}{wall:>8.2f}{row['floor_s']:>8.2f}"
-              f"{row['over_floor']:>11.2f}{row['iterations'] / wall:>8.0f}")
-    print(f"\nwire: round trip - the component's own wall time, both calls of an iteration; the ping-pong bound: "
-          f"{2 * ping.median:.0f} us per iteration. floor: (compute + 2 ping-pongs) x iterations. outside: the "
-          "process's wall time less its windows' (start-up, components' start, plots)")
-    return {"machine": machine(), "ping": ping, "rows": rows,
+
+
+def print_table(title: str, rows: dict[str, dict[str, Any]], spread: bool) -> None:
+    print(f"\n{title}")
+    print(f"{'per coupling iteration':<24}" + "".join(f"{label:>14}" for _, label, _ in COLUMNS))
+    for case, row in rows.items():
+        cells = []
+        for key, _, form in COLUMNS:
+            cell = form.format(row[key])
+            if spread and f"{key}_range" in row and key != "iterations":
+                low, high = row[f"{key}_range"]
+                cell = f"{cell} [{form.format(low)}-{form.format(high)}]"
+            cells.append(f"{cell:>14}" if not spread else f" {cell}")
+        print(f"{case:<24}" + "".join(cells))
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--small", action="store_true", help="short runs (for the tests)")
+    parser.add_argument("--repeat", type=int, default=1, help="runs of every case, interleaved (default 1)")
+    parser.add_argument("--baseline", type=Path, help="a checkout of other code, run interleaved with this one")
+    args = parser.parse_args(argv)
+    out = fresh_directory("coupler_cost")
+    print(f"machine: {machine()}")
+    ping = zmq_ping_floor(300 if args.small else 3000)
+    print(f"raw ZeroMQ ping-pong, 808 bytes, us: {ping}")
+    runs = cases(out, args.small)
+    trees = {"this checkout": ROOT, **({"baseline": args.baseline.resolve()} if args.baseline else {})}
+    measured: dict[str, dict[str, list[dict[str, Any]]]] = {tree: {case: [] for case in runs} for tree in trees}
+    for repeat in range(args.repeat):
+        for case, (scene, overrides) in runs.items():
+            for tree, path in trees.items():
+                directory = out / f"{tree.replace(' ', '_')}-{case.replace(' ', '_')}-{repeat}"
+                launched, exited = cosim_run(scene, directory, overrides, path)
+                measured[tree][case].append(split(directory, launched, exited, ping.median * 1e-6))
+    tables = {tree: {case: summary(rows) for case, rows in by_case.items()} for tree, by_case in measured.items()}
+    for tree, rows in tables.items():
+        title = f"{tree} ({trees[tree]})" + (f", medians of {args.repeat} runs [range]" if args.repeat > 1 else "")
+        print_table(title, rows, args.repeat > 1)
+    print(f"\nwire: round trip - the component's own wall time, both calls of an iteration; "
+          f"wire/ping: the median call's over one raw ping-pong; the ping-pong bound: {2 * ping.median:.0f} us per iteration. "
+          "floor: (compute + 2 ping-pongs) x iterations. start-up: launch to the first window less the components' "
+          "own start-up; end: the last window to the exit, run.png written")
+    if args.baseline:
+        print("\nthis checkout over the baseline, wall time: " + ", ".join(
+            f"{case} {tables['this checkout'][case]['process_wall'] / tables['baseline'][case]['process_wall']:.2f}"
+            for case in runs))
+    return {"machine": machine(), "ping": ping, "rows": tables["this checkout"], "tables": tables,
             "ping_bound_iterations_per_second": 1e6 / (2 * ping.median)}
 
 

@@ -29,15 +29,21 @@ OPS = frozenset({
 })
 
 
+_NAMES = {np.dtype(name): name for name in DTYPES}           # a dtype's wire name, without numpy's slow .name
+_ITEMSIZES = {name: np.dtype(name).itemsize for name in DTYPES}
+
+
 def encode(header: dict[str, Any], arrays: Mapping[str, np.ndarray] | None = None) -> list:
     """Frames for ``header`` plus ``arrays`` (each array one raw frame)."""
     specs, buffers = [], []
-    for name, value in (arrays or {}).items():
-        array = np.ascontiguousarray(value)
-        if array.dtype.name not in DTYPES:
-            raise ProtocolError(f"array '{name}': dtype {array.dtype} is not sent (allowed: {sorted(DTYPES)})")
-        specs.append({"name": name, "dtype": array.dtype.name, "shape": list(array.shape)})
-        buffers.append(array.data if array.size else b"")
+    if arrays:
+        for name, value in arrays.items():
+            array = np.ascontiguousarray(value)
+            dtype = _NAMES.get(array.dtype)
+            if dtype is None:
+                raise ProtocolError(f"array '{name}': dtype {array.dtype} is not sent (allowed: {sorted(DTYPES)})")
+            specs.append({"name": name, "dtype": dtype, "shape": list(array.shape)})
+            buffers.append(array.data if array.size else b"")
     head = dict(header, v=VERSION, arrays=specs)
     return [msgpack.packb(head, use_bin_type=True), *buffers]
 
@@ -82,11 +88,12 @@ def _array_from(spec: Any, view: memoryview) -> tuple[str, np.ndarray]:
         raise ProtocolError(f"array spec {spec!r} lacks a name")
     name = spec["name"]
     dtype, shape = spec.get("dtype"), spec.get("shape")
-    if dtype not in DTYPES:
+    itemsize = _ITEMSIZES.get(dtype) if isinstance(dtype, str) else None
+    if itemsize is None:
         raise ProtocolError(f"array '{name}': dtype {dtype!r} is not allowed (allowed: {sorted(DTYPES)})")
     if not isinstance(shape, list) or not all(isinstance(n, int) and n >= 0 for n in shape):
         raise ProtocolError(f"array '{name}': shape {shape!r} is not a list of non-negative integers")
-    expected = math.prod(shape) * np.dtype(dtype).itemsize   # Python integers: no overflow
+    expected = math.prod(shape) * itemsize   # Python integers: no overflow
     if expected != view.nbytes:
         raise ProtocolError(
             f"array '{name}': shape {tuple(shape)} of {dtype} needs {expected} bytes but its frame has {view.nbytes}")

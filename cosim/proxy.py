@@ -37,6 +37,7 @@ class ComponentProxy:
         self._socket = (context or zmq.Context.instance()).socket(zmq.DEALER)
         self._socket.setsockopt(zmq.LINGER, 0)
         self._socket.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
+        self._socket.setsockopt(zmq.RCVTIMEO, round(LIVENESS_SLICE_SECONDS * 1000))   # a blocking receive, sliced
         self._monitor: zmq.Socket | None = None
         self._refused = ""      # why the CURVE handshake failed, once it has
         if curve:
@@ -59,6 +60,8 @@ class ComponentProxy:
         self.can_checkpoint = False
         self.repeats_steps = False
         self.stateless = False
+        self.step_saves_state = False   # its server takes save and free with a step (``send_step``)
+        self.saved_state: int | None = None     # the handle the last saving step returned
         self.warnings: list[str] = []   # delivered with replies, taken by the coupler
         self.pid: int | None = process.pid if process else None
         self.compute_seconds: list[float] = []     # per step: wall time inside the component
@@ -87,34 +90,46 @@ class ComponentProxy:
         self._pending = (request_id, op)
 
     def _wait(self, event: int, op: str, limit: float) -> None:
-        """Wait until the socket can ``event`` (POLLIN, POLLOUT); meanwhile stop on Ctrl-C, on the component's
-        death and on a failed CURVE handshake, and after ``limit`` seconds."""
+        """Wait until the socket can ``event`` (POLLOUT); meanwhile watch as ``_watch`` does."""
         deadline = time.monotonic() + limit
         while not self._socket.poll(LIVENESS_SLICE_SECONDS * 1000, event):
+            self._watch(op, limit, deadline)
+
+    def _receive_frames(self, op: str, limit: float) -> list[bytes]:
+        """The reply's frames: a blocking receive (as a raw ZeroMQ client's), in slices that ``_watch``."""
+        deadline = time.monotonic() + limit
+        while True:
             try:
-                stop.check()
-                self._check_alive()
-                if self._refused:
-                    raise ComponentError(self.name, self._refused)
-                if self._monitor is not None:
-                    from cosim.curve import handshake_failure
-                    try:
-                        handshake_failure(self._monitor, self.name, self.endpoint, self.curve)
-                    except ComponentError as exc:
-                        self._refused = exc.detail      # no reconnection follows a refusal: every later call fails
-                        raise
-                if time.monotonic() > deadline:
-                    raise ComponentTimeout(self.name, op, limit)
-            except ComponentError:
-                self._pending = None
-                raise
+                return self._socket.recv_multipart()
+            except zmq.Again:
+                self._watch(op, limit, deadline)
+
+    def _watch(self, op: str, limit: float, deadline: float) -> None:
+        """Between two slices of a wait: stop on Ctrl-C, on the component's death, on a failed CURVE handshake,
+        and past ``deadline``."""
+        try:
+            stop.check()
+            self._check_alive()
+            if self._refused:
+                raise ComponentError(self.name, self._refused)
+            if self._monitor is not None:
+                from cosim.curve import handshake_failure
+                try:
+                    handshake_failure(self._monitor, self.name, self.endpoint, self.curve)
+                except ComponentError as exc:
+                    self._refused = exc.detail      # no reconnection follows a refusal: every later call fails
+                    raise
+            if time.monotonic() > deadline:
+                raise ComponentTimeout(self.name, op, limit)
+        except ComponentError:
+            self._pending = None
+            raise
 
     def receive(self, timeout: float | None = None) -> tuple[dict, dict[str, np.ndarray], float]:
         """Result, arrays and compute seconds of the pending request."""
         assert self._pending is not None, "receive without send"
         request_id, op = self._pending
-        self._wait(zmq.POLLIN, op, self.timeout if timeout is None else timeout)
-        frames = self._socket.recv_multipart(copy=False)
+        frames = self._receive_frames(op, self.timeout if timeout is None else timeout)
         roundtrip = time.perf_counter() - self._sent_at
         self._pending = None
         try:
@@ -130,7 +145,9 @@ class ComponentProxy:
             log = f" (its log: {self.process.log_path})" if self.process is not None and error.get("logged") else ""
             raise ComponentError(self.name, f"'{op}' failed: {shown}{error.get('message', '')}{log}", kind=kind)
         compute = float(header.get("compute_seconds", 0.0))
-        self.warnings.extend(str(w) for w in header.get("warnings") or ())
+        warnings = header.get("warnings")
+        if warnings:
+            self.warnings.extend(str(w) for w in warnings)
         if op == "step":
             self.compute_seconds.append(compute)
             self.cpu_seconds.append(float(header.get("cpu_seconds", compute)))
@@ -172,6 +189,7 @@ class ComponentProxy:
         self.can_checkpoint = bool(result.get("can_checkpoint"))
         self.repeats_steps = bool(result.get("repeats_steps"))
         self.stateless = bool(result.get("stateless"))
+        self.step_saves_state = bool(result.get("step_saves_state"))
         self.history_windows = int(result.get("history_windows", 0))
         return result
 
@@ -194,16 +212,27 @@ class ComponentProxy:
     def do_step(self, t: float, dt: float) -> None:
         self.call("do_step", {"t": t, "dt": dt})
 
-    def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> None:
-        """First half of ``step``: lets the coupler run several components concurrently."""
-        self.send("step", {"t": t, "dt": dt, "restore": restore}, inputs)
+    def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
+                  save: bool = False, free: int | None = None) -> None:
+        """First half of ``step``: lets the coupler run several components concurrently. With a server that
+        ``step_saves_state``: ``free`` a state handle first, ``save`` the state before the step (``saved_state``)."""
+        args: dict[str, Any] = {"t": t, "dt": dt, "restore": restore}
+        if save:
+            args["save"] = True
+        if free is not None:
+            args["free"] = free
+        self.send("step", args, inputs)
 
     def receive_step(self) -> dict[str, np.ndarray]:
-        return self.check_outputs(self.receive()[1])
+        result, arrays, _ = self.receive()
+        if "state" in result:
+            self.saved_state = int(result["state"])
+        return self.check_outputs(arrays)
 
-    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> dict[str, np.ndarray]:
-        """set_state (optional), set_values, do_step, get_values in one round trip."""
-        self.send_step(t, dt, inputs, restore)
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
+             save: bool = False, free: int | None = None) -> dict[str, np.ndarray]:
+        """free_state, set_state, get_state (each optional), set_values, do_step, get_values in one round trip."""
+        self.send_step(t, dt, inputs, restore, save, free)
         return self.receive_step()
 
     def get_state(self) -> int:

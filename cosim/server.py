@@ -138,7 +138,7 @@ class ComponentServer:
         self.owner: bytes | None = None      # the one client served
         c = component
         self.handlers: dict[str, Callable[[dict, dict], Any]] = {
-            "describe": lambda a, arr: c.describe(),
+            "describe": lambda a, arr: {**c.describe(), "step_saves_state": True},
             "instantiate": lambda a, arr: c.instantiate(a.get("parameters", {})),
             "enter_initialization_mode": lambda a, arr: c.enter_initialization_mode(protocol.number(a, "start"),
                                                                                     protocol.number(a, "stop")),
@@ -186,10 +186,17 @@ class ComponentServer:
             self.owner = peer
 
     def _step(self, args: dict, arrays: dict) -> Any:
-        restore = args.get("restore")
+        """``step``, with the state handling of an implicit window fused in: ``free`` a state handle, ``restore``
+        one, ``save`` the state before stepping (its handle is the result's ``state``)."""
+        component = self.component
+        free, restore = args.get("free"), args.get("restore")
+        if free is not None:
+            component.free_state(free)
         if restore is not None:
-            self.component.set_state(restore)
-        return self.component.served_step(protocol.number(args, "t"), protocol.number(args, "dt"), real_inputs(arrays))
+            component.set_state(restore)
+        saved = component.get_state() if args.get("save") else None
+        outputs = component.served_step(protocol.number(args, "t"), protocol.number(args, "dt"), real_inputs(arrays))
+        return outputs if saved is None else {**outputs, "state": saved}
 
     def handle(self, frames: list, peer: bytes = b"") -> tuple[list, bool]:
         """Reply frames for one request from the client ``peer`` (its routing id), and whether to stop serving."""
@@ -274,15 +281,19 @@ def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curv
                                  "curve": bool(curve)}) + "\n")
     sys.stdout.flush()
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # later prints go to the log, not the handshake pipe
-    poller = zmq.Poller()
-    poller.register(socket, zmq.POLLIN)
     parent_checked = time.monotonic()
+    timeout_ms = -1
     try:
         while True:
             stop.check()
             interval = component.idle_interval
             wait = PARENT_CHECK_SECONDS if interval is None else min(interval, PARENT_CHECK_SECONDS)
-            if not poller.poll(max(1, round(wait * 1000))):    # ZeroMQ polls in whole milliseconds
+            if round(wait * 1000) != timeout_ms:       # a blocking receive with a timeout: no poll per request
+                timeout_ms = max(1, round(wait * 1000))
+                socket.setsockopt(zmq.RCVTIMEO, timeout_ms)
+            try:
+                identity, *frames = socket.recv_multipart()
+            except zmq.Again:
                 if interval is not None:
                     run_idle(component)
                 if time.monotonic() - parent_checked >= PARENT_CHECK_SECONDS:
@@ -291,8 +302,7 @@ def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curv
                         print(f"{component.name}: parent process {parent_pid} is gone; exiting", file=sys.stderr)
                         return 3
                 continue
-            identity, *frames = socket.recv_multipart(copy=False)
-            reply, done = server.handle(frames, identity.bytes)
+            reply, done = server.handle(frames, identity)
             socket.send_multipart([identity, *reply], copy=False)
             if done:
                 return 0

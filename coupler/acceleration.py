@@ -20,10 +20,11 @@ from collections import deque
 from typing import Any
 
 import numpy as np
-from scipy.linalg import LinAlgError, lu_factor, lu_solve, solve_triangular
+from scipy.linalg import LinAlgError, lu_factor, lu_solve
 
 from cosim.registry import Registry
 from cosim.schema import Choice, Positive, Value
+from coupler.least_squares import QR, column_norms, norm
 
 ACCELERATIONS: Registry[Acceleration] = Registry("acceleration")
 FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
@@ -190,10 +191,10 @@ class IQNILS(Acceleration):
         r = x_tilde - x
         if self._weights is None:
             self._weights = self._block_weights(x_tilde)
-        norm = float(np.linalg.norm(r))
-        if self.iteration > 1 and self.stale_step_ratio > 0 and norm > self._last_norm:
+        size = norm(r)
+        if self.iteration > 1 and self.stale_step_ratio > 0 and size > self._last_norm:
             self._forget_old_windows()   # an update built on reused columns made the residual worse
-        self._last_norm = norm
+        self._last_norm = size
         if self._r_previous is not None:
             V, W = self._windows[0]
             V.insert(0, r - self._r_previous)
@@ -259,21 +260,32 @@ class IQNILS(Acceleration):
     def _secant_fit(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """c minimising ||V c + r|| (weighted per block) over the columns left by the filters, and V and W as
         matrices; None when there is no column."""
-        while True:
-            V, W, origin = self._columns()
-            if not V:
-                self.columns_used = 0
-                return None
-            Vm = np.stack(V, axis=1)
-            weighted = Vm if self._weights is None else Vm * self._weights[:, None]
-            Q, R = np.linalg.qr(weighted)
-            bad = self._filtered_column(R, weighted)
-            if bad is not None:
-                self._remove(origin[bad])
-                continue
-            rhs = -(Q.T @ (r if self._weights is None else r * self._weights))
-            self.columns_used = len(V)
-            return solve_triangular(R, rhs, check_finite=False), Vm, np.stack(W, axis=1)
+        kept = self._filtered(weighted=True)
+        if kept is None:
+            return None
+        qr, Vm, Wm = kept
+        rhs = -(qr.Q.T @ (r if self._weights is None else r * self._weights))
+        return qr.solve(rhs), Vm, Wm
+
+    def _filtered(self, weighted: bool) -> tuple[QR, np.ndarray, np.ndarray] | None:
+        """The QR factorisation of V (its rows weighted per block if ``weighted``), V and W as matrices, over
+        the columns left once the filters dropped theirs (for good, one at a time); None when none is left."""
+        V, W, origin = self._columns()
+        Vm = np.stack(V, axis=1) if V else None
+        while Vm is not None:
+            scaled = Vm if not weighted or self._weights is None else Vm * self._weights[:, None]
+            qr = QR(scaled)
+            bad = self._filtered_column(qr, scaled)
+            if bad is None:
+                self.columns_used = len(W)
+                return qr, Vm, np.stack(W, axis=1)
+            window, j = origin.pop(bad)
+            self._remove((window, j))
+            origin = [(w, i - 1 if w == window and i > j else i) for w, i in origin]
+            del W[bad]
+            Vm = np.delete(Vm, bad, axis=1) if W else None
+        self.columns_used = 0
+        return None
 
     def _forget_old_windows(self) -> None:
         """The columns of earlier windows describe another regime (the wall switched branch, say): drop them."""
@@ -303,18 +315,18 @@ class IQNILS(Acceleration):
             return False
         if not any(V for V, _ in list(self._windows)[1:]):
             return False
-        return float(np.linalg.norm(proposal - self.x_tilde)) > self.stale_step_ratio * float(np.linalg.norm(r))
+        return norm(proposal - self.x_tilde) > self.stale_step_ratio * norm(r)
 
-    def _filtered_column(self, R: np.ndarray, Vm: np.ndarray) -> int | None:
+    def _filtered_column(self, qr: QR, Vm: np.ndarray) -> int | None:
         """Index of the first column to remove: at round-off, or (with others left) caught by the filter."""
-        diagonal = np.abs(np.diag(R))
-        norms = np.linalg.norm(Vm, axis=0)
+        diagonal = np.abs(qr.diagonal)
+        norms = column_norms(Vm)
         bad = diagonal <= self.ROUNDOFF * max(float(norms.max()), np.finfo(float).tiny)
         if len(diagonal) > 1:
             if self.filter == "qr2":
                 bad |= diagonal < self.limit * norms
             elif self.filter == "qr1":
-                bad |= diagonal < self.limit * np.linalg.norm(R)
+                bad |= diagonal < self.limit * norm(qr.R)
             elif self.filter == "qr1-absolute":
                 bad |= diagonal < self.limit
         hits = np.flatnonzero(bad)
@@ -373,23 +385,14 @@ class IQNIMVJ(IQNILS):
 
     def _update(self, r: np.ndarray) -> np.ndarray | None:
         """J r with this window's columns (filtered), or None when there is neither J_prev nor a column."""
-        while True:
-            V, W, origin = self._columns()
-            if not V:
-                self.columns_used = 0
-                return None if self.jacobian is None else self.jacobian @ r
-            Vm = np.stack(V, axis=1)
-            Q, R = np.linalg.qr(Vm)
-            bad = self._filtered_column(R, Vm)
-            if bad is not None:
-                self._remove(origin[bad])
-                continue
-            self.columns_used = len(V)
-            pinv_r = solve_triangular(R, Q.T @ r, check_finite=False)
-            Wm = np.stack(W, axis=1)
-            if self.jacobian is None:
-                return Wm @ pinv_r
-            return self.jacobian @ r + (Wm - self.jacobian @ Vm) @ pinv_r
+        kept = self._filtered(weighted=False)
+        if kept is None:
+            return None if self.jacobian is None else self.jacobian @ r
+        qr, Vm, Wm = kept
+        pinv_r = qr.solve(qr.Q.T @ r)
+        if self.jacobian is None:
+            return Wm @ pinv_r
+        return self.jacobian @ r + (Wm - self.jacobian @ Vm) @ pinv_r
 
     def map_changed(self) -> None:
         super().map_changed()
@@ -405,8 +408,7 @@ class IQNIMVJ(IQNILS):
         V, W, _ = self._columns()
         if V:
             Vm, Wm = np.stack(V, axis=1), np.stack(W, axis=1)
-            Q, R = np.linalg.qr(Vm)
-            keep = np.abs(np.diag(R)) > self.ROUNDOFF * max(float(np.linalg.norm(Vm, axis=0).max()), np.finfo(float).tiny)
+            keep = np.abs(QR(Vm).diagonal) > self.ROUNDOFF * max(float(column_norms(Vm).max()), np.finfo(float).tiny)
             if keep.any():
                 Vm, Wm = Vm[:, keep], Wm[:, keep]
                 pinv = np.linalg.pinv(Vm)

@@ -57,6 +57,7 @@ def write_checkpoint(out_dir: Path, scheme: Any, backends: list, store: ResultsW
                      counts: dict[str, Any], identity: dict[str, Any]) -> Path:
     """Write the run's checkpoint (between windows); its size and write time go to the results' attributes."""
     started = time.perf_counter()
+    scheme.release_states()       # no handle of the run before it outlives a component's checkpoint
     arrays: dict[str, np.ndarray] = {}
     components = {}
     for backend in backends:

@@ -446,6 +446,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                         bar.close()
                 store.set_attributes(last_window_ended=time.time())
                 phase = "terminate"
+                scheme.release_states()
                 for b in backends:
                     final = b.client.terminate()
                     if final:

@@ -96,7 +96,8 @@ class CouplingScheme:
         self._extrapolation = Extrapolation(extrapolation_order)
         self.predictor = predictor
         self._next_start: dict[str, np.ndarray] | None = None   # the acceleration's estimate for the next window
-        self._state: dict[str, int] = {}
+        self._state: dict[str, int] = {}      # each stateful participant's state at the window's start
+        self._to_free: dict[str, int] = {}    # states of the last window, freed with the next step
         self.surrogate = surrogate    # the online interface surrogate (coupler.surrogate), or None
 
     def checkpoint_state(self) -> dict[str, Any]:
@@ -203,18 +204,45 @@ class CouplingScheme:
             recorder.record(self.window, iteration, inputs, outputs)
 
     def _save_states(self) -> None:
+        """A window begins: each stateful participant's state is saved, by its first step where its server takes
+        ``save`` with a step, else by ``get_state``."""
         for proxy in (self.first, self.second):
-            if self._stateful(proxy):
+            if self._stateful(proxy) and not proxy.step_saves_state:
                 self._state[proxy.name] = proxy.get_state()
 
     def _free_states(self) -> None:
+        """A window ends: the saved states go, with the next window's first step where the server takes ``free``
+        with a step (``release_states`` frees them before a checkpoint and at the end)."""
         for proxy in (self.first, self.second):
             handle = self._state.pop(proxy.name, None)
             if handle is not None and self._stateful(proxy):
+                if proxy.step_saves_state:
+                    self._to_free[proxy.name] = handle
+                else:
+                    proxy.free_state(handle)
+
+    def release_states(self) -> None:
+        """Free the states still held for the step that would have freed them (between windows)."""
+        for proxy in (self.first, self.second):
+            handle = self._to_free.pop(proxy.name, None)
+            if handle is not None and self._stateful(proxy):
                 proxy.free_state(handle)
 
-    def _restore(self, proxy: Participant, iteration: int) -> int | None:
-        return self._state.get(proxy.name) if iteration > 1 else None
+    def _step_options(self, proxy: Participant, iteration: int) -> dict[str, Any]:
+        """The state handling a step of ``iteration`` carries: the window's state restored from the second
+        iteration on; at the first, the state saved and the previous window's freed (a server that takes them)."""
+        if not self._stateful(proxy):
+            return {}
+        if iteration > 1:
+            return {"restore": self._state.get(proxy.name)}
+        if proxy.step_saves_state:
+            return {"save": True, "free": self._to_free.pop(proxy.name, None)}
+        return {}
+
+    def _stepped(self, proxy: Participant, iteration: int) -> None:
+        """After a step's reply: the window's saved state, from the first iteration's step."""
+        if iteration == 1 and self._stateful(proxy) and proxy.step_saves_state:
+            self._state[proxy.name] = proxy.saved_state    # type: ignore[assignment]
 
     def position(self) -> str:
         """Where the scheme is: window, its time interval and the iteration (for messages)."""
@@ -350,10 +378,12 @@ class SerialImplicit(CouplingScheme):
         for iteration in range(1, self.max_iterations + 1):
             self.iteration = iteration
             inputs_first = self.inputs_for(self.first, values)
-            out_first = self.first.step(t, dt, inputs_first, restore=self._restore(self.first, iteration))
+            out_first = self.first.step(t, dt, inputs_first, **self._step_options(self.first, iteration))
+            self._stepped(self.first, iteration)
             self._record(self.first, iteration, inputs_first, out_first)
             inputs_second = self.inputs_for(self.second, out_first)
-            out_second = self.second.step(t, dt, inputs_second, restore=self._restore(self.second, iteration))
+            out_second = self.second.step(t, dt, inputs_second, **self._step_options(self.second, iteration))
+            self._stepped(self.second, iteration)
             self._record(self.second, iteration, inputs_second, out_second)
             converged = all([m.measure(values[m.data], out_first[m.data] if m.data in forward else out_second[m.data])
                              for m in self.measures])
@@ -388,10 +418,11 @@ class ParallelImplicit(CouplingScheme):
             self.iteration = iteration
             inputs = {p.name: self.inputs_for(p, values) for p in proxies}
             for p in proxies:
-                p.send_step(t, dt, inputs[p.name], restore=self._restore(p, iteration))
+                p.send_step(t, dt, inputs[p.name], **self._step_options(p, iteration))
             outputs = {}
             for p in proxies:
                 returned = p.receive_step()
+                self._stepped(p, iteration)
                 self._record(p, iteration, inputs[p.name], returned)
                 outputs.update(returned)
             new = {k: outputs[k] for k in names}

@@ -1,0 +1,82 @@
+"""The QR factorisation and triangular solve of the quasi-Newton accelerations, bit for bit as NumPy's
+``linalg.qr`` (reduced) and SciPy's ``linalg.solve_triangular`` compute them, without their wrappers' cost.
+
+An acceleration refactorises a matrix of some tens of columns at every coupling iteration, and again after each
+column its filter drops; the wrappers' checks, copies and dispatch took as long as LAPACK itself. Here the same
+LAPACK routines run on the same operands (NumPy's ``qr_r_raw`` and ``qr_reduced`` gufuncs, SciPy's ``dtrtrs``
+with the arguments ``solve_triangular`` passes), and a filter that only needs R does not form Q. Where NumPy no
+longer has those gufuncs, ``numpy.linalg.qr`` serves.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy.linalg import lapack
+
+_FACTOR: Any = None
+_Q: Any = None
+try:
+    from numpy.linalg import _umath_linalg
+    _FACTOR, _Q = _umath_linalg.qr_r_raw, _umath_linalg.qr_reduced
+except (ImportError, AttributeError):     # another NumPy: its public qr, the same arithmetic
+    pass
+
+
+class QR:
+    """The reduced QR factorisation of a real matrix (m x n): R's diagonal at once, R and Q when asked for."""
+
+    def __init__(self, matrix: np.ndarray):
+        self._q: np.ndarray | None = None
+        self._r: np.ndarray | None = None
+        self.diagonal: np.ndarray
+        if _FACTOR is None:
+            self._q, self._r = np.linalg.qr(matrix)
+            self.diagonal = np.diagonal(self._r).copy()
+            return
+        self._raw = matrix.astype(np.float64, copy=True)      # overwritten by the Householder form
+        self._tau = _FACTOR(self._raw, signature="d->d")
+        self.diagonal = np.diagonal(self._raw).copy()
+
+    @property
+    def R(self) -> np.ndarray:
+        if self._r is None:
+            self._r = np.triu(self._raw[:min(self._raw.shape), :])
+        return self._r
+
+    @property
+    def Q(self) -> np.ndarray:
+        if self._q is None:
+            self._q = _Q(self._raw, self._tau, signature="dd->d")
+        return self._q
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """x with R x = b, as ``solve_upper(self.R, b)`` (LAPACK reads R's upper triangle only)."""
+        n = self._raw.shape[1] if self._r is None else 0
+        if n and n <= self._raw.shape[0] and self._raw.flags.c_contiguous:    # R's rows, as C-ordered as triu's R
+            return solve_upper(self._raw[:n], b)
+        return solve_upper(self.R, b)
+
+
+def norm(x: np.ndarray) -> float:
+    """The 2-norm (Frobenius for a matrix) as ``numpy.linalg.norm(x)`` computes it for a real array."""
+    flat = x.ravel(order="K")
+    return math.sqrt(flat.dot(flat))
+
+
+def column_norms(matrix: np.ndarray) -> np.ndarray:
+    """Each column's 2-norm, as ``numpy.linalg.norm(matrix, axis=0)`` computes them for a real matrix."""
+    return np.sqrt(np.add.reduce(matrix * matrix, axis=0))
+
+
+def solve_upper(R: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with R x = b for an upper triangular R, as ``scipy.linalg.solve_triangular(R, b)``."""
+    if R.flags.f_contiguous:
+        x, info = lapack.dtrtrs(R, b)
+    else:                           # the transposed system, as solve_triangular solves a C-ordered matrix's
+        x, info = lapack.dtrtrs(R.T, b, lower=1, trans=1)
+    if info > 0:
+        raise np.linalg.LinAlgError(f"singular matrix: resolution failed at diagonal {info - 1}")
+    return x
