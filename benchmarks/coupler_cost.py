@@ -8,7 +8,8 @@ each a ``cosim run`` in its own process, the table gives per coupling iteration 
   over one raw ping-pong (``wire/ping``);
 - coupler: the windows' wall time less every round trip, per iteration (acceleration, measures, recording, the
   results file);
-- the floor: (compute + 2 ping-pongs) per iteration times the iterations, and the wall time over it;
+- the floor: (compute + 2 ping-pongs) per iteration times the iterations, and the wall time over it, with the
+  ping-pong measured right before the run (``ping us``: the machine's pace drifts with other tenants' load);
 - start-up: from the launch of ``cosim run`` to its first window, less the components' own start-up (spawn to the
   end of their initialisation, ``components_startup_seconds``); end: from the last window to the process's exit,
   ``run.png`` written.
@@ -39,7 +40,7 @@ from cosim.results import RunResults
 
 ROOT = Path(__file__).resolve().parent.parent
 TUBE = ROOT / "scenes" / "tube_fom.toml"
-COLUMNS = [("iterations", "iters", "{:.0f}"), ("compute_us", "compute us", "{:.0f}"), ("wire_us", "wire us", "{:.0f}"),
+COLUMNS = [("iterations", "iters", "{:.0f}"), ("ping_us", "ping us", "{:.0f}"), ("compute_us", "compute us", "{:.0f}"), ("wire_us", "wire us", "{:.0f}"),
            ("wire_per_ping", "wire/ping", "{:.2f}"), ("coupler_us", "coupler us", "{:.0f}"),
            ("startup_s", "start-up s", "{:.2f}"), ("end_s", "end s", "{:.2f}"), ("process_wall", "wall s", "{:.2f}"),
            ("floor_s", "floor s", "{:.2f}"), ("over_floor", "wall/floor", "{:.2f}"),
@@ -150,12 +151,18 @@ def main(argv: list[str] | None = None) -> dict:
     runs = cases(out, args.small)
     trees = {"this checkout": ROOT, **({"baseline": args.baseline.resolve()} if args.baseline else {})}
     measured: dict[str, dict[str, list[dict[str, Any]]]] = {tree: {case: [] for case in runs} for tree in trees}
+    pings = []
     for repeat in range(args.repeat):
         for case, (scene, overrides) in runs.items():
             for tree, path in trees.items():
                 directory = out / f"{tree.replace(' ', '_')}-{case.replace(' ', '_')}-{repeat}"
+                # the machine's pace drifts (other tenants' load): each run is held against a ping-pong just before
+                near = zmq_ping_floor(200 if args.small else 1000).median * 1e-6
+                pings.append(near)
                 launched, exited = cosim_run(scene, directory, overrides, path)
-                measured[tree][case].append(split(directory, launched, exited, ping.median * 1e-6))
+                row = split(directory, launched, exited, near)
+                row["ping_us"] = near * 1e6
+                measured[tree][case].append(row)
     tables = {tree: {case: summary(rows) for case, rows in by_case.items()} for tree, by_case in measured.items()}
     for tree, rows in tables.items():
         title = f"{tree} ({trees[tree]})" + (f", medians of {args.repeat} runs [range]" if args.repeat > 1 else "")

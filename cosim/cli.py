@@ -42,8 +42,9 @@ def _keys(args: argparse.Namespace) -> int:
     return 0
 
 
-def commands() -> dict[str, Command]:
-    """Every registered subcommand by name, ``serve`` included."""
+def commands(only: str | None = None) -> dict[str, Command]:
+    """Every registered subcommand by name, ``serve`` included; with ``only``, that one alone if it exists (its
+    package alone is imported: a component's ``cosim serve`` loads none of the others)."""
     found = {"serve": Command(
         "serve one component over ZeroMQ", _serve_arguments, _serve,
         "Serve one component (a class of the component contract) over ZeroMQ, as the coupler launches each "
@@ -56,7 +57,12 @@ def commands() -> dict[str, Command]:
         "by the server: `cosim serve ... --curve DIR` on the machine that serves a component, and "
         "components.NAME.curve = DIR in the coupler's scene.",
         "cosim keys keys")}
-    for point in sorted(entry_points(group=GROUP), key=lambda p: p.name):
+    if only in found:
+        return {only: found[only]}
+    points = sorted(entry_points(group=GROUP), key=lambda p: p.name)
+    if only in {point.name for point in points}:
+        points = [point for point in points if point.name == only]
+    for point in points:
         found.setdefault(point.name, point.load())
     return found
 
@@ -71,11 +77,13 @@ def version() -> str:
         return "unknown (not installed)"
 
 
-def parser() -> argparse.ArgumentParser:
+def parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser: every subcommand, or ``only`` that one when it is one (``main`` builds the parser
+    of the subcommand it is given, so that a command imports its own package only)."""
     p = argparse.ArgumentParser(prog="cosim", description="Partitioned co-simulation with black-box components.")
     p.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = p.add_subparsers(dest="command", required=True)
-    for name, command in commands().items():
+    for name, command in commands(only).items():
         epilog = f"example:\n  {command.example}" if command.example else None
         description = textwrap.fill(command.description or command.help, 100)
         command.arguments(sub.add_parser(name, help=command.help, description=description, epilog=epilog,
@@ -88,7 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run one subcommand; its exit code: 0, 2 for bad input (one line on stderr), 130 when interrupted."""
     command = "cosim"
     try:
-        args = parser().parse_args(argv)     # Ctrl-C while the commands load is an interruption too
+        given = sys.argv[1:] if argv is None else argv
+        # Ctrl-C while the commands load is an interruption too
+        args = parser(given[0] if given and not given[0].startswith("-") else None).parse_args(argv)
         command = f"cosim {args.command}"
         return _call(args)
     except KeyboardInterrupt:

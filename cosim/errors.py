@@ -99,3 +99,7 @@ class DivergenceError(ConvergenceError):
 class StalledError(ConvergenceError):
     """The coupling residual stopped decreasing before the limits were met: the limits ask for more
     precision than the exchanged data carry (a solver's own tolerance, round-off)."""
+
+
+class DiskFullError(CosimError):
+    """The results' file system has no room for the next window."""

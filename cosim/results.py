@@ -12,7 +12,6 @@ window: a crash loses at most the window in flight.
 from __future__ import annotations
 
 import json
-import platform
 import shutil
 import socket
 from collections.abc import Mapping, Sequence
@@ -23,7 +22,8 @@ from typing import Any
 import h5py
 import numpy as np
 
-from cosim.errors import CosimError
+from cosim.errors import CosimError, DiskFullError
+from cosim.versions import versions
 
 WINDOW_COLUMNS = {"time": np.float64, "iterations": np.int32, "converged": np.bool_, "wall_seconds": np.float64}
 FILE_NAME = "results.h5"
@@ -71,17 +71,6 @@ class Layout:
         return f"residuals/{column}"
 
 
-def versions() -> dict[str, str]:
-    import msgpack
-    import scipy
-    import zmq
-
-    import cosim
-    return {"cosim": cosim.__version__, "python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "h5py": h5py.__version__, "pyzmq": zmq.__version__,
-            "msgpack": ".".join(map(str, msgpack.version))}
-
-
 Rows = list[tuple[str, np.ndarray]]       # one window's rows: (dataset, rows) in the order they are written
 
 
@@ -113,10 +102,6 @@ def window_rows(window: int, time: float, iterations: int, converged: bool, wall
                  (f"{base}/iteration", np.array(calls["iteration"], dtype=np.int32)),
                  (f"{base}/converged", np.array(calls["converged"]))]
     return rows
-
-
-class DiskFullError(CosimError):
-    """The results' file system has no room for the next window."""
 
 
 class ResultsStore:

@@ -3,13 +3,13 @@
 ``ResultsWriter`` (the coupler's side) starts ``python -m cosim.results_writer`` and hands it everything the file
 holds as messages on the child's stdin (``cosim.protocol``'s frames, on a stream): the file's creation or
 resumption, attributes, the components' descriptions, and each finished window's rows at the window's end. The
-writer process appends them through ``ResultsStore`` and flushes. Windows that arrive together (the coupler runs
-faster than HDF5 appends) are written as one batch, each dataset once, at most every ``BATCH_SECONDS``; a window
-that arrives while the writer is idle is written at once. So:
+writer process wakes every ``BATCH_SECONDS``, or when the coupler rings its bell for a message it waits on (the
+file's creation, a sync, the close), and appends the windows that have arrived through ``ResultsStore``, each
+dataset once, then flushes. A window's write thus wakes no process. So:
 
 - a window has left the coupler's process at its end: a coupler killed after it loses no more than the window in
   flight, since the writer reads its pipe to the end, writes what it holds and closes the file;
-- a window is in the file and flushed within ``BATCH_SECONDS`` of its end, or as soon as the disk takes it;
+- a window is in the file and flushed within ``BATCH_SECONDS`` of its end;
 - a window the disk has no room for is refused whole (``DiskFullError``, raised in the coupler at its next window,
   sync or close), with every window before it written;
 - ``lengths`` (before a checkpoint) and ``close`` wait until everything sent is written.
@@ -26,7 +26,6 @@ import select
 import subprocess
 import sys
 import threading
-import time
 import traceback
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -35,9 +34,10 @@ from typing import Any
 import numpy as np
 
 from cosim import protocol
-from cosim.errors import CosimError
+from cosim.errors import CosimError, DiskFullError
 
-BATCH_SECONDS = 0.1          # the writer writes at most this often while windows keep arriving
+BATCH_SECONDS = 0.1          # the writer wakes this often (or when rung) and writes the windows that have arrived
+PROMPT = frozenset({"open", "sync", "close"})    # messages the writer is woken for: the coupler waits on them
 PIPE_BYTES = 1 << 20          # the pipe holds this much (Linux), some hundred windows of the tube
 READ_BYTES = 1 << 20
 LIVENESS_SECONDS = 0.05
@@ -57,13 +57,20 @@ class ResultsWriter:
         self.log.parent.mkdir(parents=True, exist_ok=True)
         environment = {**os.environ, "PYTHONPATH": os.pathsep.join(
             filter(None, [str(PROJECT_ROOT), os.environ.get("PYTHONPATH", "")]))}
-        with open(self.log, "ab") as stderr:
-            self.process = subprocess.Popen([sys.executable, "-m", "cosim.results_writer", str(self.path)], stdin=subprocess.PIPE,
-                                            stdout=subprocess.PIPE, stderr=stderr, env=environment,
-                                            start_new_session=True)   # Ctrl-C reaches the coupler only
+        bell, self._bell = os.pipe()     # rung for the messages that want an answer now (the writer sleeps)
+        try:
+            with open(self.log, "ab") as stderr:
+                self.process = subprocess.Popen(
+                    [sys.executable, "-m", "cosim.results_writer", str(self.path), "--bell", str(bell)],
+                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, env=environment, pass_fds=(bell,),
+                    start_new_session=True)   # Ctrl-C reaches the coupler only
+        finally:
+            os.close(bell)
         assert self.process.stdin is not None and self.process.stdout is not None
         self._input, self._output = self.process.stdin.fileno(), self.process.stdout.fileno()
         _widen(self._input)
+        os.set_blocking(self._input, False)      # a full pipe rings the bell rather than wait for the writer's turn
+        os.set_blocking(self._bell, False)
         self._replies = protocol.StreamReader()
         self._pending: list[dict[str, Any]] = []
         self.windows = resume[1] if resume else 0      # windows handed over (after an error: those written)
@@ -144,13 +151,27 @@ class ResultsWriter:
 
     # --- the pipes ---------------------------------------------------------------------------------------------------
     def _send(self, op: str, args: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None) -> None:
-        data = protocol.to_stream(protocol.encode({"op": op, "args": dict(args)}, arrays))
+        """Put a message in the pipe; one that wants an answer (or a pipe found full) rings the writer's bell."""
+        view = memoryview(protocol.to_stream(protocol.encode({"op": op, "args": dict(args)}, arrays)))
         try:
-            view = memoryview(data)
             while view:
-                view = view[os.write(self._input, view):]
+                try:
+                    view = view[os.write(self._input, view):]
+                except BlockingIOError:
+                    self._ring()
+                    while not select.select([], [self._input], [], LIVENESS_SECONDS)[1]:
+                        if self.process.poll() is not None:
+                            raise BrokenPipeError from None
+            if op in PROMPT:
+                self._ring()
         except BrokenPipeError:
             raise self._died() from None
+
+    def _ring(self) -> None:
+        try:
+            os.write(self._bell, b"\0")
+        except BlockingIOError:      # rung many times already, unanswered: the writer wakes anyway
+            pass
 
     def _check(self) -> None:
         """Raise an error the writer reported, without waiting."""
@@ -189,7 +210,6 @@ class ResultsWriter:
         return True
 
     def _error(self, reply: Mapping[str, Any]) -> CosimError:
-        from cosim.results import DiskFullError
         kind, message = reply.get("kind", ""), str(reply["error"])
         if kind == "DiskFullError":
             return DiskFullError(message)
@@ -211,6 +231,7 @@ class ResultsWriter:
         if self._stopped:
             return
         self._stopped = True
+        os.close(self._bell)
         for stream in (self.process.stdin, self.process.stdout):
             if stream is not None:
                 try:
@@ -238,7 +259,6 @@ class _Writer:
         self.store: Any = None
         self.failed: dict[str, Any] | None = None     # the error that stopped the writing
         self.windows: list[Any] = []          # windows received, not written yet
-        self.written_at = 0.0
         self.plots = False
         self._importer: threading.Thread | None = None
 
@@ -252,7 +272,6 @@ class _Writer:
 
     def fail(self, exc: BaseException) -> None:
         """Report an error; the windows after it are dropped (the file keeps whole windows), the rest goes on."""
-        from cosim.results import DiskFullError
         kind = "DiskFullError" if isinstance(exc, DiskFullError) else "CosimError" if isinstance(exc, CosimError) \
             else type(exc).__name__
         if isinstance(exc, OSError) and not isinstance(exc, CosimError):
@@ -267,16 +286,12 @@ class _Writer:
         self.reply(self.failed)
 
     def write_windows(self) -> None:
-        if os.environ.get("COSIM_WRITER_NOOP") and self.written_at:
-            self.windows = []
-            return
         if self.windows and self.store is not None and not self.failed:
             windows, self.windows = self.windows, []
             try:
                 self.store.append_windows(windows)
             except Exception as exc:
                 self.fail(exc)
-            self.written_at = time.monotonic()
             self._import_plotting()
         self.windows = []
 
@@ -376,16 +391,22 @@ def draw_plots(plots: Mapping[str, Any]) -> None:
         available[name].load()(results, Path(plots["folder"]))
 
 
-def serve(commands: int, replies: int) -> int:
-    """Apply the messages read from ``commands`` until ``close`` or the pipe's end; replies go to ``replies``."""
+def serve(commands: int, bell: int, replies: int) -> int:
+    """Apply the messages read from ``commands`` until ``close`` or the pipe's end, every ``BATCH_SECONDS`` or when
+    ``bell`` rings (the coupler waits on the message); replies go to ``replies``."""
     writer = _Writer(replies)
     reader = protocol.StreamReader()
+    os.set_blocking(commands, False)
     try:
         while True:
-            timeout = None if not writer.windows else max(0.0, writer.written_at + BATCH_SECONDS - time.monotonic())
-            if select.select([commands], [], [], timeout)[0]:
-                data = os.read(commands, READ_BYTES)
-                if not data:            # the coupler is gone: what it sent is written, the file closed
+            if select.select([bell], [], [], BATCH_SECONDS)[0]:
+                os.read(bell, 4096)      # an empty read: the coupler is gone; its pipe is read to the end below
+            while True:
+                try:
+                    data = os.read(commands, READ_BYTES)
+                except BlockingIOError:
+                    break
+                if not data:            # the coupler closed the pipe or died: what it sent is written, the file closed
                     writer.write_windows()
                     writer.close(None)
                     return 0
@@ -393,21 +414,21 @@ def serve(commands: int, replies: int) -> int:
                     header, arrays = protocol.decode(frames)
                     if not writer.handle(header, arrays):
                         return 0
-            if writer.windows and time.monotonic() >= writer.written_at + BATCH_SECONDS:
-                writer.write_windows()
+            writer.write_windows()
     finally:
         if writer.store is not None:
             writer.store.close()
 
 
 def main() -> int:
-    """``python -m cosim.results_writer RESULTS.h5``: the path names the run in a process list; the file is the one
-    the coupler's ``open`` message names."""
+    """``python -m cosim.results_writer RESULTS.h5 --bell FD``: the path names the run in a process list (the file
+    is the one the coupler's ``open`` message names); FD is the read end of the coupler's bell."""
     import signal
     signal.signal(signal.SIGINT, signal.SIG_IGN)     # the coupler decides when the run stops
+    bell = int(sys.argv[sys.argv.index("--bell") + 1])
     replies = os.dup(sys.stdout.fileno())
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())   # whatever a library prints goes to the log, not the replies
-    return serve(sys.stdin.fileno(), replies)
+    return serve(sys.stdin.fileno(), bell, replies)
 
 
 if __name__ == "__main__":

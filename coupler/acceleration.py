@@ -20,11 +20,10 @@ from collections import deque
 from typing import Any
 
 import numpy as np
-from scipy.linalg import LinAlgError, lu_factor, lu_solve
 
 from cosim.registry import Registry
 from cosim.schema import Choice, Positive, Value
-from coupler.least_squares import QR, column_norms, norm
+from coupler.linalg import QR, column_norms, norm
 
 ACCELERATIONS: Registry[Acceleration] = Registry("acceleration")
 FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
@@ -218,8 +217,8 @@ class IQNILS(Acceleration):
         start = 0
         for size in self.block_sizes:
             block = x[start:start + size]
-            norm = float(np.linalg.norm(block))
-            weights[start:start + size] = 1.0 / norm if norm > 0 else 1.0
+            size_norm = norm(block)
+            weights[start:start + size] = 1.0 / size_norm if size_norm > 0 else 1.0
             start += size
         return weights
 
@@ -466,7 +465,7 @@ class IQNSurrogate(IQNILS):
         self._plain = self._surrogate_step = False
 
     def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
-        worse = self.iteration >= 1 and float(np.linalg.norm(x_tilde - x)) > self._last_norm
+        worse = self.iteration >= 1 and norm(x_tilde - x) > self._last_norm
         if self._surrogate_step and worse and not self._plain:
             self._plain = True
             self.fallback_windows += 1
@@ -484,6 +483,7 @@ class IQNSurrogate(IQNILS):
         U, G = factors
         if U.shape[0] != self.x.size or G.shape[1] != self.x.size or not (np.isfinite(U).all() and np.isfinite(G).all()):
             return None
+        from scipy.linalg import LinAlgError, lu_factor, lu_solve
         inner = np.eye(U.shape[1]) - G @ U
         try:
             lu = lu_factor(inner, check_finite=False)

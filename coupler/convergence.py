@@ -25,6 +25,7 @@ import numpy as np
 from cosim.errors import SceneError
 from cosim.registry import Registry
 from cosim.schema import Required, Value
+from coupler.linalg import norm
 
 MEASURES: Registry[ConvergenceMeasure] = Registry("convergence measure")
 COMMON = {"data": Required(str)}
@@ -48,7 +49,7 @@ class ConvergenceMeasure:
 
     def measure(self, old: np.ndarray, new: np.ndarray) -> bool:
         """Update ``value`` from one iteration; True if the measure is met."""
-        self.value = self.evaluate(float(np.linalg.norm(new - old)), old, new)
+        self.value = self.evaluate(norm(new - old), old, new)
         return self.value < self.limit
 
     def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
@@ -83,7 +84,7 @@ class Relative(ConvergenceMeasure):
     """The change between two iterates over the new iterate's 2-norm."""
 
     def evaluate(self, difference: float, old: np.ndarray, new: np.ndarray) -> float:
-        scale = float(np.linalg.norm(new))
+        scale = norm(new)
         return difference / scale if scale > 0 else (0.0 if difference == 0 else math.inf)
 
 

@@ -18,16 +18,16 @@ The operators are sparse matrices built once at set-up; mapping is one product.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import splu
-from scipy.spatial import cKDTree
 
 from cosim.errors import SceneError
 from cosim.registry import Registry
 from cosim.schema import Choice, Positive
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp  # imported where a mapping is built: a scene of matching meshes needs no SciPy
 
 MAPPINGS: Registry[Mapping] = Registry("mapping")
 CONSTRAINTS = ("consistent", "conservative")
@@ -73,6 +73,8 @@ class NearestNeighbour(Mapping):
 
     def build(self, source: np.ndarray, target: np.ndarray,  # type: ignore[override]  # a mapping's own settings
               constraint: str = "consistent") -> sp.csr_matrix:
+        import scipy.sparse as sp
+        from scipy.spatial import cKDTree
         if constraint == "consistent":
             _, nearest = cKDTree(source).query(target)
             rows, cols = np.arange(len(target)), nearest
@@ -106,6 +108,8 @@ class _RbfOperator:
     def __init__(self, centres: np.ndarray, points: np.ndarray, radius: float, transpose: bool):
         n = len(centres)
         polynomial_centres, polynomial_points = _linear_basis(centres), _linear_basis(points)
+        import scipy.sparse as sp
+        from scipy.sparse.linalg import splu
         A = sp.bmat([[_wendland(centres, centres, radius), sp.csr_matrix(polynomial_centres)],
                      [sp.csr_matrix(polynomial_centres.T), None]], format="csc")
         self.B = sp.hstack([_wendland(points, centres, radius), sp.csr_matrix(polynomial_points)], format="csr")
@@ -123,6 +127,8 @@ class _RbfOperator:
 
 
 def _wendland(points: np.ndarray, centres: np.ndarray, radius: float) -> sp.csr_matrix:
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
     """Wendland C2 kernel (1 - r)^4 (4 r + 1), r = distance / radius < 1, as a sparse matrix."""
     distances = cKDTree(points).sparse_distance_matrix(cKDTree(centres), radius, output_type="coo_matrix")
     r = distances.data / radius

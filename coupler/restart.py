@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 
 from cosim.checkpoint import FILE, CheckpointError, array_keys, pack, read, unpack, write
-from cosim.results import versions
 from cosim.results_writer import ResultsWriter
 from cosim.scene import Scene
+from cosim.versions import versions
 
 COMPONENTS = "component:"     # the checkpoint's own prefix of a component's arrays
 SCHEME = "scheme/"

@@ -16,6 +16,7 @@ import socket
 import sys
 import time
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -24,15 +25,15 @@ import numpy as np
 from cosim import stop
 from cosim.checkpoint import CheckpointError
 from cosim.component import undeclared_state_message
-from cosim.errors import ComponentError, ComponentTimeout, CosimError, SceneError
+from cosim.errors import ComponentError, ComponentTimeout, CosimError, DiskFullError, SceneError
 from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
-from cosim.results import DiskFullError
 from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
 from cosim.scene import BACKEND, Scene
 from coupler.acceleration import make_acceleration
 from coupler.convergence import make_measure
+from coupler.linalg import load as load_linalg
 from coupler.mapping import make_mapping
 from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
@@ -40,7 +41,7 @@ from coupler.recording import CallRecorder
 from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identity, write_checkpoint
 from coupler.run_log import RunLog
 from coupler.schedule import BackendSchedule
-from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant
+from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant, WindowResult
 from coupler.surrogate import InterfaceSurrogate, load_model_class
 
 
@@ -99,13 +100,15 @@ def plan_backends(scene: Scene) -> list[Backend]:
 
 
 def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
-                   address_deadline: float | None = None) -> None:
-    """Spawn every local backend first (they start in parallel), then handshake each; a component served by hand
-    must answer within its ``startup_timeout`` (or ``address_deadline``)."""
+                   address_deadline: float | None = None, while_starting: Callable[[], object] | None = None) -> None:
+    """Spawn every local backend first (they start in parallel; meanwhile ``while_starting`` runs), then handshake
+    each; a component served by hand must answer within its ``startup_timeout`` (or ``address_deadline``)."""
     components = scene["components"]
     processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(components[b.participant]),
                                         components[b.participant]["cores"], [scene.folder])
                  for b in backends if b.entry}
+    if while_starting is not None:
+        while_starting()
     for backend in backends:
         spec = scene["components"][backend.participant]
         process = processes.get(backend.name)
@@ -354,7 +357,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
         with log, Launcher(out_dir / "logs") as launcher:
             try:
                 components_started = time.perf_counter()
-                start_backends(scene, backends, launcher)
+                # the coupler imports what its acceleration computes with while the components start
+                start_backends(scene, backends, launcher, while_starting=load_linalg)
                 store.ready()
                 for b in backends:
                     log.event(f"component '{b.name}': {b.entry or b.address}, pid {b.client.pid}, at "
@@ -405,7 +409,22 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                             {n: r.take() for n, r in recorders.items()}, result.residuals)
                         windows += 1
                         iterations += result.iterations
-                        log.window(windows, result, iterations)
+
+                        def bookkeeping(windows: int = windows, result: WindowResult = result,
+                                        iterations: int = iterations) -> None:
+                            """The window's log rows, the status file and the progress bar: done while the next
+                            window's first component computes."""
+                            log.window(windows, result, iterations)
+                            directory.status("running", windows_total=n_windows, windows_completed=windows,
+                                             time=result.time, iterations_total=iterations, started=started,
+                                             windows_at_start=windows_at_start, last_iterations=result.iterations,
+                                             measures=dict(zip(measure_names, result.measure_history[-1]))
+                                             if result.measure_history else {})
+                            if bar is not None:
+                                bar.update(1)
+                                bar.set_postfix_str(_status(result, iterations / windows), refresh=False)
+
+                        scheme.defer(bookkeeping)
                         for b in backends:
                             warned += len(b.client.warnings)
                             for message, count in Counter(b.client.warnings).items():
@@ -417,11 +436,6 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                             unconverged += 1
                             _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar,
                                   log)
-                        directory.status("running", windows_total=n_windows, windows_completed=windows,
-                                         time=result.time, iterations_total=iterations, started=started,
-                                         windows_at_start=windows_at_start, last_iterations=result.iterations,
-                                         measures=dict(zip(measure_names, result.measure_history[-1]))
-                                         if result.measure_history else {})
                         # a checkpoint every `every` windows, and when a stop is asked for (even without `every`, if
                         # every component can give one): the stopped run can go on with --resume
                         stopping = stop.pending() and all(b.client.can_checkpoint for b in backends)
@@ -437,11 +451,11 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                                 except CheckpointError as exc:
                                     raise CheckpointError(f"{exc}; the {windows} windows before it are kept in "
                                                           f"'{out_dir / 'results.h5'}'") from None
+                        if stop.pending():
+                            scheme.run_deferred()
                         stop.check()       # Ctrl-C or SIGTERM: stop here, between two windows
-                        if bar is not None:
-                            bar.update(1)
-                            bar.set_postfix_str(_status(result, iterations / windows), refresh=False)
                 finally:
+                    scheme.run_deferred()
                     if bar is not None:
                         bar.close()
                 store.set_attributes(last_window_ended=time.time())

@@ -9,7 +9,7 @@ when sent. In implicit schemes stateful participants are rolled back with
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeGuard
 
@@ -29,6 +29,7 @@ from cosim.registry import Registry
 from coupler.acceleration import Acceleration
 from coupler.convergence import ConvergenceMeasure
 from coupler.extrapolation import Extrapolation
+from coupler.linalg import norm
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
@@ -99,6 +100,7 @@ class CouplingScheme:
         self._state: dict[str, int] = {}      # each stateful participant's state at the window's start
         self._to_free: dict[str, int] = {}    # states of the last window, freed with the next step
         self.surrogate = surrogate    # the online interface surrogate (coupler.surrogate), or None
+        self._deferred: Callable[[], None] | None = None
 
     def checkpoint_state(self) -> dict[str, Any]:
         """Everything the scheme carries from one window to the next, as a state tree (``cosim.checkpoint``): the
@@ -126,6 +128,16 @@ class CouplingScheme:
         for p in (self.first, self.second):
             if isinstance(p, BackendSchedule):
                 p.restore_checkpoint_state(state["schedules"][p.name])
+
+    def defer(self, work: Callable[[], None]) -> None:
+        """Work for once the next window's first request is out, while a component computes (the run's log rows
+        and status of the window before)."""
+        self._deferred = work
+
+    def run_deferred(self) -> None:
+        work, self._deferred = self._deferred, None
+        if work is not None:
+            work()
 
     def sent_by(self, proxy) -> list[str]:
         """Names of the data items ``proxy`` produces."""
@@ -258,7 +270,7 @@ class CouplingScheme:
     def _observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
         """Hand one iterate to the acceleration and keep its residual norm; a participant whose backend
         changed (ROM and solid FOM) changed the map."""
-        self._residuals.append(float(np.linalg.norm(x_tilde - x)))
+        self._residuals.append(norm(x_tilde - x))
         self._measure_history.append([m.value for m in self.measures])
         if any(getattr(proxy, "backend_changed", False) for proxy in (self.first, self.second)):
             self.acceleration.map_changed()
@@ -356,7 +368,9 @@ class SerialExplicit(CouplingScheme):
         self.iteration = 1
         for proxy in (self.first, self.second):
             inputs = self.inputs_for(proxy, self.values)
-            outputs = proxy.step(t, dt, inputs)
+            proxy.send_step(t, dt, inputs)
+            self.run_deferred()
+            outputs = proxy.receive_step()
             self._record(proxy, 1, inputs, outputs)
             self.values.update({k: outputs[k] for k in self.sent_by(proxy)})
         return self._finish(t + dt, 1, True)
@@ -378,7 +392,9 @@ class SerialImplicit(CouplingScheme):
         for iteration in range(1, self.max_iterations + 1):
             self.iteration = iteration
             inputs_first = self.inputs_for(self.first, values)
-            out_first = self.first.step(t, dt, inputs_first, **self._step_options(self.first, iteration))
+            self.first.send_step(t, dt, inputs_first, **self._step_options(self.first, iteration))
+            self.run_deferred()
+            out_first = self.first.receive_step()
             self._stepped(self.first, iteration)
             self._record(self.first, iteration, inputs_first, out_first)
             inputs_second = self.inputs_for(self.second, out_first)
@@ -419,6 +435,7 @@ class ParallelImplicit(CouplingScheme):
             inputs = {p.name: self.inputs_for(p, values) for p in proxies}
             for p in proxies:
                 p.send_step(t, dt, inputs[p.name], **self._step_options(p, iteration))
+            self.run_deferred()
             outputs = {}
             for p in proxies:
                 returned = p.receive_step()

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from cosim.errors import SceneError
 
@@ -28,6 +27,7 @@ class DuffingInlet:
             return [du, k["a"] * u + k["b"] * u**2 + k["c"] * u**3 + k["d"] + k["P"] * np.cos(f * t) + k["e"] * du]
 
         # the oscillator starts at t = 0 whatever the run's start time
+        from scipy.integrate import solve_ivp  # here: a scene's check imports this module, not SciPy
         solution = solve_ivp(rhs, (0.0, max(stop, start) + 1.0), [k["u0"], k["du0"]], method="DOP853",
                              rtol=1e-10, atol=1e-10, dense_output=True)
         if not solution.success:

@@ -18,7 +18,6 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.linalg import solve_banded
 
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
@@ -191,6 +190,7 @@ class TubeFluid(Component):
                 return v.copy(), p.copy()
             if not math.isfinite(norm) or iteration == self.max_iterations:
                 break
+            from scipy.linalg import solve_banded  # here: a scene's check imports this module, not SciPy
             delta = solve_banded((BAND, BAND), self._jacobian_band(v, a, dt), r,
                                  check_finite=False)
             v = v - delta[0::2]

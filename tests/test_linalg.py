@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_triangular
 
-from coupler.least_squares import QR, column_norms, norm, solve_upper
+from coupler.linalg import QR, column_norms, norm, solve_upper
 
 
 @pytest.mark.parametrize("rows, columns", [(101, 1), (101, 8), (101, 37), (6, 6), (5, 9)])

@@ -1,7 +1,9 @@
-"""The QR factorisation and triangular solve of the quasi-Newton accelerations, bit for bit as NumPy's
-``linalg.qr`` (reduced) and SciPy's ``linalg.solve_triangular`` compute them, without their wrappers' cost.
+"""The coupler's small linear algebra, bit for bit as NumPy and SciPy compute it, without their wrappers' cost:
+the QR factorisation and triangular solve of the quasi-Newton accelerations (``numpy.linalg.qr``, reduced;
+``scipy.linalg.solve_triangular``) and the 2-norms of the measures and residuals (``numpy.linalg.norm``).
 
-An acceleration refactorises a matrix of some tens of columns at every coupling iteration, and again after each
+The coupled runs amplify a difference in the last bit until an iteration count changes, so the arithmetic is
+theirs exactly. An acceleration refactorises a matrix of some tens of columns at every coupling iteration, and again after each
 column its filter drops; the wrappers' checks, copies and dispatch took as long as LAPACK itself. Here the same
 LAPACK routines run on the same operands (NumPy's ``qr_r_raw`` and ``qr_reduced`` gufuncs, SciPy's ``dtrtrs``
 with the arguments ``solve_triangular`` passes), and a filter that only needs R does not form Q. Where NumPy no
@@ -14,10 +16,10 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.linalg import lapack
 
 _FACTOR: Any = None
 _Q: Any = None
+_LAPACK: Any = None
 try:
     from numpy.linalg import _umath_linalg
     _FACTOR, _Q = _umath_linalg.qr_r_raw, _umath_linalg.qr_reduced
@@ -71,8 +73,18 @@ def column_norms(matrix: np.ndarray) -> np.ndarray:
     return np.sqrt(np.add.reduce(matrix * matrix, axis=0))
 
 
+def load() -> Any:
+    """SciPy's LAPACK, imported on first use (a run imports it while its components start)."""
+    global _LAPACK
+    if _LAPACK is None:
+        from scipy.linalg import lapack
+        _LAPACK = lapack
+    return _LAPACK
+
+
 def solve_upper(R: np.ndarray, b: np.ndarray) -> np.ndarray:
     """x with R x = b for an upper triangular R, as ``scipy.linalg.solve_triangular(R, b)``."""
+    lapack = _LAPACK or load()
     if R.flags.f_contiguous:
         x, info = lapack.dtrtrs(R, b)
     else:                           # the transposed system, as solve_triangular solves a C-ordered matrix's
