@@ -44,7 +44,7 @@ COLUMNS = [("iterations", "iters", "{:.0f}"), ("ping_us", "ping us", "{:.0f}"), 
            ("wire_per_ping", "wire/ping", "{:.2f}"), ("coupler_us", "coupler us", "{:.0f}"),
            ("startup_s", "start-up s", "{:.2f}"), ("end_s", "end s", "{:.2f}"), ("process_wall", "wall s", "{:.2f}"),
            ("floor_s", "floor s", "{:.2f}"), ("over_floor", "wall/floor", "{:.2f}"),
-           ("window_over_floor", "windows/floor", "{:.2f}"), ("iterations_per_second", "iter/s", "{:.0f}")]
+           ("window_over_floor", "win. wall/floor", "{:.2f}"), ("iterations_per_second", "iter/s", "{:.0f}")]
 
 
 def cosim_run(scene: Path, out: Path, overrides: list[str], tree: Path = ROOT) -> tuple[float, float]:

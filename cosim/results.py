@@ -17,6 +17,7 @@ import socket
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from time import monotonic, sleep
 from typing import Any
 
 import h5py
@@ -329,13 +330,20 @@ class RunResults:
             raise CosimError(f"no results file at '{self.path}'")
         if not h5py.is_hdf5(self.path):
             raise CosimError(f"'{self.path}' is not an HDF5 results file")
-        try:
-            self.file = h5py.File(self.path, "r")
-        except BlockingIOError:
-            raise CosimError(f"'{self.path}' is being written by a run in progress; read it once the run "
-                             "has stopped") from None
-        except OSError as exc:
-            raise CosimError(f"cannot read '{self.path}': it is truncated or damaged ({exc})") from None
+        from cosim.rundir import SETTLE_SECONDS, settling
+        deadline = monotonic() + SETTLE_SECONDS
+        while True:
+            try:
+                self.file = h5py.File(self.path, "r")
+                break
+            except BlockingIOError:
+                # a dead run's writer finishing the windows it was handed: whole within seconds
+                if not settling(self.path.parent) or monotonic() > deadline:
+                    raise CosimError(f"'{self.path}' is being written by a run in progress; read it once the run "
+                                     "has stopped") from None
+                sleep(0.02)
+            except OSError as exc:
+                raise CosimError(f"cannot read '{self.path}': it is truncated or damaged ({exc})") from None
 
     def __enter__(self) -> RunResults:
         return self

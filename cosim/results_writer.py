@@ -48,10 +48,11 @@ class ResultsWriter:
     """The coupler's handle on the writer process; the calls of ``ResultsStore`` that a run makes."""
 
     def __init__(self, path: str | Path, log: str | Path, scene_text: str = "",
-                 resume: tuple[Mapping[str, int], int] | None = None, plots: bool = True):
+                 resume: tuple[Mapping[str, int], int] | None = None, plots: bool = True, lock: int | None = None):
         """Start the writer on ``path`` (created from ``scene_text``, or with ``resume`` = (lengths, windows) cut
-        back to a checkpoint); ``plots``: the run will ask for its plots at ``close``. Returns at once: ``ready``
-        waits for the file."""
+        back to a checkpoint); ``plots``: the run will ask for its plots at ``close``; ``lock``: the run directory's
+        lock, which the writer holds too, so that a run killed midway keeps its directory until its writer is done.
+        Returns at once: ``ready`` waits for the file."""
         self.path = Path(path)
         self.log = Path(log)
         self.log.parent.mkdir(parents=True, exist_ok=True)
@@ -62,7 +63,8 @@ class ResultsWriter:
             with open(self.log, "ab") as stderr:
                 self.process = subprocess.Popen(
                     [sys.executable, "-m", "cosim.results_writer", str(self.path), "--bell", str(bell)],
-                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, env=environment, pass_fds=(bell,),
+                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, env=environment,
+                    pass_fds=(bell,) if lock is None else (bell, lock),
                     start_new_session=True)   # Ctrl-C reaches the coupler only
         finally:
             os.close(bell)

@@ -22,6 +22,7 @@ from typing import Any
 from cosim.errors import CosimError
 
 LOCK = ".lock"
+SETTLE_SECONDS = 10.0     # the longest a dead run's results writer is waited for (it writes what it was handed)
 STATUS = "status.json"
 RUN_FILES = ("results.h5", "run.png", STATUS, "checkpoint.npz")
 RUN_FOLDERS = ("logs",)
@@ -65,6 +66,11 @@ class RunDirectory:
         self._lock = fd
         return self
 
+    @property
+    def lock(self) -> int | None:
+        """The lock's file descriptor while held (a child process given it holds the directory too)."""
+        return self._lock
+
     def __exit__(self, *exc_info: Any) -> None:
         if self._lock is not None:
             os.ftruncate(self._lock, 0)
@@ -102,7 +108,7 @@ def hold(path: Path, what: str) -> int:
     except OSError as exc:
         raise RunDirectoryError(f"cannot use '{path}' as the {what}'s directory: {exc.strerror or exc}") from None
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        _lock_or_wait_for_writer(fd)
     except BlockingIOError:
         holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
         os.close(fd)
@@ -115,6 +121,39 @@ def hold(path: Path, what: str) -> int:
         os.close(fd)
         raise RunDirectoryError(f"cannot use '{path}' as the {what}'s directory: {exc.strerror}") from None
     return fd
+
+
+def _lock_or_wait_for_writer(fd: int) -> None:
+    """Lock ``fd``; if a run whose process is gone still holds it, its results writer is writing the windows it was
+    handed (``cosim.results_writer``): wait for it, up to ``SETTLE_SECONDS``. BlockingIOError if still held."""
+    deadline = time.monotonic() + SETTLE_SECONDS
+    while True:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return
+        except BlockingIOError:
+            holder = os.pread(fd, 64, 0).decode(errors="replace").strip()
+            if _alive(int(holder) if holder.isdigit() else None) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.02)
+
+
+def settling(path: str | Path) -> bool:
+    """Whether the run in ``path`` died and its results writer is still writing (it holds the directory's lock for
+    the run whose pid the lock names, and that process is gone): its files are whole within seconds."""
+    try:
+        fd = os.open(Path(path) / LOCK, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    except BlockingIOError:
+        holder = os.pread(fd, 64, 0).decode(errors="replace").strip()
+        return holder.isdigit() and not _alive(int(holder))
+    finally:
+        os.close(fd)
 
 
 def read_status(path: str | Path) -> dict[str, Any]:

@@ -334,7 +334,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
         saved = read_checkpoint_for(scene, out_dir, n_windows, [b.name for b in backends])
     # the results file's own process starts first: it is ready by the time the components are
     store = ResultsWriter(out_dir / "results.h5", out_dir / "logs" / "results.log", scene.text,
-                          (saved[0]["results"], saved[0]["windows"]) if saved is not None else None)
+                          (saved[0]["results"], saved[0]["windows"]) if saved is not None else None,
+                          lock=directory.lock)
     if saved is None:
         store.set_attributes(scene_resolved=json.dumps(scene.data))
     wall_start = time.perf_counter()

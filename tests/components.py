@@ -28,6 +28,15 @@ class HangingSolid(TubeSolid):
         super().do_step(t, dt)
 
 
+class LateHangingSolid(TubeSolid):
+    """Stops answering in its 41st window (t >= 4): forty windows go to the results file before."""
+
+    def do_step(self, t, dt):
+        if t >= 4.0 - 1e-9:
+            threading.Event().wait()   # never set: hangs until killed
+        super().do_step(t, dt)
+
+
 class CrashingSolid(TubeSolid):
     """Exits the process with code 7 at t >= 0.3."""
 

@@ -107,6 +107,8 @@ SERIAL_TESTS = ("test_a_campaign_stopped_midway_goes_on_from_its_runs_checkpoint
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "serial: races a run against the clock; `make test` runs it alone")
+    config.addinivalue_line("markers", "benchmark: holds a benchmark's small mode to a generous bound on a cost ratio "
+                                       "(a regression of several times fails it; it is no timed assertion)")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

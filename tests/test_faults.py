@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 
@@ -304,3 +305,115 @@ def mapped(pid: int) -> str:
             return maps.read()
     except OSError:
         return ""
+
+
+def results_windows_on_disk(path) -> int:
+    """Windows in a results file that its writer still holds open (read without HDF5's lock, as a crash would
+    leave it); -1 while a write is under way."""
+    import h5py
+
+    from cosim.results import Layout
+    try:
+        with h5py.File(path, "r", locking=False) as results:
+            rows = len(results[Layout.window("time")])
+            return rows if int(results.attrs["windows_completed"]) == rows else -1
+    except (OSError, KeyError):
+        return -1
+
+
+def test_every_finished_window_is_flushed_while_the_run_goes_on_and_kept_when_its_coupler_is_killed(tmp_path):
+    """The solid hangs in window 41: the results file on disk holds the forty windows before it while the coupler
+    waits, and exactly those after the coupler is killed (its writer reads the pipe to the end and closes)."""
+    out = tmp_path / "hung"
+    coupler = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet",
+                                "--set", "components.solid.entry=tests.components:LateHangingSolid",
+                                "--set", "time.end=10"], cwd=ROOT, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: results_windows_on_disk(out / "results.h5") == 40, "forty windows flushed to disk", timeout=15)
+    finally:
+        coupler.kill()
+        coupler.wait(timeout=30)
+    wait_for(lambda: not alive_with(str(out)), "the killed run's writer and components to exit on their own")
+    with RunResults(out) as results:
+        assert len(results.windows) == results.attributes["windows_completed"] == 40
+        assert results.fields()["section"].shape == (40, 101)
+        assert results.windows.time[-1] == pytest.approx(4.0)
+
+
+def test_a_killed_results_writer_stops_the_run_naming_it(tmp_path, capsys):
+    """The writer process dies mid-run: the run stops at its next window with one line naming the writer, its exit
+    and its log, exit 2, and no process left."""
+    import signal
+    import threading
+    out = tmp_path / "writerless"
+
+    def kill_the_writer() -> None:
+        writer = wait_for(lambda: next((pid for pid in children_of(os.getpid())
+                                        if "cosim.results_writer" in cmdline(pid)), None), "the results writer")
+        wait_for(lambda: windows_done(out) >= 5, "five windows")
+        os.kill(writer, signal.SIGKILL)
+
+    killer = threading.Thread(target=kill_the_writer)
+    killer.start()
+    code = main(["run", str(TUBE_SCENE), "--out", str(out), "--quiet", "--set", "time.end=600"])
+    killer.join()
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert "the results file's writer (pid" in err and "exited with code -9" in err and "results.log" in err, err
+    assert read_status(out)["state"] == "failed"
+    assert children_of(os.getpid()) == []
+
+
+def test_a_run_read_at_once_after_its_coupler_was_killed_waits_for_its_writer(tmp_path):
+    """The writer of a killed coupler still holds the directory while it writes the windows it was handed: a reader
+    waits for it (seconds at most) instead of failing on a file in use."""
+    import threading
+
+    from cosim.rundir import settling
+    out = tmp_path / "killed"
+    coupler = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(out), "--quiet",
+                                "--set", "components.solid.entry=tests.components:LateHangingSolid",
+                                "--set", "time.end=10"], cwd=ROOT, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    writer = wait_for(lambda: next((pid for pid in children_of(coupler.pid)
+                                    if "cosim.results_writer" in cmdline(pid)), None), "the results writer")
+    wait_for(lambda: results_windows_on_disk(out / "results.h5") == 40, "forty windows flushed to disk")
+    os.kill(writer, signal.SIGSTOP)          # the writer is slow to finish: it holds the directory meanwhile
+    coupler.kill()
+    coupler.wait(timeout=30)
+    resume = threading.Timer(0.5, os.kill, (writer, signal.SIGCONT))
+    resume.start()
+    try:
+        assert settling(out)
+        with RunResults(out) as results:      # waits for the writer to finish
+            assert len(results.windows) == 40
+    finally:
+        resume.join()
+    wait_for(lambda: not settling(out), "the writer to let the directory go")
+
+
+def test_a_new_run_waits_for_a_dead_runs_writer_and_not_for_a_live_run(tmp_path):
+    """The directory's lock held under a dead process's pid (a dead coupler's writer finishing) is waited for; held
+    by a live one, refused at once."""
+    from cosim.rundir import RunDirectory, RunDirectoryError
+    holder = ("import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDWR | os.O_CREAT); "
+              "fcntl.flock(fd, fcntl.LOCK_EX); os.pwrite(fd, sys.argv[2].encode(), 0); print('held', flush=True); "
+              "time.sleep(float(sys.argv[3]))")
+    out = tmp_path / "run"
+    out.mkdir()
+    for pid, seconds in ((2**22 + 12345, 1.0), (os.getpid(), 30.0)):     # a pid above pid_max: never alive
+        process = subprocess.Popen([sys.executable, "-c", holder, str(out / ".lock"), str(pid), str(seconds)],
+                                   stdout=subprocess.PIPE, text=True)
+        assert process.stdout is not None and process.stdout.readline().strip() == "held"
+        try:
+            if pid == os.getpid():
+                with pytest.raises(RunDirectoryError, match="in use by a run in progress"):
+                    with RunDirectory(out):
+                        pass
+            else:
+                with RunDirectory(out):
+                    assert process.poll() is not None     # taken once the holder let go
+        finally:
+            process.kill()
+            process.wait()
