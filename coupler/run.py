@@ -467,7 +467,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                     if final:
                         store.write_final(b.name, final)
                 phase = "results"
-                _final_attributes(store, scheme, participants, time.perf_counter() - wall_start, unconverged, warned)
+                wall = time.perf_counter() - wall_start      # the run's, before its plots are drawn
+                _final_attributes(store, scheme, participants, wall, unconverged, warned)
                 # the writer closes the file and draws the plots while the components stop
                 store.close(plots={"png": str(out_dir / "run.png"), "output": scene["output"],
                                    "folder": str(out_dir), "hooks": list(scene["output"]["plots"])}, wait=False)
@@ -493,8 +494,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 if scheme is not None and scheme.surrogate is not None:
                     scheme.surrogate.close()
     finally:
-        wall = time.perf_counter() - wall_start
         if state != "finished":      # what a stopped run knows is kept; an error under way is the one reported
+            wall = time.perf_counter() - wall_start
             try:
                 _final_attributes(store, scheme, participants, wall, unconverged, warned)
                 store.close()
