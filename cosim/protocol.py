@@ -30,7 +30,7 @@ OPS = frozenset({
 
 
 _NAMES = {np.dtype(name): name for name in DTYPES}           # a dtype's wire name, without numpy's slow .name
-_ITEMSIZES = {name: np.dtype(name).itemsize for name in DTYPES}
+_DTYPES = {name: np.dtype(name) for name in DTYPES}           # a wire name's dtype, without parsing it
 
 
 def encode(header: dict[str, Any], arrays: Mapping[str, np.ndarray] | None = None) -> list:
@@ -88,17 +88,19 @@ def _array_from(spec: Any, view: memoryview) -> tuple[str, np.ndarray]:
         raise ProtocolError(f"array spec {spec!r} lacks a name")
     name = spec["name"]
     dtype, shape = spec.get("dtype"), spec.get("shape")
-    itemsize = _ITEMSIZES.get(dtype) if isinstance(dtype, str) else None
-    if itemsize is None:
+    kind = _DTYPES.get(dtype) if isinstance(dtype, str) else None
+    if kind is None:
         raise ProtocolError(f"array '{name}': dtype {dtype!r} is not allowed (allowed: {sorted(DTYPES)})")
     if not isinstance(shape, list) or not all(isinstance(n, int) and n >= 0 for n in shape):
         raise ProtocolError(f"array '{name}': shape {shape!r} is not a list of non-negative integers")
-    expected = math.prod(shape) * itemsize   # Python integers: no overflow
+    expected = math.prod(shape) * kind.itemsize   # Python integers: no overflow
     if expected != view.nbytes:
         raise ProtocolError(
             f"array '{name}': shape {tuple(shape)} of {dtype} needs {expected} bytes but its frame has {view.nbytes}")
-    array = np.frombuffer(view, dtype=dtype).reshape(shape) if expected else np.empty(shape, dtype)
-    return name, array
+    if not expected:
+        return name, np.empty(shape, kind)
+    array = np.frombuffer(view, dtype=kind)
+    return name, array if len(shape) == 1 else array.reshape(shape)
 
 
 def number(args: Mapping[str, Any], key: str) -> float:

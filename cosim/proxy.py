@@ -22,6 +22,7 @@ from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimE
 from cosim.launcher import ComponentProcess
 
 LIVENESS_SLICE_SECONDS = 0.05
+_all_true = np.logical_and.reduce      # ndarray.all without its Python wrapper (every output is checked)
 
 
 class ComponentProxy:
@@ -295,6 +296,6 @@ class ComponentProxy:
             if value.shape != variable.shape:
                 raise ComponentError(self.name, f"output '{name}' has shape {value.shape}, "
                                                 f"but the component declared shape {variable.shape}")
-            if value.dtype.kind == "f" and not np.isfinite(value).all():
+            if value.dtype.kind == "f" and not _all_true(np.isfinite(value), axis=None):
                 raise NonFiniteOutput(self.name, name, value)
         return dict(arrays)
