@@ -246,3 +246,12 @@ def test_coupler_cost_benchmark_small(capsys):
     in_pings = sorted(row["coupler_us"] / row["ping_us"] for row in rows.values())
     assert (in_pings[1] + in_pings[2]) / 2 < 3.0, in_pings
     assert "wall/floor" in capsys.readouterr().out
+
+
+def test_acceleration_update_benchmark_small(capsys):
+    """The recorded IQN-ILS updates of a short tube run, replayed hot and on emptied caches, give the run's bits."""
+    from benchmarks import acceleration_update
+    results = acceleration_update.main(["--small"])
+    assert results["same"] and results["updates"] > 50
+    assert all(timing.median > 0 for timing in results["rows"].values())
+    assert "the replays give the run's bits: True" in capsys.readouterr().out
