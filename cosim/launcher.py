@@ -101,6 +101,41 @@ class Launcher:
                 pass                                     # gone already: the handshake reports how
         return process
 
+    def spawn_command(self, name: str, command: str, cwd: str | Path, environment: dict[str, str] | None = None,
+                      cores: Sequence[int] = ()) -> ComponentProcess:
+        """Start a program that connects to the coupler itself (a preCICE participant): ``command`` split as a shell
+        would, in ``cwd``, its output to its log. ``environment``'s ``PYTHONPATH`` goes before the inherited one."""
+        import shlex
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        log_path = self.log_dir / f"{name}.log"
+        extra = dict(environment or {})
+        env = {**os.environ, **extra}
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [extra.get("PYTHONPATH", ""),
+                                                          os.environ.get("PYTHONPATH", "")]))
+        # `python3` in a participant's command is the coupler's Python (a full path names another)
+        env["PATH"] = os.pathsep.join(filter(None, [str(Path(sys.executable).parent), env.get("PATH", "")]))
+        try:
+            argv = shlex.split(command)
+        except ValueError as exc:
+            raise ComponentError(name, f"its command {command!r} cannot be split into words: {exc}") from None
+        if not argv:
+            raise ComponentError(name, "its command is empty")
+        with open(log_path, "wb") as log:
+            try:
+                popen = subprocess.Popen(argv, cwd=cwd, stdin=subprocess.DEVNULL, stdout=log, stderr=log, env=env,
+                                         start_new_session=True)
+            except OSError as exc:
+                raise ComponentError(name, f"its command {argv[0]!r} cannot start in '{cwd}': "
+                                           f"{exc.strerror or exc}") from None
+        process = ComponentProcess(name, popen, log_path)
+        self.processes.append(process)
+        if cores:
+            try:
+                os.sched_setaffinity(popen.pid, cores)
+            except ProcessLookupError:
+                pass
+        return process
+
     def handshake(self, process: ComponentProcess) -> str:
         """Wait for the component's endpoint line; errors name the component."""
         deadline = time.monotonic() + self.startup_timeout

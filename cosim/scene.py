@@ -38,6 +38,8 @@ BACKEND = {"entry": "", "switch_time": 0.0}
 COMPONENT = {
     "entry": "",
     "address": "",
+    "command": "",           # a program that calls the coupler itself (a preCICE participant), run in cwd
+    "cwd": FilePath(),
     "curve": FilePath(),
     "sections": [],
     "parameters": AnyTable(),
@@ -83,6 +85,7 @@ SCHEMA: dict[str, Any] = {
                "checkpoint_every": Value(0, low=0)},
 }
 LISTS = {"exchange": EXCHANGE}
+EXPLICIT = ("serial-explicit", "parallel-explicit")    # schemes of one iteration a window
 # what each key means, for the scene reference (docs/reference/scene.md, written by the scene reference generator;
 # tests/test_docs.py fails when a key of the schema has no meaning here or the page is not the generated one)
 MEANINGS = {
@@ -130,6 +133,9 @@ MEANINGS = {
     "component.entry": "the component's class, \"package.module:Class\", started as a local process (a module next "
                        "to the scene is found)",
     "component.address": "or the address of a component started by hand with `cosim serve`",
+    "component.command": "or a program that owns its time loop and calls the coupler (a preCICE participant, "
+                         "[Bring your preCICE case](../precice.md)), run as a shell would split it",
+    "component.cwd": "with command: the folder it runs in (default: the scene's)",
     "component.curve": "with address: a key directory from `cosim keys` (its client.key_secret and server.key); "
                        "the connection is CURVE-authenticated and encrypted, as `cosim serve --curve` serves it",
     "component.sections": "the scene's model sections handed to the component's instantiate (the tube: "
@@ -161,6 +167,8 @@ class Scene:
     source: str
     overridden: frozenset[str] = frozenset()    # dotted keys given by --set
     file_keys: set[str] = field(default_factory=set)     # dotted keys that name a file the run reads
+    notes: str = ""      # a case another tool wrote (a preCICE configuration): what of it the scene does not use
+    translated: frozenset[str] = frozenset()    # dotted keys a case reader gave, which --set then changed
 
     def __getitem__(self, key: str) -> Any:
         return self.data[key]
@@ -286,21 +294,71 @@ def backend_entry(kind: str, where: str, source: str) -> str:
     return found[kind]
 
 
+SCENE_READERS = "cosim.scene_readers"   # entry points: cases other tools write (a preCICE case), read into a scene
+
+
+def _reader_for(path: Path, raw: dict[str, Any] | None) -> Any:
+    """The installed scene reader for a file of its suffix, or for a TOML file holding its table (None: a scene)."""
+    from importlib.metadata import entry_points
+    for point in entry_points(group=SCENE_READERS):
+        reader = point.load()
+        if path.suffix in reader.suffixes or (raw is not None and reader.table in raw):
+            return reader
+    return None
+
+
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
-    """Read, override and validate a scene file."""
+    """Read, override and validate a scene file, or a case another tool wrote that an installed reader turns into
+    a scene (``cosim.scene_readers``: a preCICE case); ``--set`` acts on the case's own keys before it is read, and
+    on the scene it becomes after."""
     path = Path(path)
-    text, raw = read_toml(path, "scene")
+    reader = _reader_for(path, None) if path.suffix != ".toml" else None
+    if reader is not None:
+        try:
+            text, raw = path.read_text(encoding="utf-8", errors="replace"), None
+        except OSError as exc:
+            raise SceneError(f"cannot read '{path}': {exc.strerror or exc}") from None
+    else:
+        text, raw = read_toml(path, "scene")
+        reader = _reader_for(path, raw)
     given = set()
+    translated = set()
+    notes = ""
+    data: dict[str, Any] = raw or {}
+    if reader is not None:
+        own = [item for item in overrides if parse_override(item)[0][0] in reader.case_keys]
+        for item in own:
+            key, value = parse_override(item)
+            apply_override(data, key, value)
+            given.add(".".join(key))
+        data, notes = reader.read(path, data if raw is not None else None)
+        overrides = [item for item in overrides if item not in own]
     for item in overrides:
         key, value = parse_override(item)
-        apply_override(raw, key, value)
+        if reader is not None and _holds(data, key):
+            translated.add(".".join(key))
+        apply_override(data, key, value)
         given.add(".".join(key))
-    scene = Scene(validate_scene(raw, str(path)), text, str(path), frozenset(given))
+    scene = Scene(validate_scene(data, str(path)), text, str(path), frozenset(given), notes=notes,
+                  translated=frozenset(translated))
     scene.resolve_paths([f"components.{name}.{key}" for name in scene["components"]
                          for key in file_paths(COMPONENT)])
     if overrides:
         scene.text += "\n# --set " + "\n# --set ".join(overrides) + "\n"
     return scene
+
+
+def _holds(data: Any, key: list[str]) -> bool:
+    """Whether ``data`` has a value at ``key`` (a list entry by its index)."""
+    node = data
+    for part in key:
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return False
+    return True
 
 
 MAX_DEPTH = 32   # tables and arrays nested deeper than this are no scene (and would exhaust the stack)
@@ -372,8 +430,11 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
         if key not in known:
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
     for name, spec in components.items():
-        if bool(spec["entry"]) == bool(spec["address"]):
-            raise SceneError(f"{source}: components.{name} needs exactly one of 'entry' or 'address'")
+        if [bool(spec["entry"]), bool(spec["address"]), bool(spec["command"])].count(True) != 1:
+            raise SceneError(f"{source}: components.{name} needs exactly one of 'entry', 'address' or 'command'")
+        if spec["cwd"] and not spec["command"]:
+            raise SceneError(f"{source}: 'components.{name}.cwd' is the folder of a command: set "
+                             f"'components.{name}.command' too")
         if spec["address"]:
             _address(spec["address"], f"components.{name}.address", source)
         if spec["curve"] and not spec["address"]:
@@ -477,11 +538,11 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
             raise SceneError(f"{source}: '{where}' is '{name}', but serial-implicit accelerates the data the second "
                              f"participant '{second}' sends: {', '.join(fed_back) or 'none'}")
     kind = acceleration.get("type", "none") if isinstance(acceleration, dict) else acceleration
-    if coupling["scheme"] == "serial-explicit" and (kind != "none" or coupling["predictor"] != "none"):
+    if coupling["scheme"] in EXPLICIT and (kind != "none" or coupling["predictor"] != "none"):
         key = "coupling.acceleration" if kind != "none" else "coupling.predictor"
-        raise SceneError(f"{source}: '{key}' is set, but serial-explicit takes one iteration a window and "
+        raise SceneError(f"{source}: '{key}' is set, but {coupling['scheme']} takes one iteration a window and "
                          "accelerates nothing; use serial-implicit or parallel-implicit, or remove it")
-    if coupling["scheme"] != "serial-explicit" and not coupling["convergence"]:
+    if coupling["scheme"] not in EXPLICIT and not coupling["convergence"]:
         raise SceneError(f"{source}: an implicit scheme needs at least one [[coupling.convergence]] measure")
     plot = data["output"]["plot_field"]
     if plot and plot not in exchanged:

@@ -98,6 +98,7 @@ def _check_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _check(args: argparse.Namespace) -> int:
     import json
+    from pathlib import Path
 
     from cosim.scene import load_scene
     from coupler.probe import probe
@@ -107,6 +108,10 @@ def _check(args: argparse.Namespace) -> int:
     windows = prepare(scene)
     described = [] if args.static else probe(scene, windows)
     print(json.dumps(scene.data, indent=2))
+    for note in filter(None, scene.notes.splitlines()):
+        print(f"  note: {note}", file=sys.stderr)
+    for key in sorted(scene.translated):
+        print(f"  note: '{key}' comes from --set, which wins over what {Path(scene.source).name} gave", file=sys.stderr)
     for line in described:
         print(f"  {line}", file=sys.stderr)
     how = "without starting components" if args.static else "every component started and instantiated"

@@ -105,6 +105,31 @@ class ResidualRelative(ConvergenceMeasure):
         return difference / self._first if self._first > 0 else 0.0
 
 
+@MEASURES.register("min-iterations")
+class MinIterations(ConvergenceMeasure):
+    """Met from a window's ``iterations``-th coupling iteration on (preCICE's min-iteration-convergence-measure and
+    min-iterations): the other measures alone cannot end a window earlier."""
+
+    SETTINGS = {"iterations": Value(1, low=1)}
+    HELP = {"iterations": "the coupling iterations every window takes at least"}
+
+    def __init__(self, data: str, iterations: int = 1):
+        super().__init__(data, float(iterations) - 0.5)
+        self.iterations = int(iterations)
+        self._count = 0
+
+    def start_window(self) -> None:
+        self._count = 0
+
+    def measure(self, old: np.ndarray, new: np.ndarray) -> bool:
+        self._count += 1
+        self.value = float(self.iterations - self._count)       # iterations still to go (met at 0 and below)
+        return self._count >= self.iterations
+
+    def summary(self) -> str:
+        return f"{self.data} {self.type_name} {self._count} of at least {self.iterations}"
+
+
 class Combination(ConvergenceMeasure):
     """Met when ``combine`` of the member measures' results holds; ``value`` is the member value nearest its limit."""
 

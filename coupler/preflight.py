@@ -15,7 +15,7 @@ from pathlib import Path
 
 from cosim.component import declares_state, undeclared_state_message
 from cosim.errors import CosimError, SceneError
-from cosim.scene import BACKEND, Scene
+from cosim.scene import BACKEND, EXPLICIT, Scene
 from cosim.schema import file_paths, unknown_key_message, validate
 from cosim.server import EntryImportError, load_entry
 
@@ -40,7 +40,7 @@ def check_parameters(scene: Scene) -> None:
 def check_state_declared(scene: Scene) -> None:
     """Implicit coupling repeats windows: every participant class importable here must say how (state methods,
     ``repeats_steps`` or ``stateless``); the others are checked once described."""
-    if scene["coupling"]["scheme"] == "serial-explicit":
+    if scene["coupling"]["scheme"] in EXPLICIT:
         return
     for name in scene["coupling"]["participants"]:
         spec = scene["components"][name]

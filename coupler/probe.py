@@ -25,6 +25,8 @@ def probe(scene: Scene, windows: int) -> list[str]:
     stop them; returns a line per backend."""
     from coupler.run import check_described, participants_of, plan_backends, shutdown_proxies, start_backends
     backends = plan_backends(scene)
+    programs = [b for b in backends if b.command]       # a participant's program runs the case: left to the run
+    backends = [b for b in backends if not b.command]
     with tempfile.TemporaryDirectory(prefix="cosim-check-") as logs, Launcher(Path(logs)) as launcher:
         local = [b for b in backends if b.entry]
         try:
@@ -38,7 +40,9 @@ def probe(scene: Scene, windows: int) -> list[str]:
             check_described(scene, participants_of([b for b in local if b.participant not in by_hand]))
             return [f"{b.name}: {', '.join(f'{v.causality} {v.name} {v.shape}' for v in b.client.variables.values())}"
                     if b.entry else f"{b.name}: served by hand at {b.address}, reached (its variables are checked "
-                                    "when the run starts)" for b in backends]
+                                    "when the run starts)" for b in backends] + \
+                [f"{b.name}: the participant '{b.command}' in {b.cwd} (its meshes and data are checked when the run "
+                 "starts it)" for b in programs]
         finally:
             shutdown_proxies([b.proxy for b in local if b.proxy is not None])
             for b in backends:

@@ -27,10 +27,11 @@ from cosim.checkpoint import CheckpointError
 from cosim.component import undeclared_state_message
 from cosim.errors import ComponentError, ComponentTimeout, CosimError, DiskFullError, SceneError
 from cosim.launcher import Launcher
+from cosim.participant import ParticipantHub, ParticipantProxy
 from cosim.proxy import ComponentProxy
 from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
-from cosim.scene import BACKEND, Scene
+from cosim.scene import BACKEND, EXPLICIT, Scene
 from coupler.acceleration import make_acceleration
 from coupler.convergence import make_measure
 from coupler.linalg import load as load_linalg
@@ -69,10 +70,12 @@ class Backend:
     address: str
     parameters: dict
     start_time: float
-    proxy: ComponentProxy | None = None     # once started
+    proxy: ComponentProxy | ParticipantProxy | None = None     # once started
+    command: str = ""       # a participant: the program that calls the coupler, and its folder
+    cwd: str = ""
 
     @property
-    def client(self) -> ComponentProxy:
+    def client(self) -> ComponentProxy | ParticipantProxy:
         """The started backend's proxy."""
         if self.proxy is None:
             raise RuntimeError(f"backend '{self.name}' has not been started")
@@ -84,7 +87,8 @@ def plan_backends(scene: Scene) -> list[Backend]:
     start = scene["time"]["start"]
     backends = []
     for name, spec in scene["components"].items():
-        fom = Backend(name, name, "fom", spec["entry"], spec["address"], scene.component_parameters(name), start)
+        fom = Backend(name, name, "fom", spec["entry"], spec["address"], scene.component_parameters(name), start,
+                      command=spec["command"], cwd=spec["cwd"] or str(scene.folder))
         if spec["backend"] == "fom":
             backends.append(fom)
             continue
@@ -100,18 +104,32 @@ def plan_backends(scene: Scene) -> list[Backend]:
 
 
 def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
-                   address_deadline: float | None = None, while_starting: Callable[[], object] | None = None) -> None:
+                   address_deadline: float | None = None, while_starting: Callable[[], object] | None = None
+                   ) -> ParticipantHub | None:
     """Spawn every local backend first (they start in parallel; meanwhile ``while_starting`` runs), then handshake
-    each; a component served by hand must answer within its ``startup_timeout`` (or ``address_deadline``)."""
+    each; a component served by hand must answer within its ``startup_timeout`` (or ``address_deadline``). Programs
+    that call the coupler (participants) connect to a hub, returned for the caller to close."""
     components = scene["components"]
     processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(components[b.participant]),
                                         components[b.participant]["cores"], [scene.folder])
                  for b in backends if b.entry}
+    hub = ParticipantHub() if any(b.command for b in backends) else None
+    for b in backends:
+        if b.command and hub is not None:
+            processes[b.name] = launcher.spawn_command(
+                b.name, b.command, b.cwd, {**component_environment(components[b.participant]), **hub.environment()},
+                components[b.participant]["cores"])
     if while_starting is not None:
         while_starting()
     for backend in backends:
         spec = scene["components"][backend.participant]
         process = processes.get(backend.name)
+        if backend.command and hub is not None:
+            participant = ParticipantProxy(backend.name, hub, process, timeout=spec["timeout"],
+                                           startup_timeout=spec["startup_timeout"])
+            backend.proxy = participant
+            participant.connect()
+            continue
         if process is not None:
             launcher.startup_timeout = spec["startup_timeout"]
             endpoint = launcher.handshake(process)
@@ -129,6 +147,7 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
                 raise ComponentError(backend.name, f"no reply from {endpoint} within {deadline:g} s: check that "
                                      f"`cosim serve` runs there and serves this component, that the address is the "
                                      f"one it printed, {keys}") from None
+    return hub
 
 
 def placement(backend: Backend) -> dict[str, list[int]]:
@@ -169,9 +188,14 @@ def participants_of(backends: list[Backend]) -> dict[str, Participant]:
         if len(group) == 1:
             participants[name] = group[0].client
             continue
-        fallback = next((b.client for b in group if b.kind == "fom"), None) \
+        served = [(b.start_time, b.client) for b in group]
+        stages = [(start, client) for start, client in served if isinstance(client, ComponentProxy)]
+        if len(stages) != len(served):
+            raise SceneError(f"components.{name}: a program that calls the coupler (a participant) cannot be "
+                             "switched for another backend during a run; swap it for the whole run instead")
+        fallback = next((client for (_, client), b in zip(stages, group) if b.kind == "fom"), None) \
             if any(b.parameters.get("on_out_of_range") == "fallback" for b in group) else None
-        participants[name] = BackendSchedule(name, [(b.start_time, b.client) for b in group], fallback)
+        participants[name] = BackendSchedule(name, stages, fallback)
     return participants
 
 
@@ -220,7 +244,7 @@ def check_described(scene: Scene, proxies: dict[str, Participant]) -> None:
             inputs = [v.name for v in target.variables.values() if v.causality == "input"]
             raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['to']}' has "
                              f"no input '{data}' (inputs: {', '.join(inputs) or 'none'})")
-    if scene["coupling"]["scheme"] == "serial-explicit":
+    if scene["coupling"]["scheme"] in EXPLICIT:
         return
     for name in (n for n in scene["coupling"]["participants"] if n in proxies):
         proxy = proxies[name]
@@ -287,6 +311,11 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
     """Run ``scene`` and write ``out_dir/results.h5`` (and a plot); ``out_dir`` must not hold another run. With
     ``resume``, go on with the run in ``out_dir`` from its checkpoint (``output.checkpoint_every``)."""
     directory = RunDirectory(out_dir, overwrite, resume=resume)     # refuses an empty name before it would mean "."
+    programs = [name for name, spec in scene["components"].items() if spec["command"] and spec["backend"] == "fom"]
+    if resume and programs:
+        raise SceneError(f"{scene.source}: --resume is refused: a preCICE participant keeps its state to itself, and "
+                         f"{', '.join(programs)} {'is one' if len(programs) == 1 else 'are'}; run the case again "
+                         "(--overwrite)")
     out_dir = directory.path
     n_windows = prepare(scene)
     start, dt = scene["time"]["start"], scene["time"]["dt"]
@@ -350,6 +379,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     started, windows_at_start = time.time(), windows       # for the rate and the time left (cosim status)
     scheme = None
     participants = None
+    hub: ParticipantHub | None = None
     phase = "start-up"   # where an error that is not inside a window happened
     log = RunLog(out_dir / "logs", windows if saved is not None else None)
     log.event(f"{'resumed after window ' + str(windows) if saved is not None else 'started'}: scene "
@@ -359,13 +389,14 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
             try:
                 components_started = time.perf_counter()
                 # the coupler imports what its acceleration computes with while the components start
-                start_backends(scene, backends, launcher, while_starting=load_linalg)
+                hub = start_backends(scene, backends, launcher, while_starting=load_linalg)
                 store.ready()
                 for b in backends:
-                    log.event(f"component '{b.name}': {b.entry or b.address}, pid {b.client.pid}, at "
-                              f"{b.client.endpoint}" + (f", log logs/{b.name}.log" if b.entry else ""))
+                    log.event(f"component '{b.name}': {b.entry or b.address or b.command}, pid {b.client.pid}, at "
+                              f"{b.client.endpoint}" + (f", log logs/{b.name}.log" if b.entry or b.command else ""))
                     host = b.address or socket.gethostname()
-                    store.add_component(b.name, b.client.pid, host, b.entry or b.address, b.client.endpoint,
+                    store.add_component(b.name, b.client.pid, host, b.entry or b.address or b.command,
+                                        b.client.endpoint,
                                         participant=b.participant, kind=b.kind, start_time=b.start_time,
                                         curve=bool(b.client.curve), **placement(b))
                     b.client.instantiate(b.parameters)
@@ -378,7 +409,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                     refusing = [b for b in backends if not b.client.can_checkpoint]
                     if refusing:
                         raise SceneError(f"{scene.source}: 'output.checkpoint_every' is {every}, but component "
-                                         f"'{refusing[0].name}' ({refusing[0].entry or refusing[0].address}) cannot "
+                                         f"'{refusing[0].name}' ({refusing[0].entry or refusing[0].address or refusing[0].command}) cannot "
                                          "checkpoint its state")
                 recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
                              for n, s in scene["components"].items() if s["record"]}
@@ -491,6 +522,8 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 raise
             finally:
                 shutdown_proxies([b.proxy for b in backends if b.proxy is not None])
+                if hub is not None:
+                    hub.close()
                 if scheme is not None and scheme.surrogate is not None:
                     scheme.surrogate.close()
     finally:
@@ -529,13 +562,13 @@ def _warn(message: str, bar, log: RunLog | None = None) -> None:
         print(message, file=sys.stderr)
 
 
-def _take_timings(proxy: ComponentProxy) -> tuple[list[float], list[float], list[float]]:
+def _take_timings(proxy: ComponentProxy | ParticipantProxy) -> tuple[list[float], list[float], list[float]]:
     compute, roundtrip, cpu = proxy.compute_seconds, proxy.roundtrip_seconds, proxy.cpu_seconds
     proxy.compute_seconds, proxy.roundtrip_seconds, proxy.cpu_seconds = [], [], []
     return compute, roundtrip, cpu
 
 
-def shutdown_proxies(proxies: list[ComponentProxy]) -> None:
+def shutdown_proxies(proxies: list[ComponentProxy | ParticipantProxy]) -> None:
     """Ask each live component to stop (the launcher kills the rest); a proxy closed already is left alone."""
     for proxy in proxies:
         if proxy.closed:

@@ -24,6 +24,7 @@ from cosim.errors import (
     DivergenceError,
     StalledError,
 )
+from cosim.participant import ParticipantProxy
 from cosim.proxy import ComponentProxy
 from cosim.registry import Registry
 from coupler.acceleration import Acceleration
@@ -34,8 +35,9 @@ from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
 
-# a scene component as a scheme sees it: one process, or a schedule of backends (full order, then a ROM)
-Participant = ComponentProxy | BackendSchedule
+# a scene component as a scheme sees it: one process, a program that calls the coupler (a preCICE participant), or a
+# schedule of backends (full order, then a ROM)
+Participant = ComponentProxy | ParticipantProxy | BackendSchedule
 
 SCHEMES: Registry[CouplingScheme] = Registry("coupling scheme")
 
@@ -373,6 +375,29 @@ class SerialExplicit(CouplingScheme):
             outputs = proxy.receive_step()
             self._record(proxy, 1, inputs, outputs)
             self.values.update({k: outputs[k] for k in self.sent_by(proxy)})
+        return self._finish(t + dt, 1, True)
+
+
+@SCHEMES.register("parallel-explicit")
+class ParallelExplicit(CouplingScheme):
+    """Both participants once per window, concurrently, each on the other's values of the window before."""
+
+    implicit = False
+
+    def _advance(self, t: float, dt: float) -> WindowResult:
+        self._begin(t, dt)
+        self.iteration = 1
+        proxies = (self.first, self.second)
+        inputs = {p.name: self.inputs_for(p, self.values) for p in proxies}
+        for p in proxies:
+            p.send_step(t, dt, inputs[p.name])
+        self.run_deferred()
+        outputs: dict[str, np.ndarray] = {}
+        for p in proxies:
+            returned = p.receive_step()
+            self._record(p, 1, inputs[p.name], returned)
+            outputs.update({k: returned[k] for k in self.sent_by(p)})
+        self.values.update(outputs)
         return self._finish(t + dt, 1, True)
 
 

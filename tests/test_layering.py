@@ -10,13 +10,15 @@ from cosim.cli import commands, parser
 from tests.conftest import ROOT
 
 OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component", "kratos_solvers", "cases",
-        "workflow")
+        "workflow", "precice_compat")
 ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "solid_component": {"cosim"},
            "rom_component": {"cosim"}, "kratos_solvers": {"cosim"},
            # a case sits on everything it names: the coupler, the ROM, its solvers
            "cases": {"cosim", "coupler", "rom_component", "fluid_component", "solid_component", "kratos_solvers"},
            # the campaign calls the coupler's runs and the ROM's training, export and report
-           "workflow": {"cosim", "coupler", "rom_component"}}
+           "workflow": {"cosim", "coupler", "rom_component"},
+           # preCICE's cases read into scenes, above the coupler (its participant package imports none of ours)
+           "precice_compat": {"cosim", "coupler"}}
 
 
 def imported_packages(path) -> set[tuple[str, int]]:

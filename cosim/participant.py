@@ -1,0 +1,325 @@
+"""Components that own their time loop (a preCICE participant): the coupler's side.
+
+A participant is a process that calls the coupler, where a component is called by it: it connects, says hello,
+sets its meshes, calls ``initialize`` with its vertices and initial data, then ``advance`` at each window's end
+with the data it wrote, and waits for the answer. ``ParticipantProxy`` turns that into the component contract
+the coupling schemes drive: a coupling iteration's ``step`` answers the participant's pending ``initialize`` or
+``advance`` with the read data (and whether the window is new, repeated or the last) and returns the write data of
+its next ``advance``. A participant repeats a window itself when told (``repeats_steps``): it keeps its own
+checkpoint, so a run with participants cannot be checkpointed for ``--resume``.
+
+Every participant of a run connects to one ROUTER socket on loopback (``ParticipantHub``) and proves itself with
+the run's token. The messages are the wire's (``cosim.protocol``), sent the other way round: the participant
+asks, the coupler answers. The participant's side is ``precice_compat/participant`` (``import precice``).
+"""
+
+from __future__ import annotations
+
+import secrets
+import time
+from collections import deque
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import zmq
+
+from cosim import protocol, stop
+from cosim.component import Variable
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimError, NonFiniteOutput, ProtocolError
+from cosim.launcher import ComponentProcess
+
+SLICE_SECONDS = 0.05
+ENDPOINT_VARIABLE, TOKEN_VARIABLE, PID_VARIABLE = ("COSIM_PARTICIPANT_ENDPOINT", "COSIM_PARTICIPANT_TOKEN",
+                                                   "COSIM_COUPLER_PID")
+
+
+class ParticipantHub:
+    """The run's socket for participants: binds loopback, routes each participant's messages to its proxy."""
+
+    def __init__(self, bind: str = "tcp://127.0.0.1:*", context: zmq.Context | None = None):
+        self.socket = (context or zmq.Context.instance()).socket(zmq.ROUTER)
+        self.socket.setsockopt(zmq.LINGER, 0)
+        self.socket.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
+        self.socket.bind(bind)
+        self.endpoint = self.socket.getsockopt_string(zmq.LAST_ENDPOINT)
+        self.token = secrets.token_hex(16)
+        self.identities: dict[str, bytes] = {}           # participant name -> its connection
+        self.queues: dict[str, deque] = {}               # name -> its requests not yet taken
+        self.strangers: deque = deque()                  # hellos of names no proxy has claimed yet
+
+    def environment(self) -> dict[str, str]:
+        """What a participant the coupler starts finds in its environment to reach it."""
+        import os
+        return {ENDPOINT_VARIABLE: self.endpoint, TOKEN_VARIABLE: self.token, PID_VARIABLE: str(os.getpid())}
+
+    def poll(self, timeout: float) -> None:
+        """Take what has arrived within ``timeout`` seconds and queue it by participant."""
+        if not self.socket.poll(timeout * 1000):
+            return
+        while True:
+            try:
+                identity, *frames = self.socket.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            try:
+                header, arrays = protocol.decode(frames)
+            except ProtocolError as exc:
+                self.reply(identity, None, error=f"malformed message: {exc}")
+                continue
+            given = header.get("args")
+            args: dict[str, Any] = given if isinstance(given, dict) else {}
+            if args.get("token") != self.token:
+                self.reply(identity, header.get("id"), error="refused: this coupler serves the participants of its "
+                                                           "own run (a wrong or missing token)")
+                continue
+            name = next((n for n, known in self.identities.items() if known == identity), None)
+            if header.get("op") == "hello" and name is None:
+                name = str(args.get("participant", ""))
+                if name in self.identities:
+                    self.reply(identity, header.get("id"), error=f"a participant named '{name}' is connected "
+                                                               "already")
+                    continue
+                self.identities[name] = identity
+            if name is None:
+                self.reply(identity, header.get("id"), error="say hello first")
+                continue
+            self.queues.setdefault(name, deque()).append((header, arrays))
+
+    def take(self, name: str) -> tuple[dict[str, Any], dict[str, np.ndarray]] | None:
+        queue = self.queues.get(name)
+        return queue.popleft() if queue else None
+
+    def reply(self, identity: bytes, request_id: Any, result: Mapping[str, Any] | None = None,
+              arrays: Mapping[str, np.ndarray] | None = None, error: str = "") -> None:
+        header: dict[str, Any] = {"id": request_id, "ok": not error}
+        if error:
+            header["error"] = {"type": "ComponentError", "message": error, "component": "coupler"}
+        else:
+            header["result"] = dict(result or {})
+        self.socket.send_multipart([identity, *protocol.encode(header, arrays)], copy=False)
+
+    def close(self) -> None:
+        self.socket.close(linger=0)
+
+
+class ParticipantProxy:
+    """One participant as the coupling schemes see a component (the calls of ``ComponentProxy`` they make)."""
+
+    can_get_and_set_state = False
+    can_checkpoint = False         # it keeps its state to itself
+    repeats_steps = True           # told to, it reads its own checkpoint and computes the window again
+    stateless = False
+    step_saves_state = False
+    history_windows = 0
+    curve = ""
+    saved_state: int | None = None
+
+    def __init__(self, name: str, hub: ParticipantHub, process: ComponentProcess | None = None,
+                 timeout: float = 120.0, startup_timeout: float = 60.0):
+        self.name = name
+        self.hub = hub
+        self.process = process
+        self.timeout = timeout
+        self.startup_timeout = startup_timeout
+        self.endpoint = hub.endpoint
+        self.pid: int | None = process.pid if process else None
+        self.variables: dict[str, Variable] = {}
+        self.meshes: dict[str, np.ndarray] = {}
+        self.warnings: list[str] = []
+        self.compute_seconds: list[float] = []
+        self.cpu_seconds: list[float] = []
+        self.roundtrip_seconds: list[float] = []
+        self._pending: dict[str, Any] | None = None     # the request the participant waits on
+        self._initial: dict[str, np.ndarray] = {}
+        self._window: tuple[float, float] | None = None   # (t, dt) of the last step answered
+        self._sent_at = 0.0
+        self._closed = False
+        self.setup: dict[str, Any] = {}
+
+    # --- waiting for the participant -----------------------------------------------------------------------------
+    def _next(self, what: str, limit: float) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """The participant's next request, waited for up to ``limit`` seconds while its process lives."""
+        deadline = time.monotonic() + limit
+        while True:
+            taken = self.hub.take(self.name)
+            if taken is not None:
+                header, arrays = taken
+                if header.get("op") == "error":     # the participant's own misuse, in one line, before it raises
+                    raise ComponentError(self.name, str((header.get("args") or {}).get("message", "failed")))
+                return header, arrays
+            stop.check()
+            if self.process is not None and self.process.poll() is not None:
+                code = self.process.poll()
+                tail = self.process.stderr_tail()
+                if code == 0:
+                    raise ComponentError(self.name, f"exited (code 0) while the coupler waited for {what} "
+                                                    f"(its log: {self.process.log_path})")
+                raise ComponentDied(self.name, code, tail, str(self.process.log_path))
+            if time.monotonic() > deadline:
+                error = ComponentTimeout(self.name, what, limit)
+                error.detail = f"did not call {what} within {limit:g} s" + (
+                    f" (its log: {self.process.log_path})" if self.process is not None else "")
+                raise error
+            self.hub.poll(SLICE_SECONDS)
+
+    def _answer(self, result: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None) -> None:
+        pending, self._pending = self._pending, None
+        if pending is None:
+            raise ComponentError(self.name, "no request of the participant waits for an answer")
+        self.hub.reply(self.hub.identities[self.name], pending.get("id"), result, arrays)
+
+    # --- the start ----------------------------------------------------------------------------------------------
+    def connect(self) -> None:
+        """Wait for the participant's hello (its constructor)."""
+        header, _ = self._next("its hello (the Participant's constructor)", self.startup_timeout)
+        if header.get("op") != "hello":
+            raise ComponentError(self.name, f"sent '{header.get('op')}' before its hello")
+        self._pending = header
+        self.pid = int((header.get("args") or {}).get("pid", self.pid or 0)) or self.pid
+
+    def call(self, op: str, args: Mapping[str, Any] | None = None, timeout: float | None = None) -> tuple[dict, dict]:
+        """``ping`` (cosim check's probe of a component served by hand) has no meaning here."""
+        raise ComponentError(self.name, f"a participant takes no '{op}' request")
+
+    def instantiate(self, parameters: Mapping[str, Any]) -> None:
+        """Answer the hello with the participant's setup (``parameters["setup"]``: its meshes, the data it writes
+        and reads, the window, the time), then wait for its ``initialize``: its vertices and initial data."""
+        self.setup = dict(parameters.get("setup") or {})
+        if self._pending is None:
+            self.connect()
+        self._answer(self.setup)
+        header, arrays = self._next("initialize", self.startup_timeout)
+        if header.get("op") != "initialize":
+            raise ComponentError(self.name, f"called '{header.get('op')}' where initialize was expected")
+        self._pending = header
+        self.meshes = {name[len("mesh:"):]: value for name, value in arrays.items() if name.startswith("mesh:")}
+        self._initial = {name[len("data:"):]: value for name, value in arrays.items() if name.startswith("data:")}
+        variables = []
+        for causality, key in (("output", "write"), ("input", "read")):
+            for spec in self.setup.get(key, []):
+                nodes = self.meshes.get(spec["mesh"])
+                if nodes is None:
+                    raise ComponentError(self.name, f"gave no vertices of mesh '{spec['mesh']}', on which it "
+                                                    f"{'writes' if causality == 'output' else 'reads'} "
+                                                    f"'{spec['data']}'")
+                dimensions = int(spec["dimensions"])
+                variables.append(Variable(spec["data"], causality, len(nodes) * dimensions, mesh=spec["mesh"],
+                                          components=dimensions))
+        self.variables = {v.name: v for v in variables}
+        for name, value in self._initial.items():
+            self.check_outputs({name: value}, what="initial data")
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "variables": list(self.variables.values())}
+
+    def enter_initialization_mode(self, start: float, stop: float) -> None:
+        pass
+
+    def exit_initialization_mode(self) -> None:
+        pass
+
+    def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        """The participant's initial data (zeros for data it wrote none of)."""
+        return {name: np.array(self._initial[name]) if name in self._initial else np.zeros(self.variables[name].shape)
+                for name in names}
+
+    # --- the coupling -------------------------------------------------------------------------------------------
+    def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
+                  save: bool = False, free: int | None = None) -> None:
+        """Answer the pending ``initialize`` or ``advance``: the window [t, t + dt] to compute with ``inputs``, as a
+        new window or the last one again."""
+        repeat = self._window is not None and abs(self._window[0] - t) <= 1e-9 * max(1.0, abs(t))
+        first = self._pending is not None and self._pending.get("op") == "initialize"
+        implicit = bool(self.setup.get("implicit", True))
+        self._window = (t, dt)
+        self._sent_at = time.perf_counter()
+        self._answer({"ongoing": True, "window_complete": not repeat and not first, "window_start": t, "window": dt,
+                      "write_checkpoint": implicit and not repeat, "read_checkpoint": repeat},
+                     {f"data:{name}": np.asarray(value) for name, value in inputs.items()})
+
+    def receive_step(self) -> dict[str, np.ndarray]:
+        """The write data of the participant's next window-ending ``advance``."""
+        header, arrays = self._next("advance", self.timeout)
+        roundtrip = time.perf_counter() - self._sent_at
+        op = header.get("op")
+        if op != "advance":
+            self._pending = header
+            raise ComponentError(self.name, f"called '{op}' in the middle of the coupling (window "
+                                            f"{self._window}), where advance was expected")
+        self._pending = header
+        args = header.get("args") or {}
+        outputs = {name[len("data:"):]: value for name, value in arrays.items() if name.startswith("data:")}
+        missing = sorted(set(v.name for v in self.variables.values() if v.causality == "output") - set(outputs))
+        if missing:
+            raise ComponentError(self.name, f"its advance carried no '{missing[0]}'")
+        compute = float(args.get("compute_seconds", roundtrip))
+        self.compute_seconds.append(compute)
+        self.cpu_seconds.append(float(args.get("cpu_seconds", compute)))
+        self.roundtrip_seconds.append(roundtrip)
+        return self.check_outputs(outputs)
+
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
+             save: bool = False, free: int | None = None) -> dict[str, np.ndarray]:
+        self.send_step(t, dt, inputs)
+        return self.receive_step()
+
+    def check_outputs(self, arrays: Mapping[str, np.ndarray], what: str = "output") -> dict[str, np.ndarray]:
+        """Write data as the participant's setup declares it; a wrong shape, NaN or Inf is an error."""
+        for name, value in arrays.items():
+            variable = self.variables.get(name)
+            if variable is None:
+                raise ComponentError(self.name, f"wrote '{name}', which it does not write")
+            if value.shape != variable.shape:
+                raise ComponentError(self.name, f"{what} '{name}' has shape {value.shape}, but its mesh "
+                                                f"'{variable.mesh}' gives shape {variable.shape}")
+            if not np.isfinite(value).all():
+                raise NonFiniteOutput(self.name, name, value)
+        return dict(arrays)
+
+    # --- the end ------------------------------------------------------------------------------------------------
+    def terminate(self) -> dict[str, np.ndarray]:
+        """The coupling is over: answer the last ``advance`` so, and take the participant's ``finalize``."""
+        if self._pending is None or self._pending.get("op") not in ("advance", "initialize"):
+            return {}
+        t, dt = self._window or (0.0, 0.0)
+        self._answer({"ongoing": False, "window_complete": True, "window_start": t + dt, "window": dt,
+                      "write_checkpoint": False, "read_checkpoint": False})
+        header, _ = self._next("finalize", self.timeout)
+        if header.get("op") != "finalize":
+            raise ComponentError(self.name, f"called '{header.get('op')}' after the coupling ended, where finalize "
+                                            "was expected")
+        self._pending = header
+        self._answer({})
+        return {}
+
+    def shutdown(self, timeout: float = 2.0) -> None:
+        """Wait for the participant's process to exit by itself (the launcher stops it after that)."""
+        if self._pending is not None and self.hub.identities.get(self.name) is not None:
+            try:        # a participant still waiting (the run failed): the coupling is over
+                self.hub.reply(self.hub.identities[self.name], self._pending.get("id"),
+                               error="the coupling stopped (the run failed or was interrupted)")
+            except zmq.ZMQError:
+                pass
+            self._pending = None
+        if self.process is not None:
+            deadline = time.monotonic() + timeout
+            while self.process.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.01)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        self._closed = True
+
+    def take_over(self, inputs: Mapping[str, np.ndarray], outputs: Mapping[str, np.ndarray]) -> None:
+        raise CosimError(f"participant '{self.name}' cannot take a participant over from another backend")
+
+    def output_names(self) -> list[str]:
+        return [v.name for v in self.variables.values() if v.causality == "output"]
+
+    def mesh_of(self, name: str) -> np.ndarray:
+        variable = self.variables[name]
+        return self.meshes[variable.mesh] if variable.mesh else np.zeros((0, 1))

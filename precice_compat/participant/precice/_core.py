@@ -1,0 +1,267 @@
+"""What both of preCICE's APIs do, against cosim's coupler: meshes, data buffers, time within a window, the
+checkpoint protocol.
+
+The coupler drives a participant as it drives any component: a coupling iteration hands the participant its read
+data and takes its write data. Here that is the reply to the participant's ``initialize`` or window-ending
+``advance`` (the read data, and whether the window is new, repeated, or the last), and the participant's next
+window-ending ``advance`` (its write data). Steps shorter than the window stay local: the window's read data serve
+every step (``waveform-degree`` 0, or a read at the window's end), and the last data written before the window's
+end is sent.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import xml.etree.ElementTree as ElementTree
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precice._connection import Connection, Error, find_coupler
+
+EPSILON = 1e-9        # relative tolerance of times: a step that reaches the window's end to this ends it
+NEXT_ISSUE = "time interpolation inside a window (waveform iteration, cosim's next preCICE feature)"
+
+
+def exchange_directories(config: Path, participant: str) -> list[str]:
+    """The exchange directories of ``participant``'s m2n connections in ``config`` (relative ones from the working
+    directory, as preCICE resolves them)."""
+    try:
+        root = ElementTree.parse(config).getroot()
+    except (OSError, ElementTree.ParseError):
+        return ["."]
+    found = []
+    for element in root.iter():
+        if element.tag.startswith("m2n:") and participant in (element.get("acceptor"), element.get("connector"),
+                                                              element.get("from"), element.get("to")):
+            found.append(element.get("exchange-directory") or ".")
+    return found or ["."]
+
+
+class Core:
+    """One participant's coupling state; ``api`` names the calls in messages (``Participant`` or ``Interface``)."""
+
+    def __init__(self, api: str, name: str, config: str, rank: int, size: int):
+        self.api = api
+        if not isinstance(name, str) or not name:
+            raise Error(f"{api}: the participant's name must be a non-empty string, got {name!r}")
+        if isinstance(rank, bool) or not isinstance(rank, (int, np.integer)) or \
+                isinstance(size, bool) or not isinstance(size, (int, np.integer)):
+            raise Error(f"{api}: rank and size must be integers, got {rank!r} and {size!r}")
+        if size != 1 or rank != 0:
+            raise Error(f"{api}: a parallel participant (rank {rank} of size {size}) is not supported: cosim couples "
+                        "serial participants (rank 0, size 1)")
+        self.name = name
+        self.config = Path(config).resolve()
+        if not self.config.is_file():
+            raise Error(f"{api}: the configuration '{config}' does not exist")
+        endpoint, token, pid = find_coupler(exchange_directories(self.config, name))
+        self.connection = Connection(endpoint, token, pid)
+        self.setup, _ = self._request("hello", {"participant": name, "config": str(self.config), "api": api,
+                                                "pid": os.getpid()})
+        self.meshes: dict[str, dict[str, Any]] = self.setup["meshes"]
+        self.write = {(d["mesh"], d["data"]): d for d in self.setup["write"]}
+        self.read = {(d["mesh"], d["data"]): d for d in self.setup["read"]}
+        self.vertices: dict[str, list[np.ndarray]] = {mesh: [] for mesh in self.meshes}
+        self.written: dict[str, np.ndarray] = {}
+        self.received: dict[str, np.ndarray] = {}
+        self.window = float(self.setup["window"])
+        self.window_start = float(self.setup["start"])
+        self.elapsed = 0.0         # the steps taken in the window: the window's size is what is left at its start
+        self._computing_since = (time.perf_counter(), time.process_time())
+        self.state = "constructed"         # -> initialized -> finalized
+        self.ongoing = True
+        self.window_complete = False
+        self.write_checkpoint = False
+        self.read_checkpoint = False
+        self.read_available = False
+
+    # --- errors ---------------------------------------------------------------------------------------------------
+    def fail(self, call: str, why: str) -> Error:
+        """The error of a misuse, told to the coupler first (its run stops with this line, not a traceback)."""
+        message = f"{self.api}.{call}: {why}"
+        self.connection.tell("error", {"message": message})
+        return Error(message)
+
+    def _request(self, op: str, args: dict[str, Any] | None = None,
+                 arrays: dict[str, np.ndarray] | None = None) -> Any:
+        return self.connection.request(op, args, arrays)
+
+    # --- meshes ---------------------------------------------------------------------------------------------------
+    def mesh(self, call: str, mesh: Any, provided: bool = False) -> dict[str, Any]:
+        if not isinstance(mesh, str) or mesh not in self.meshes:
+            known = ", ".join(sorted(self.meshes)) or "none"
+            raise self.fail(call, f"participant '{self.name}' uses no mesh {mesh!r} (its meshes: {known})")
+        if provided and not self.meshes[mesh]["provided"]:
+            raise self.fail(call, f"mesh '{mesh}' is received from another participant, not provided by '{self.name}'")
+        return self.meshes[mesh]
+
+    def add_vertices(self, call: str, mesh: str, positions: Any) -> np.ndarray:
+        info = self.mesh(call, mesh, provided=True)
+        if self.state != "constructed":
+            raise self.fail(call, "vertices are set before initialize, not after")
+        points = np.asarray(positions, dtype=np.float64)
+        dimensions = int(info["dimensions"])
+        if points.ndim == 1 and points.size == dimensions:
+            points = points.reshape(1, dimensions)
+        if points.ndim != 2 or points.shape[1] != dimensions:
+            raise self.fail(call, f"positions of shape {tuple(np.shape(positions))} on mesh '{mesh}' of {dimensions} "
+                                  f"dimensions; expected (n, {dimensions})")
+        if not np.isfinite(points).all():
+            raise self.fail(call, f"positions on mesh '{mesh}' are not finite")
+        first = sum(len(block) for block in self.vertices[mesh])
+        self.vertices[mesh].append(points.copy())
+        return np.arange(first, first + len(points))
+
+    def vertex_count(self, mesh: str) -> int:
+        return sum(len(block) for block in self.vertices[mesh])
+
+    def coordinates(self, mesh: str) -> np.ndarray:
+        blocks = self.vertices[mesh]
+        dimensions = int(self.meshes[mesh]["dimensions"])
+        return np.concatenate(blocks) if blocks else np.zeros((0, dimensions))
+
+    # --- data ---------------------------------------------------------------------------------------------------
+    def _ids(self, call: str, mesh: str, ids: Any) -> np.ndarray:
+        vertex_ids = np.asarray(ids)
+        if vertex_ids.size and vertex_ids.dtype.kind not in "iu":
+            raise self.fail(call, f"vertex ids must be integers, got {vertex_ids.dtype}")
+        vertex_ids = vertex_ids.astype(np.int64).ravel()
+        count = self.vertex_count(mesh)
+        bad = vertex_ids[(vertex_ids < 0) | (vertex_ids >= count)]
+        if bad.size:
+            raise self.fail(call, f"vertex id {int(bad[0])} is not on mesh '{mesh}' ({count} vertices: ids 0 to "
+                                  f"{count - 1})")
+        return vertex_ids
+
+    def write_values(self, call: str, mesh: str, data: str, ids: Any, values: Any) -> None:
+        self.mesh(call, mesh)
+        spec = self.write.get((mesh, data))
+        if spec is None:
+            writes = ", ".join(f"{d} on {m}" for m, d in sorted(self.write)) or "none"
+            raise self.fail(call, f"participant '{self.name}' writes no data '{data}' on mesh '{mesh}' (it writes: {writes})")
+        if self.state == "constructed" and data not in self.setup["initial"]:
+            raise self.fail(call, f"'{data}' is written before initialize only as initial data, and the exchange of "
+                            f"'{data}' has no initialize=\"true\"")
+        if self.state == "finalized":
+            raise self.fail(call, "the participant was finalized")
+        vertex_ids = self._ids(call, mesh, ids)
+        dimensions = int(spec["dimensions"])
+        array = np.asarray(values, dtype=np.float64)
+        expected = (len(vertex_ids),) if dimensions == 1 else (len(vertex_ids), dimensions)
+        if array.shape != expected and array.size == int(np.prod(expected)) and dimensions > 1 and array.ndim == 1:
+            array = array.reshape(expected)     # pyprecice takes a flat vector block too
+        if array.shape != expected:
+            kind = "scalar" if dimensions == 1 else "vector"
+            raise self.fail(call, f"values of shape {array.shape} for {len(vertex_ids)} vertices of {kind} data "
+                                  f"'{data}'; expected {expected}")
+        if not np.isfinite(array).all():
+            raise self.fail(call, f"values of '{data}' are not finite")
+        buffer = self.written.get(data)
+        if buffer is None or len(buffer) != self.vertex_count(mesh):
+            buffer = self.written[data] = np.zeros((self.vertex_count(mesh),) + expected[1:])
+        buffer[vertex_ids] = array
+
+    def read_values(self, call: str, mesh: str, data: str, ids: Any, relative_read_time: float | None) -> np.ndarray:
+        self.mesh(call, mesh)
+        spec = self.read.get((mesh, data))
+        if spec is None:
+            reads = ", ".join(f"{d} on {m}" for m, d in sorted(self.read)) or "none"
+            raise self.fail(call, f"participant '{self.name}' reads no data '{data}' on mesh '{mesh}' (it reads: {reads})")
+        if self.state != "initialized":
+            raise self.fail(call, "data is read after initialize" if self.state == "constructed"
+                            else "the participant was finalized")
+        vertex_ids = self._ids(call, mesh, ids)
+        if relative_read_time is not None:
+            remaining = self.remaining()
+            if relative_read_time < 0 or relative_read_time > remaining * (1 + EPSILON) + EPSILON * self.window:
+                raise self.fail(call, f"relative_read_time {relative_read_time:g} is outside the step (0 to {remaining:g}, what is left of the "
+                                "window)")
+            inside = relative_read_time < remaining - EPSILON * self.window
+            if inside and int(spec["degree"]) > 0:
+                raise self.fail(call, f"reading '{data}' at {relative_read_time:g} s inside the window needs "
+                                      f"waveform-degree {int(spec['degree'])}: interpolation in time comes with "
+                                      f"{NEXT_ISSUE}; use waveform-degree=\"0\" (the window's end value at every "
+                                      "step) or read at the window's end")
+        values = self.received.get(data)
+        dimensions = int(spec["dimensions"])
+        if values is None:
+            values = np.zeros((self.vertex_count(mesh),) if dimensions == 1 else (self.vertex_count(mesh), dimensions))
+        return values[vertex_ids].copy()
+
+    # --- time and the coupling ------------------------------------------------------------------------------------
+    def remaining(self) -> float:
+        return max(self.window - self.elapsed, 0.0)
+
+    def initialize(self, call: str) -> None:
+        if self.state != "constructed":
+            raise self.fail(call, "initialize is called once" if self.state == "initialized"
+                            else "the participant was finalized")
+        for mesh, info in self.meshes.items():
+            if info["provided"] and not self.vertex_count(mesh):
+                raise self.fail(call, f"mesh '{mesh}' has no vertices: set them before initialize")
+        arrays = {"mesh:" + mesh: self.coordinates(mesh) for mesh, info in self.meshes.items() if info["provided"]}
+        for (mesh, data), spec in self.write.items():
+            if data in self.setup["initial"]:
+                arrays["data:" + data] = self._buffer(mesh, data, spec)
+        self.state = "initialized"
+        self._exchange("initialize", {}, arrays)
+
+    def _buffer(self, mesh: str, data: str, spec: dict[str, Any]) -> np.ndarray:
+        count = self.vertex_count(mesh)
+        dimensions = int(spec["dimensions"])
+        shape = (count,) if dimensions == 1 else (count, dimensions)
+        buffer = self.written.get(data)
+        return buffer if buffer is not None and buffer.shape == shape else np.zeros(shape)
+
+    def _exchange(self, op: str, args: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+        """Send the window's end (or the initialisation) and take the coupler's answer: the read data of the
+        window to compute, and whether it is a new window, the same one again, or none (the end)."""
+        result, received = self._request(op, args, arrays)
+        self.received = {name[len("data:"):]: value for name, value in received.items() if name.startswith("data:")}
+        self.ongoing = bool(result["ongoing"])
+        self.window_complete = bool(result["window_complete"])
+        self.write_checkpoint = bool(result["write_checkpoint"])
+        self.read_checkpoint = bool(result["read_checkpoint"])
+        self.window_start = float(result["window_start"])
+        self.window = float(result.get("window", self.window))
+        self.elapsed = 0.0
+        self.read_available = True
+        self._computing_since = (time.perf_counter(), time.process_time())
+
+    def advance(self, call: str, dt: Any) -> None:
+        if self.state != "initialized":
+            raise self.fail(call, "advance before initialize" if self.state == "constructed"
+                            else "the participant was finalized")
+        if not self.ongoing:
+            raise self.fail(call, "the coupling is over (is_coupling_ongoing() is False): call finalize")
+        try:
+            step = float(dt)
+        except (TypeError, ValueError):
+            raise self.fail(call, f"the step {dt!r} is not a number") from None
+        remaining = self.remaining()
+        if not np.isfinite(step) or step <= 0:
+            raise self.fail(call, f"the step {dt!r} must be positive")
+        if step > remaining * (1 + EPSILON) + EPSILON * self.window:
+            raise self.fail(call, f"the step {step:g} is longer than what is left of the window, {remaining:g} "
+                            "(get_max_time_step_size())")
+        self.elapsed += step
+        self.write_checkpoint = self.read_checkpoint = self.window_complete = False
+        if self.remaining() > EPSILON * self.window:
+            self.read_available = False
+            return                                  # a step inside the window: nothing is exchanged
+        arrays = {"data:" + data: self._buffer(mesh, data, spec) for (mesh, data), spec in self.write.items()}
+        wall, cpu = self._computing_since
+        self._exchange("advance", {"compute_seconds": time.perf_counter() - wall,
+                                   "cpu_seconds": time.process_time() - cpu}, arrays)
+
+    def finalize(self, call: str) -> None:
+        if self.state == "finalized":
+            return
+        if self.state == "initialized" and self.ongoing:
+            raise self.fail(call, "finalize while the coupling goes on: advance until is_coupling_ongoing() is False")
+        self.state = "finalized"
+        self._request("finalize")
+        self.connection.close()
