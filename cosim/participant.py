@@ -74,6 +74,10 @@ class ParticipantHub:
                                                            "own run (a wrong or missing token)")
                 continue
             name = next((n for n, known in self.identities.items() if known == identity), None)
+            if header.get("op") == "error" and name is None:      # a participant's misuse before its hello
+                name = str(args.get("participant", ""))
+                self.queues.setdefault(name, deque()).append((header, arrays))
+                continue
             if header.get("op") == "hello" and name is None:
                 name = str(args.get("participant", ""))
                 if name in self.identities:
@@ -150,12 +154,18 @@ class ParticipantProxy:
                 return header, arrays
             stop.check()
             if self.process is not None and self.process.poll() is not None:
+                self.hub.poll(SLICE_SECONDS)        # what it said before it exited (its misuse) comes first
+                if self.hub.queues.get(self.name):
+                    continue
                 code = self.process.poll()
-                tail = self.process.stderr_tail()
+                said = self.process.stderr_tail(1).strip()    # a Python participant's error: its message's line
                 if code == 0:
                     raise ComponentError(self.name, f"exited (code 0) while the coupler waited for {what} "
                                                     f"(its log: {self.process.log_path})")
-                raise ComponentDied(self.name, code, tail, str(self.process.log_path))
+                died = ComponentDied(self.name, code, "", str(self.process.log_path))
+                if said:
+                    died.detail += f"; it said: {said}"
+                raise died
             if time.monotonic() > deadline:
                 error = ComponentTimeout(self.name, what, limit)
                 error.detail = f"did not call {what} within {limit:g} s" + (

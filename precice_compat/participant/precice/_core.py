@@ -45,20 +45,20 @@ class Core:
 
     def __init__(self, api: str, name: str, config: str, rank: int, size: int):
         self.api = api
+        self.name = str(name)
+        self.config = Path(str(config)).resolve()
+        endpoint, token, pid = find_coupler(exchange_directories(self.config, self.name))
+        self.connection = Connection(endpoint, token, pid)
         if not isinstance(name, str) or not name:
-            raise Error(f"{api}: the participant's name must be a non-empty string, got {name!r}")
+            raise self.fail("__init__", f"the participant's name must be a non-empty string, got {name!r}")
         if isinstance(rank, bool) or not isinstance(rank, (int, np.integer)) or \
                 isinstance(size, bool) or not isinstance(size, (int, np.integer)):
-            raise Error(f"{api}: rank and size must be integers, got {rank!r} and {size!r}")
+            raise self.fail("__init__", f"rank and size must be integers, got {rank!r} and {size!r}")
         if size != 1 or rank != 0:
-            raise Error(f"{api}: a parallel participant (rank {rank} of size {size}) is not supported: cosim couples "
-                        "serial participants (rank 0, size 1)")
-        self.name = name
-        self.config = Path(config).resolve()
+            raise self.fail("__init__", f"a parallel participant (rank {rank} of size {size}) is not supported: "
+                                        "cosim couples serial participants (rank 0, size 1)")
         if not self.config.is_file():
-            raise Error(f"{api}: the configuration '{config}' does not exist")
-        endpoint, token, pid = find_coupler(exchange_directories(self.config, name))
-        self.connection = Connection(endpoint, token, pid)
+            raise self.fail("__init__", f"the configuration '{config}' does not exist")
         self.setup, _ = self._request("hello", {"participant": name, "config": str(self.config), "api": api,
                                                 "pid": os.getpid()})
         self.meshes: dict[str, dict[str, Any]] = self.setup["meshes"]
@@ -82,7 +82,7 @@ class Core:
     def fail(self, call: str, why: str) -> Error:
         """The error of a misuse, told to the coupler first (its run stops with this line, not a traceback)."""
         message = f"{self.api}.{call}: {why}"
-        self.connection.tell("error", {"message": message})
+        self.connection.tell("error", {"message": message, "participant": self.name})
         return Error(message)
 
     def _request(self, op: str, args: dict[str, Any] | None = None,

@@ -1,0 +1,368 @@
+"""preCICE cases under cosim: unmodified participants (v3 and v2 APIs) against the native scene bit for bit, the
+configuration read or refused line by line, the API's misuses named, subcycling, and the swap of a participant."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim import protocol
+from cosim.cli import main
+from cosim.results import RunResults
+from cosim.scene import load_scene
+from coupler.run import run_scene
+from tests.conftest import ROOT, TUBE_SCENE, children_of
+
+EXAMPLE = ROOT / "examples" / "precice_tube"
+SHIM = ROOT / "precice_compat" / "participant"
+NAMES = {"pressure": "Pressure", "section": "CrossSectionLength"}
+END = 2.0
+
+
+def native(out: Path, *overrides: str) -> Path:
+    run_scene(load_scene(TUBE_SCENE, [f"time.end={END:g}", *overrides]), out, progress=False)
+    return out
+
+
+def case(out: Path, case_file: Path = EXAMPLE / "case.toml", *overrides: str, fluid: str = "FluidSolver.py",
+         config: str = "../precice-config.xml") -> Path:
+    run_scene(load_scene(case_file, [f"time.end={END:g}",
+                                     f"participants.Fluid.command=python3 {fluid} {config} {END:g}", *overrides]),
+              out, progress=False)
+    return out
+
+
+def same_run(native_out: Path, case_out: Path) -> None:
+    """Every window's iterations, every exchanged field and every coupling residual, bit for bit."""
+    with RunResults(native_out) as a, RunResults(case_out) as b:
+        assert np.array_equal(a.windows.iterations, b.windows.iterations)
+        assert np.array_equal(a.windows.time, b.windows.time)
+        fields_a, fields_b = a.fields(), b.fields()
+        for ours, theirs in NAMES.items():
+            assert fields_a[ours].tobytes() == fields_b[theirs].tobytes(), ours
+        assert a.residuals()[1].tobytes() == b.residuals()[1].tobytes()
+
+
+@pytest.fixture(scope="module")
+def native_run(tmp_path_factory) -> Path:
+    return native(tmp_path_factory.mktemp("native") / "run")
+
+
+def test_tube_participants_on_the_v3_api_give_the_native_run_bit_for_bit(native_run, tmp_path):
+    out = case(tmp_path / "v3")
+    same_run(native_run, out)
+    with RunResults(out) as results:
+        calls = results.calls("Solid")
+        assert len(calls) == results.windows.iterations.sum()          # every sub-iteration recorded
+        assert set(calls.inputs) == {"Pressure"} and set(calls.outputs) == {"CrossSectionLength"}
+        assert results.component("Fluid").meshes["Fluid-Nodes"].shape == (101, 2)
+    assert children_of(os.getpid()) == []
+
+
+def test_tube_participants_on_the_v2_api_give_the_native_run_bit_for_bit(native_run, tmp_path):
+    out = case(tmp_path / "v2", EXAMPLE / "case-v2.toml", fluid="FluidSolverV2.py", config="../precice-config-v2.xml")
+    same_run(native_run, out)
+
+
+def test_a_participant_wire_message_is_cosims_both_ways():
+    """The participant package's own codec and cosim.protocol read each other's messages."""
+    sys.path.insert(0, str(SHIM))
+    try:
+        from precice import _wire
+    finally:
+        sys.path.remove(str(SHIM))
+    arrays = {"data:P": np.linspace(0.0, 1.0, 7), "mesh:M": np.arange(12.0).reshape(6, 2)}
+    header, decoded = protocol.decode(_wire.encode({"op": "advance", "id": 3, "args": {"dt": 0.1}}, arrays))
+    assert header["op"] == "advance" and header["args"] == {"dt": 0.1}
+    assert all(np.array_equal(decoded[k], v) for k, v in arrays.items())
+    frames = [bytes(memoryview(f)) for f in protocol.encode({"id": 3, "ok": True, "result": {"x": 1}}, arrays)]
+    header, decoded = _wire.decode(frames)
+    assert header["result"] == {"x": 1} and all(np.array_equal(decoded[k], v) for k, v in arrays.items())
+    decoded["data:P"][0] = 5.0        # the participant's copy is its own
+
+
+def test_cosim_check_prints_the_scene_a_case_becomes_and_what_set_overrides(capsys):
+    assert main(["check", str(EXAMPLE / "case.toml"), "--set", "time.end=1",
+                 "--set", "coupling.max_iterations=40"]) == 0
+    out, err = capsys.readouterr()
+    assert '"scheme": "serial-implicit"' in out and '"reused_time_windows": 8' in out
+    assert "'coupling.max_iterations' comes from --set, which wins" in err
+    assert "<log> (line 4) is output only" in err
+    assert "valid" in err.splitlines()[-1]
+
+
+def test_resuming_a_case_with_participants_is_refused_in_one_line(tmp_path, capsys):
+    assert main(["run", str(EXAMPLE / "case.toml"), "--out", str(tmp_path / "r"), "--quiet", "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--resume is refused: a preCICE participant keeps its state to itself, and Fluid, " \
+                                "Solid are" in err
+    assert main(["run", str(EXAMPLE / "case.toml"), "--out", str(tmp_path / "r"), "--quiet", "--resume",
+                 "--set", "participants.Solid.backend=rom"]) == 2
+    assert "and Fluid is one" in capsys.readouterr().err
+
+
+# --- configurations cosim refuses, each in one line naming the file and the line ---------------------------------
+TUBE_CONFIG = (EXAMPLE / "precice-config.xml").read_text()
+BAD_CONFIGS = [
+    ("an unknown element", ("<m2n:sockets", "<foo-bar/>\n  <m2n:sockets"), "<foo-bar>: this element is not supported"),
+    ("an unknown attribute", ('<data:scalar name="Pressure" />', '<data:scalar name="Pressure" colour="red" />'),
+     "the attribute 'colour' is not supported"),
+    ("a data name no mesh uses", ('<write-data name="Pressure" mesh="Fluid-Nodes" />',
+                                  '<write-data name="Velocity" mesh="Fluid-Nodes" />'), "no data 'Velocity'"),
+    ("a mapping between unknown meshes", ('from="Solid-Nodes" to="Fluid-Nodes"', 'from="Beam-Nodes" to="Fluid-Nodes"'),
+     "no mesh 'Beam-Nodes' is defined"),
+    ("an RBF basis cosim lacks", ("<mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
+                                  "<mapping:rbf direction=\"read\" from=\"Solid-Nodes\""), "an RBF mapping holds one"),
+    ("a multi coupling scheme", ("coupling-scheme:serial-implicit>", "coupling-scheme:multi>"),
+     "the coupling scheme 'multi' is not supported"),
+    ("suffices", ('limit="1e-4" strict="true" />\n    <relative-convergence-measure data="CrossSectionLength"',
+                  'limit="1e-4" suffices="true" />\n    <relative-convergence-measure data="CrossSectionLength"'),
+     "suffices=\"true\" is not supported"),
+    ("the QR3 filter", ('<filter type="QR2"', '<filter type="QR3"'), "the filter 'QR3' is not supported"),
+    ("substeps", ('to="Solid" initialize="true" />', 'to="Solid" initialize="true" substeps="true" />'),
+     "substeps=\"true\" needs time interpolation"),
+    ("no window size", ('<time-window-size value="0.1" />', ''), "<time-window-size value=\"...\"/> is required"),
+    ("a window size that is no number", ('<time-window-size value="0.1" />', '<time-window-size value="fast" />'),
+     "'value' is 'fast', not a number"),
+    ("an exchange of data its sender does not write", ('data="Pressure" mesh="Fluid-Nodes" from="Fluid" to="Solid"',
+                                                       'data="Pressure" mesh="Fluid-Nodes" from="Solid" to="Fluid"'),
+     "participant 'Solid' does not write 'Pressure'"),
+    ("an undefined participant", ('<participants first="Fluid" second="Solid" />',
+                                  '<participants first="Fluid" second="Structure" />'),
+     "participant 'Structure' is not defined"),
+    ("nearest-projection", ("mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
+                            "mapping:nearest-projection direction=\"read\" from=\"Solid-Nodes\""),
+     "the mapping 'nearest-projection' is not supported"),
+    ("an action", ('<write-data name="Pressure" mesh="Fluid-Nodes" />',
+                   '<write-data name="Pressure" mesh="Fluid-Nodes" />\n    <action:multiply-by-area timing="write-mapping-post" mesh="Fluid-Nodes"/>'),
+     "actions are not supported"),
+    ("not XML", ("</precice-configuration>", "</precice-configuratio>"), "not XML: mismatched tag"),
+    ("a missing mapping", ('    <mapping:nearest-neighbor direction="read" from="Solid-Nodes" to="Fluid-Nodes" '
+                           'constraint="consistent" />\n', ''), "no <mapping:...> maps 'Solid-Nodes' to 'Fluid-Nodes'"),
+    ("a scaled-consistent constraint", ('to="Fluid-Nodes" constraint="consistent"',
+                                        'to="Fluid-Nodes" constraint="scaled-consistent-surface"'),
+     "cosim maps 'consistent' or 'conservative' data"),
+]
+
+
+@pytest.mark.parametrize("what, change, message", BAD_CONFIGS, ids=[b[0] for b in BAD_CONFIGS])
+def test_a_bad_configuration_is_one_line_with_its_file_and_line(tmp_path, capsys, what, change, message):
+    old, new = change
+    assert old in TUBE_CONFIG, what
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu"))
+    (tmp_path / "case" / "precice-config.xml").write_text(TUBE_CONFIG.replace(old, new))
+    code = main(["run", str(tmp_path / "case" / "case.toml"), "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert message in err and "precice-config.xml" in err, err
+    assert not (tmp_path / "out" / "results.h5").exists()
+
+
+# --- participants that misuse the API, or fail -----------------------------------------------------------------
+MISUSES = [
+    ("an unknown mesh", 'participant.set_mesh_vertices("Fluid-Nodes", coords)',
+     'participant.set_mesh_vertices("Fluid-Mesh", coords)', "Participant.set_mesh_vertices: participant 'Fluid' "
+                                                            "uses no mesh 'Fluid-Mesh'"),
+    ("an unknown data name", 'participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, dt)',
+     'participant.read_data("Fluid-Nodes", "Area", vertex_ids, dt)', "Participant.read_data: participant 'Fluid' reads "
+                                                                    "no data 'Area'"),
+    ("a wrong size", 'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)',
+     'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure[:50])',
+     "Participant.write_data: values of shape (50,) for 101 vertices"),
+    ("advance before initialize", "participant.initialize()", "participant.advance(0.1)",
+     "Participant.advance: advance before initialize"),
+    ("a rank of a parallel run", 'precice.Participant("Fluid", config, 0, 1)', 'precice.Participant("Fluid", config, 1, 2)',
+     "a parallel participant (rank 1 of size 2) is not supported"),
+    ("a step beyond the window", "participant.advance(dt)", "participant.advance(2 * dt)",
+     "Participant.advance: the step 0.2 is longer than what is left of the window, 0.1"),
+    ("a vertex id off the mesh", 'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)',
+     'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids + 5, pressure)',
+     "Participant.write_data: vertex id 101 is not on mesh 'Fluid-Nodes'"),
+    ("data written it does not write", 'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)',
+     'participant.write_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, pressure)',
+     "Participant.write_data: participant 'Fluid' writes no data 'CrossSectionLength'"),
+    ("a read inside the window at degree 1", 'participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, dt)',
+     'participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, dt / 2)',
+     "needs waveform-degree 1: interpolation in time comes with time interpolation inside a window"),
+    ("a NaN written", 'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)',
+     'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure * float("nan"))',
+     "Participant.write_data: values of 'Pressure' are not finite"),
+    ("never calling initialize", "participant.initialize()", "raise SystemExit(0)",
+     "component 'Fluid' in start-up: exited (code 0) while the coupler waited for initialize"),
+    ("dying mid-window", "participant.advance(dt)", "os._exit(9) if window == 3 else participant.advance(dt)",
+     "component 'Fluid' in window 4 (t = 0.3 to 0.4), iteration 1: process exited with code 9"),
+    ("finalizing in the middle", "participant.advance(dt)", "participant.finalize()",
+     "Participant.finalize: finalize while the coupling goes on"),
+]
+PARTICIPANT = '''
+import os, sys
+import numpy as np
+import precice
+from fluid_component.tube import TubeFluid
+
+config = sys.argv[1]
+fluid = TubeFluid()
+fluid.instantiate({"tube": {"length": 10.0, "cells": 100, "a0": 1.0}, "inlet": {"f": 2.0, "h": 6.0, "table": ""},
+                   "rho": 1.0, "v_ref": 6.0, "newton_tolerance": 1e-10})
+participant = precice.Participant("Fluid", config, 0, 1)
+coords = np.column_stack([np.linspace(0, 10, 101), np.zeros(101)])
+vertex_ids = participant.set_mesh_vertices("Fluid-Nodes", coords)
+fluid.enter_initialization_mode(0.0, 2.0)
+fluid.exit_initialization_mode()
+participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, fluid.get_values(["pressure"])["pressure"])
+participant.initialize()
+window = 0
+state = None
+while participant.is_coupling_ongoing():
+    if participant.requires_writing_checkpoint():
+        state = fluid.save_state()
+    dt = participant.get_max_time_step_size()
+    section = participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, dt)
+    fluid.set_values({"section": section})
+    fluid.do_step(window * dt, dt)
+    pressure = fluid.get_values(["pressure"])["pressure"]
+    participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)
+    participant.advance(dt)
+    if participant.requires_reading_checkpoint():
+        fluid.restore_state(state)
+    else:
+        window += 1
+participant.finalize()
+'''
+
+
+@pytest.mark.parametrize("what, old, new, message", MISUSES, ids=[m[0] for m in MISUSES])
+def test_a_participant_misusing_the_api_stops_the_run_in_one_line_naming_the_call(tmp_path, capsys, what, old, new,
+                                                                                  message):
+    assert old in PARTICIPANT, what
+    folder = tmp_path / "fluid"
+    folder.mkdir()
+    (folder / "Fluid.py").write_text(PARTICIPANT.replace(old, new, 1))
+    code = main(["run", str(EXAMPLE / "case.toml"), "--out", str(tmp_path / "out"), "--quiet", "--set", "time.end=1",
+                 "--set", f"participants.Fluid.command=python3 Fluid.py {EXAMPLE / 'precice-config.xml'}",
+                 "--set", f"participants.Fluid.cwd={folder}", "--set", "participants.Fluid.startup_timeout=20"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert message in err, err
+    assert children_of(os.getpid()) == []
+
+
+def test_a_participant_that_hangs_is_named_and_stopped(tmp_path, capsys):
+    folder = tmp_path / "fluid"
+    folder.mkdir()
+    (folder / "Fluid.py").write_text(PARTICIPANT.replace("participant.advance(dt)",
+                                                         "__import__('time').sleep(600)"))
+    code = main(["run", str(EXAMPLE / "case.toml"), "--out", str(tmp_path / "out"), "--quiet", "--set", "time.end=1",
+                 "--set", f"participants.Fluid.command={sys.executable} Fluid.py {EXAMPLE / 'precice-config.xml'}",
+                 "--set", f"participants.Fluid.cwd={folder}", "--set", "participants.Fluid.timeout=2"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "component 'Fluid' in window 1" in err and "did not call advance within 2 s" in err, err
+    assert children_of(os.getpid()) == []
+
+
+SUBCYCLING = '''
+import json, sys
+import numpy as np
+import precice
+
+participant = precice.Participant("A", "../config.xml", 0, 1)
+ids = participant.set_mesh_vertices("A-Mesh", [[0.0, 0.0], [1.0, 0.0]])
+x = np.array([1.0, 2.0])
+seen = []
+participant.initialize()
+while participant.is_coupling_ongoing():
+    if participant.requires_writing_checkpoint():
+        saved = x.copy()
+    for step in range(4):
+        dt = participant.get_max_time_step_size() / (4 - step)
+        b = participant.read_data("A-Mesh", "B", ids, dt)
+        seen.append(b.tolist())
+        x = x + dt * (b - x)              # an explicit Euler step towards B's value
+        participant.write_data("A-Mesh", "X", ids, x)
+        participant.advance(dt)
+    if participant.requires_reading_checkpoint():
+        x = saved
+participant.finalize()
+json.dump(seen, open("seen.json", "w"))
+'''
+PARTNER = '''
+import numpy as np
+import precice
+
+participant = precice.Participant("B", "../config.xml", 0, 1)
+ids = participant.set_mesh_vertices("B-Mesh", [[0.0, 0.0], [1.0, 0.0]])
+participant.initialize()
+t = 0.0
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    x = participant.read_data("B-Mesh", "X", ids, dt)
+    participant.write_data("B-Mesh", "B", ids, 0.5 * x + np.sin(t + dt))
+    participant.advance(dt)
+    t += dt
+participant.finalize()
+'''
+SUBCYCLING_CONFIG = '''<?xml version="1.0"?>
+<precice-configuration>
+  <data:scalar name="X" waveform-degree="0"/>
+  <data:scalar name="B" waveform-degree="0"/>
+  <mesh name="A-Mesh" dimensions="2"><use-data name="X"/><use-data name="B"/></mesh>
+  <mesh name="B-Mesh" dimensions="2"><use-data name="X"/><use-data name="B"/></mesh>
+  <participant name="A">
+    <provide-mesh name="A-Mesh"/><receive-mesh name="B-Mesh" from="B"/>
+    <write-data name="X" mesh="A-Mesh"/><read-data name="B" mesh="A-Mesh"/>
+    <mapping:nearest-neighbor direction="read" from="B-Mesh" to="A-Mesh" constraint="consistent"/>
+  </participant>
+  <participant name="B">
+    <provide-mesh name="B-Mesh"/><receive-mesh name="A-Mesh" from="A"/>
+    <write-data name="B" mesh="B-Mesh"/><read-data name="X" mesh="B-Mesh"/>
+    <mapping:nearest-neighbor direction="read" from="A-Mesh" to="B-Mesh" constraint="consistent"/>
+  </participant>
+  <m2n:sockets acceptor="A" connector="B" exchange-directory=".."/>
+  <coupling-scheme:serial-implicit>
+    <participants first="A" second="B"/>
+    <max-time-windows value="10"/>
+    <time-window-size value="0.1"/>
+    <max-iterations value="30"/>
+    <exchange data="X" mesh="A-Mesh" from="A" to="B"/>
+    <exchange data="B" mesh="B-Mesh" from="B" to="A"/>
+    <relative-convergence-measure data="B" mesh="B-Mesh" limit="1e-12"/>
+    <acceleration:IQN-ILS>
+      <data name="B" mesh="B-Mesh"/><initial-relaxation value="0.5"/>
+    </acceleration:IQN-ILS>
+  </coupling-scheme:serial-implicit>
+</precice-configuration>
+'''
+
+
+def test_a_subcycling_participant_reads_the_window_end_value_at_every_step_at_degree_0(tmp_path):
+    """A takes four steps a window; every read gives the window's end value (degree 0), and A's recorded outputs are
+    those of the same solver run by hand on the recorded window inputs."""
+    for name, text in (("A/A.py", SUBCYCLING), ("B/B.py", PARTNER), ("config.xml", SUBCYCLING_CONFIG),
+                       ("case.toml", '[precice]\nconfig = "config.xml"\n[participants.A]\ncommand = "python3 A.py"\n'
+                                     'cwd = "A"\n[participants.B]\ncommand = "python3 B.py"\ncwd = "B"\n')):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+    run_scene(load_scene(tmp_path / "case.toml"), tmp_path / "out", progress=False)
+    import json
+    seen = np.array(json.loads((tmp_path / "A" / "seen.json").read_text()))
+    with RunResults(tmp_path / "out") as results:
+        calls = results.calls("A")
+    inputs, outputs = calls.inputs["B"], calls.outputs["X"]
+    assert len(seen) == 4 * len(calls)
+    assert np.array_equal(seen, np.repeat(inputs, 4, axis=0))      # the window's value at each of its four steps
+    x = np.array([1.0, 2.0])
+    for window in range(1, 11):      # by hand: each window from the last converged state, on its recorded input
+        mine = np.flatnonzero(calls.window == window)
+        start = x
+        for call in mine:
+            x, elapsed = start.copy(), 0.0
+            for step in range(4):           # the steps A takes: what is left of the window over the steps left
+                dt = max(0.1 - elapsed, 0.0) / (4 - step)
+                x = x + dt * (inputs[call] - x)
+                elapsed += dt
+            assert np.array_equal(x, outputs[call])
