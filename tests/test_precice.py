@@ -366,3 +366,39 @@ def test_a_subcycling_participant_reads_the_window_end_value_at_every_step_at_de
                 x = x + dt * (inputs[call] - x)
                 elapsed += dt
             assert np.array_equal(x, outputs[call])
+
+
+@pytest.fixture(scope="module")
+def participant_run(tmp_path_factory) -> Path:
+    return case(tmp_path_factory.mktemp("participants") / "run")
+
+
+def train(results: Path, model: Path, component: str, inputs: str, outputs: str) -> None:
+    assert main(["train", str(results / "results.h5"), "--config", str(ROOT / "scenes" / "tube_rom.toml"),
+                 "--set", "snapshots.t_max=1.2", "--set", f"snapshots.component={component}",
+                 "--set", f"snapshots.input={inputs}", "--set", f"snapshots.output={outputs}",
+                 "--out", str(model)]) == 0
+
+
+def test_the_solid_participant_swapped_for_its_rom_and_its_fmu_by_one_line_runs_as_the_native_rom(
+        native_run, participant_run, tmp_path, capsys):
+    """A ROM trained on the participants' recorded run is the native run's ROM, array for array; swapped in for the
+    solid participant by one line (and its FMU by another), the unmodified fluid participant runs as the native
+    ROM-FOM and FMU-FOM runs do, bit for bit."""
+    train(native_run, tmp_path / "native.npz", "solid", "pressure", "section")
+    train(participant_run, tmp_path / "participant.npz", "Solid", "Pressure", "CrossSectionLength")
+    with np.load(tmp_path / "native.npz") as a, np.load(tmp_path / "participant.npz") as b:
+        numeric = [k for k in a.files if a[k].dtype.kind == "f" and not k.startswith("mesh:")]   # meshes: their names
+        assert numeric and all(np.array_equal(a[k], b[k]) for k in numeric)
+    native_rom = native(tmp_path / "native_rom", "components.solid.backend=rom",
+                        f"components.solid.rom.model={tmp_path / 'native.npz'}", "components.solid.rom.switch_time=0")
+    swapped = case(tmp_path / "swapped", EXAMPLE / "case.toml", "participants.Solid.backend=rom",
+                   f"participants.Solid.rom.model={tmp_path / 'participant.npz'}")
+    same_run(native_rom, swapped)
+    with RunResults(swapped) as results:
+        assert results.component_names() == ["Fluid", "Solid_rom"]
+    assert main(["export-fmu", str(tmp_path / "participant.npz"), "--out", str(tmp_path / "solid.fmu")]) == 0
+    fmu = case(tmp_path / "fmu", EXAMPLE / "case.toml", "participants.Solid.backend=fmu",
+               f"participants.Solid.fmu.path={tmp_path / 'solid.fmu'}")
+    same_run(native_rom, fmu)
+    capsys.readouterr()
