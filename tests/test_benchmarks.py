@@ -255,3 +255,14 @@ def test_acceleration_update_benchmark_small(capsys):
     assert results["same"] and results["updates"] > 50
     assert all(timing.median > 0 for timing in results["rows"].values())
     assert "the replays give the run's bits: True" in capsys.readouterr().out
+
+
+def test_precice_cost_benchmark_small(capsys):
+    """The native tube and its preCICE participants, 2 s each: the same iterations (the same bits), every part of
+    the split positive."""
+    from benchmarks import precice_cost
+    results = precice_cost.main(["--small"])
+    native, participants = results["table"]["native components"], results["table"]["preCICE participants (v3)"]
+    assert native["iterations"] == participants["iterations"] > 20
+    assert all(row[key] > 0 for row in (native, participants) for key in ("compute_us", "wire_us", "coupler_us"))
+    assert "the participant path over the native one" in capsys.readouterr().out
