@@ -19,6 +19,7 @@ import secrets
 import time
 from collections import deque
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -34,6 +35,17 @@ ENDPOINT_VARIABLE, TOKEN_VARIABLE, PID_VARIABLE = ("COSIM_PARTICIPANT_ENDPOINT",
                                                    "COSIM_COUPLER_PID")
 
 
+def _alive(pid: int) -> bool:
+    import os
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 class ParticipantHub:
     """The run's socket for participants: binds loopback, routes each participant's messages to its proxy."""
 
@@ -46,7 +58,20 @@ class ParticipantHub:
         self.token = secrets.token_hex(16)
         self.identities: dict[str, bytes] = {}           # participant name -> its connection
         self.queues: dict[str, deque] = {}               # name -> its requests not yet taken
-        self.strangers: deque = deque()                  # hellos of names no proxy has claimed yet
+        self.announced: list[Path] = []                  # rendezvous files written for participants started by hand
+
+    def announce(self, path: Path) -> None:
+        """Write where the coupler listens, and the token, into ``path`` for participants started by hand (only
+        the owner may read it); it is removed when the hub closes."""
+        import json
+        import os
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f".{path.name}.{os.getpid()}")
+        descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(descriptor, "w") as stream:
+            json.dump({"endpoint": self.endpoint, "token": self.token, "pid": os.getpid()}, stream)
+        os.replace(partial, path)
+        self.announced.append(path)
 
     def environment(self) -> dict[str, str]:
         """What a participant the coupler starts finds in its environment to reach it."""
@@ -104,6 +129,8 @@ class ParticipantHub:
         self.socket.send_multipart([identity, *protocol.encode(header, arrays)], copy=False)
 
     def close(self) -> None:
+        for path in self.announced:
+            path.unlink(missing_ok=True)
         self.socket.close(linger=0)
 
 
@@ -153,6 +180,12 @@ class ParticipantProxy:
                     raise ComponentError(self.name, str((header.get("args") or {}).get("message", "failed")))
                 return header, arrays
             stop.check()
+            if self.process is None and self.pid and not _alive(self.pid):     # started by hand, and gone
+                self.hub.poll(SLICE_SECONDS)
+                if self.hub.queues.get(self.name):
+                    continue
+                raise ComponentError(self.name, f"its process (pid {self.pid}) is gone while the coupler waited for "
+                                                f"{what}")
             if self.process is not None and self.process.poll() is not None:
                 self.hub.poll(SLICE_SECONDS)        # what it said before it exited (its misuse) comes first
                 if self.hub.queues.get(self.name):

@@ -40,6 +40,7 @@ COMPONENT = {
     "address": "",
     "command": "",           # a program that calls the coupler itself (a preCICE participant), run in cwd
     "cwd": FilePath(),
+    "rendezvous": FilePath(),    # or such a program started by hand, which finds the coupler in this file
     "curve": FilePath(),
     "sections": [],
     "parameters": AnyTable(),
@@ -136,6 +137,9 @@ MEANINGS = {
     "component.command": "or a program that owns its time loop and calls the coupler (a preCICE participant, "
                          "[Bring your preCICE case](../precice.md)), run as a shell would split it",
     "component.cwd": "with command: the folder it runs in (default: the scene's)",
+    "component.rendezvous": "or a program that calls the coupler, started by hand: the JSON file where the coupler "
+                            "writes its address and the run's token for it (a preCICE participant looks next to its "
+                            "configuration, `cosim-run/coupler.json`)",
     "component.curve": "with address: a key directory from `cosim keys` (its client.key_secret and server.key); "
                        "the connection is CURVE-authenticated and encrypted, as `cosim serve --curve` serves it",
     "component.sections": "the scene's model sections handed to the component's instantiate (the tube: "
@@ -430,8 +434,9 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
         if key not in known:
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
     for name, spec in components.items():
-        if [bool(spec["entry"]), bool(spec["address"]), bool(spec["command"])].count(True) != 1:
-            raise SceneError(f"{source}: components.{name} needs exactly one of 'entry', 'address' or 'command'")
+        if [bool(spec[k]) for k in ("entry", "address", "command", "rendezvous")].count(True) != 1:
+            raise SceneError(f"{source}: components.{name} needs exactly one of 'entry', 'address', 'command' or "
+                             "'rendezvous'")
         if spec["cwd"] and not spec["command"]:
             raise SceneError(f"{source}: 'components.{name}.cwd' is the folder of a command: set "
                              f"'components.{name}.command' too")

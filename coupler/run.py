@@ -73,6 +73,7 @@ class Backend:
     proxy: ComponentProxy | ParticipantProxy | None = None     # once started
     command: str = ""       # a participant: the program that calls the coupler, and its folder
     cwd: str = ""
+    rendezvous: str = ""    # a participant started by hand: where it finds the coupler
 
     @property
     def client(self) -> ComponentProxy | ParticipantProxy:
@@ -88,7 +89,7 @@ def plan_backends(scene: Scene) -> list[Backend]:
     backends = []
     for name, spec in scene["components"].items():
         fom = Backend(name, name, "fom", spec["entry"], spec["address"], scene.component_parameters(name), start,
-                      command=spec["command"], cwd=spec["cwd"] or str(scene.folder))
+                      command=spec["command"], cwd=spec["cwd"] or str(scene.folder), rendezvous=spec["rendezvous"])
         if spec["backend"] == "fom":
             backends.append(fom)
             continue
@@ -113,18 +114,20 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
     processes = {b.name: launcher.spawn(b.name, b.entry, component_environment(components[b.participant]),
                                         components[b.participant]["cores"], [scene.folder])
                  for b in backends if b.entry}
-    hub = ParticipantHub() if any(b.command for b in backends) else None
+    hub = ParticipantHub() if any(b.command or b.rendezvous for b in backends) else None
     for b in backends:
         if b.command and hub is not None:
             processes[b.name] = launcher.spawn_command(
                 b.name, b.command, b.cwd, {**component_environment(components[b.participant]), **hub.environment()},
                 components[b.participant]["cores"])
+        elif b.rendezvous and hub is not None:
+            hub.announce(Path(b.rendezvous))
     if while_starting is not None:
         while_starting()
     for backend in backends:
         spec = scene["components"][backend.participant]
         process = processes.get(backend.name)
-        if backend.command and hub is not None:
+        if (backend.command or backend.rendezvous) and hub is not None:
             participant = ParticipantProxy(backend.name, hub, process, timeout=spec["timeout"],
                                            startup_timeout=spec["startup_timeout"])
             backend.proxy = participant

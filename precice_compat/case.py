@@ -137,13 +137,9 @@ def _component(config: Config, name: str, spec: dict[str, Any], folder: Path) ->
     if spec.get("command"):
         component.update(command=spec["command"], cwd=str((folder / spec.get("cwd", "")).resolve()),
                          environment=environment, parameters={"setup": setup})
-    elif backend == "participant":
-        raise SceneError(f"'{where}.command' is not set: the case starts participant '{name}' with its command "
-                         f"(or swaps it: '{where}.backend')")
+    else:       # started by hand: it finds the coupler next to its configuration
+        component.update(rendezvous=str(rendezvous_of(config.path)), parameters={"setup": setup})
     if backend in ("rom", "fmu"):
-        if not spec.get("command"):
-            raise SceneError(f"'{where}.backend' is {backend!r}: keep '{where}.command' (the participant the "
-                             f"{backend.upper()} was trained on or stands for), so the swap is one line")
         table = dict(spec.get(backend) or {})
         table["switch_time"] = 0.0      # a participant keeps its state to itself: the swap holds for the whole run
         component["backend"] = backend
@@ -183,13 +179,23 @@ def read_case(path: Path, raw: dict[str, Any]) -> tuple[dict[str, Any], str]:
     return scene, "\n".join(config.notes)
 
 
+def rendezvous_of(config: Path) -> Path:
+    """Where a participant started by hand finds the coupler of its configuration: ``cosim-run/coupler.json`` next
+    to the configuration (the participant's ``precice`` package looks there)."""
+    return config.resolve().parent / "cosim-run" / "coupler.json"
+
+
 class PreciceCases:
-    """The scene reader (``cosim.scene_readers``) of preCICE cases: a TOML file with a ``[precice]`` table."""
+    """The scene reader (``cosim.scene_readers``) of preCICE cases: a TOML file with a ``[precice]`` table, or a
+    ``precice-config.xml`` alone (every participant started by hand)."""
 
     table = "precice"
-    suffixes: tuple[str, ...] = ()
+    suffixes = (".xml",)
     case_keys = CASE_KEYS
 
     @staticmethod
     def read(path: Path, raw: dict[str, Any] | None) -> tuple[dict[str, Any], str]:
-        return read_case(path, raw or {})
+        if raw is None:
+            config = read_config(path)
+            return scene_of(config, {}, path.parent), "\n".join(config.notes)
+        return read_case(path, raw)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -14,9 +15,10 @@ import pytest
 from cosim import protocol
 from cosim.cli import main
 from cosim.results import RunResults
+from cosim.rundir import read_status
 from cosim.scene import load_scene
 from coupler.run import run_scene
-from tests.conftest import ROOT, TUBE_SCENE, children_of
+from tests.conftest import ROOT, TUBE_SCENE, children_of, wait_for
 
 EXAMPLE = ROOT / "examples" / "precice_tube"
 SHIM = ROOT / "precice_compat" / "participant"
@@ -25,7 +27,7 @@ END = 2.0
 
 
 def native(out: Path, *overrides: str) -> Path:
-    run_scene(load_scene(TUBE_SCENE, [f"time.end={END:g}", *overrides]), out, progress=False)
+    run_scene(load_scene(TUBE_SCENE, [f"time.end={END:g}", *overrides]), out, progress=False)   # later --set wins
     return out
 
 
@@ -402,3 +404,28 @@ def test_the_solid_participant_swapped_for_its_rom_and_its_fmu_by_one_line_runs_
                f"participants.Solid.fmu.path={tmp_path / 'solid.fmu'}")
     same_run(native_rom, fmu)
     capsys.readouterr()
+
+
+def test_participants_started_by_hand_start_their_coupler_and_run_as_the_native_scene(tmp_path):
+    """Two terminals, one participant in each, no third command: the first participant starts the coupler (cosim on
+    PATH), the second finds it next to the configuration; the run is the native scene's, and nothing is left."""
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
+    config = tmp_path / "case" / "precice-config.xml"
+    config.write_text(config.read_text().replace('<max-time value="120" />', '<max-time value="1" />'))
+    environment = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+                   "PYTHONPATH": os.pathsep.join([str(SHIM), str(ROOT)])}
+    environment.pop("COSIM_PARTICIPANT_ENDPOINT", None)
+    fluid = subprocess.Popen([sys.executable, "FluidSolver.py", "../precice-config.xml", "1"],
+                             cwd=tmp_path / "case" / "fluid-python", env=environment, stderr=subprocess.PIPE, text=True)
+    solid = subprocess.Popen([sys.executable, "SolidSolver.py", "../precice-config.xml"],
+                             cwd=tmp_path / "case" / "solid-python", env=environment, stderr=subprocess.PIPE, text=True)
+    for participant in (fluid, solid):
+        _, err = participant.communicate(timeout=120)
+        assert participant.returncode == 0, err
+    runs = list((tmp_path / "case" / "cosim-run" / "runs").iterdir())
+    assert len(runs) == 1
+    wait_for(lambda: read_status(runs[0]).get("state") == "finished", "the coupler to finish")
+    wait_for(lambda: not (tmp_path / "case" / "cosim-run" / "coupler.json").exists(), "the rendezvous to go")
+    with RunResults(runs[0]) as by_hand, RunResults(native(tmp_path / "native", "time.end=1")) as reference:
+        assert np.array_equal(by_hand.windows.iterations, reference.windows.iterations)
+        assert by_hand.fields()["Pressure"].tobytes() == reference.fields()["pressure"].tobytes()

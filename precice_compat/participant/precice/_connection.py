@@ -2,8 +2,8 @@
 
 ``cosim run`` starts a participant with ``COSIM_PARTICIPANT_ENDPOINT`` (the coupler's loopback address) and
 ``COSIM_PARTICIPANT_TOKEN`` (the run's secret) in its environment. A participant started by hand finds them in
-``cosim-run/coupler.json`` of the configuration's exchange directory, which the coupler writes (``cosim run``
-on the configuration). While it waits, the participant checks every half second that the coupler still runs, and
+``cosim-run/coupler.json`` next to its configuration, which the coupler writes (``cosim run CONFIG.xml``); the first
+participant started by hand starts that coupler if none runs. While it waits, the participant checks every half second that the coupler still runs, and
 stops if it is gone: a coupler's death leaves no participant behind.
 """
 
@@ -24,7 +24,7 @@ from precice import _wire
 ENDPOINT = "COSIM_PARTICIPANT_ENDPOINT"
 TOKEN = "COSIM_PARTICIPANT_TOKEN"
 COUPLER_PID = "COSIM_COUPLER_PID"
-RUN_FILE = Path("cosim-run") / "coupler.json"
+RUN_FILE = Path("cosim-run") / "coupler.json"     # next to the configuration
 SLICE_MS = 500
 FIND_SECONDS = 60.0
 
@@ -43,26 +43,58 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def find_coupler(exchange_directories: list) -> tuple[str, str, int]:
-    """The coupler's (endpoint, token, pid): from the environment ``cosim run`` gives a participant it starts, or
-    from ``cosim-run/coupler.json`` in one of ``exchange_directories`` (waited for up to a minute)."""
+def _running(path: Path) -> tuple[str, str, int] | None:
+    """(endpoint, token, pid) of the live coupler ``path`` names, or None."""
+    try:
+        found = json.loads(path.read_text())
+        pid = int(found["pid"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return (str(found["endpoint"]), str(found.get("token", "")), pid) if _alive(pid) else None
+
+
+def find_coupler(config: Path) -> tuple[str, str, int]:
+    """The coupler's (endpoint, token, pid): from the environment ``cosim run`` gives a participant it starts; else
+    from ``cosim-run/coupler.json`` next to the configuration, starting the coupler first if none runs (the first
+    participant started by hand does, with the ``cosim`` command on PATH or in ``$COSIM``)."""
     if os.environ.get(ENDPOINT):
         return os.environ[ENDPOINT], os.environ.get(TOKEN, ""), int(os.environ.get(COUPLER_PID) or os.getppid())
-    deadline = time.monotonic() + FIND_SECONDS
-    files = [Path(folder) / RUN_FILE for folder in exchange_directories]
-    while True:
-        for path in files:
-            try:
-                found = json.loads(path.read_text())
-            except (OSError, ValueError):
-                continue
-            if _alive(int(found.get("pid", 0))):
-                return str(found["endpoint"]), str(found.get("token", "")), int(found["pid"])
-        if time.monotonic() > deadline:
-            written = " or ".join(map(str, files))
-            raise Error(f"no cosim coupler runs for this configuration: start it with `cosim run CONFIG.xml` (it "
-                        f"writes {written}), or run the case with `cosim run CASE.toml`")
-        time.sleep(0.1)
+    folder = config.parent / RUN_FILE.parent
+    rendezvous = config.parent / RUN_FILE
+    found = _running(rendezvous)
+    if found:
+        return found
+    import fcntl
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)          # one participant starts the coupler; the other waits for it
+        found = _running(rendezvous)
+        if found is None:
+            _start_coupler(config, folder)
+        deadline = time.monotonic() + FIND_SECONDS
+        while found is None:
+            time.sleep(0.05)
+            found = _running(rendezvous)
+            if found is None and time.monotonic() > deadline:
+                raise Error(f"the coupler started for {config} did not answer within {FIND_SECONDS:g} s (its log: "
+                            f"{folder / 'coupler.log'})")
+    return found
+
+
+def _start_coupler(config: Path, folder: Path) -> None:
+    """``cosim run CONFIG --out cosim-run/runs/<time>`` in a session of its own, its output in cosim-run's log."""
+    import shutil
+    import subprocess
+    import sys
+    cosim = os.environ.get("COSIM") or shutil.which("cosim")
+    if not cosim:
+        raise Error(f"no cosim coupler runs for {config}, and no `cosim` command starts one: put cosim on PATH or "
+                    f"set COSIM=/path/to/cosim, or start `cosim run {config}` first")
+    out = folder / "runs" / f"{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
+    with open(folder / "coupler.log", "ab") as log:
+        subprocess.Popen([cosim, "run", str(config), "--out", str(out), "--quiet"], stdin=subprocess.DEVNULL,
+                         stdout=log, stderr=log, start_new_session=True)
+    print(f"cosim: started the coupler for {config.name}; its run goes to {out}", file=sys.stderr)
 
 
 class Connection:

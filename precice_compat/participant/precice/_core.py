@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import os
 import time
-import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import Any
 
@@ -25,21 +24,6 @@ EPSILON = 1e-9        # relative tolerance of times: a step that reaches the win
 NEXT_ISSUE = "time interpolation inside a window (waveform iteration, cosim's next preCICE feature)"
 
 
-def exchange_directories(config: Path, participant: str) -> list[str]:
-    """The exchange directories of ``participant``'s m2n connections in ``config`` (relative ones from the working
-    directory, as preCICE resolves them)."""
-    try:
-        root = ElementTree.parse(config).getroot()
-    except (OSError, ElementTree.ParseError):
-        return ["."]
-    found = []
-    for element in root.iter():
-        if element.tag.startswith("m2n:") and participant in (element.get("acceptor"), element.get("connector"),
-                                                              element.get("from"), element.get("to")):
-            found.append(element.get("exchange-directory") or ".")
-    return found or ["."]
-
-
 class Core:
     """One participant's coupling state; ``api`` names the calls in messages (``Participant`` or ``Interface``)."""
 
@@ -47,7 +31,7 @@ class Core:
         self.api = api
         self.name = str(name)
         self.config = Path(str(config)).resolve()
-        endpoint, token, pid = find_coupler(exchange_directories(self.config, self.name))
+        endpoint, token, pid = find_coupler(self.config)
         self.connection = Connection(endpoint, token, pid)
         if not isinstance(name, str) or not name:
             raise self.fail("__init__", f"the participant's name must be a non-empty string, got {name!r}")
