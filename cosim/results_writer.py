@@ -388,6 +388,9 @@ def draw_plots(plots: Mapping[str, Any]) -> None:
     from cosim.plots import plot_run
     results = Path(plots["folder"]) / "results.h5"
     plot_run(results, plots["png"], plots["output"])
+    if plots["output"].get("watch_points"):
+        from cosim.watch_points import write as write_watch_points
+        write_watch_points(results, plots["folder"], plots["output"]["watch_points"])
     available = {e.name: e for e in entry_points(group="cosim.run_plots")}
     for name in plots.get("hooks") or ():
         available[name].load()(results, Path(plots["folder"]))

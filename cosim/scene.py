@@ -83,6 +83,7 @@ SCHEMA: dict[str, Any] = {
     "stability": {"grid": [], "methods": [], "windows": Value(20, low=1), "settings": []},
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
                "plots": [],   # a scene's own run plots: names of cosim.run_plots entry points
+               "watch_points": [],   # a component's data at a point, window by window (cosim.watch_points)
                "checkpoint_every": Value(0, low=0)},
 }
 LISTS = {"exchange": EXCHANGE}
@@ -125,6 +126,9 @@ MEANINGS = {
     "output.plot_index": "the value of that field drawn",
     "output.plot_label": "its label in run.png",
     "output.plot_unit": "its unit in run.png",
+    "output.watch_points": "tables of component, mesh, name and coordinate: the component's data at the mesh's "
+                           "vertex nearest the coordinate, window by window, into "
+                           "DIR/precice-<component>-watchpoint-<name>.log (preCICE's watch points)",
     "output.plots": "the scene's own run plots: names of `cosim.run_plots` entry points (the double flap: "
                     "\"double_flap\")",
     "exchange.data": "the exchanged variable's name (an output of `from`, an input of `to`)",
@@ -464,6 +468,8 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
     for section in sections:
         data.setdefault(section, raw[section])   # "time" may be handed to components too (validated)
     _check_consistency(data, source)
+    from cosim.watch_points import check as check_watch_points
+    check_watch_points(data["output"]["watch_points"], data["components"], source)
     return data
 
 

@@ -119,9 +119,13 @@ def scene_of(config: Config, participants: dict[str, dict[str, Any]], folder: Pa
     }
     if scheme["acceleration"] is not None:
         coupling["acceleration"] = {k: v for k, v in scheme["acceleration"].items() if k != "line"}
+    watch_points = [{"component": participant.name, "mesh": point["mesh"], "name": point["name"],
+                     "coordinate": point["coordinate"]}
+                    for participant in config.participants.values() if participant.name in components
+                    for point in participant.watch_points]
     return {"name": name or f"preCICE case {config.path.name}", "time": {"start": 0.0, "end": end, "dt": window},
             "components": components, "exchange": exchanges, "coupling": coupling,
-            "output": {"plot_field": config.exchanges[0].data}}
+            "output": {"plot_field": config.exchanges[0].data, "watch_points": watch_points}}
 
 
 def _component(config: Config, name: str, spec: dict[str, Any], folder: Path) -> dict[str, Any]:

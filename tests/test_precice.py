@@ -429,3 +429,71 @@ def test_participants_started_by_hand_start_their_coupler_and_run_as_the_native_
     with RunResults(runs[0]) as by_hand, RunResults(native(tmp_path / "native", "time.end=1")) as reference:
         assert np.array_equal(by_hand.windows.iterations, reference.windows.iterations)
         assert by_hand.fields()["Pressure"].tobytes() == reference.fields()["pressure"].tobytes()
+
+
+OLD_NUMPY = "1.26.4"
+
+
+@pytest.fixture(scope="module")
+def old_numpy_python() -> Path:
+    """A second venv with numpy 1.26, pyzmq and msgpack (kept in ~/.cache/cosim across runs), and the participant
+    package pip-installed into it from this checkout."""
+    venv = Path.home() / ".cache" / "cosim" / "venvs" / f"participant-numpy-{OLD_NUMPY}"
+    python = venv / "bin" / "python"
+    if not (venv / ".ready").exists():
+        shutil.rmtree(venv, ignore_errors=True)
+        subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True)
+        done = subprocess.run([str(python), "-m", "pip", "install", "--quiet", f"numpy=={OLD_NUMPY}", "pyzmq",
+                               "msgpack"], capture_output=True, text=True, timeout=600)
+        if done.returncode != 0:
+            pytest.skip(f"numpy {OLD_NUMPY} cannot be installed here: {done.stderr.strip().splitlines()[-1:]}")
+        (venv / ".ready").touch()
+    subprocess.run([str(python), "-m", "pip", "install", "--quiet", "--no-deps", "--force-reinstall", str(SHIM)],
+                   check=True, capture_output=True, timeout=300)
+    return python
+
+
+def test_a_participant_in_its_own_venv_with_numpy_1_runs(old_numpy_python, tmp_path):
+    """The participant package installed alone, beside numpy 1.26, couples a participant with cosim's coupler."""
+    for name, text in (("A/A.py", SUBCYCLING.replace('json.dump(seen, open("seen.json", "w"))',
+                                                     'json.dump([np.__version__, precice.__file__, seen], '
+                                                     'open("seen.json", "w"))')),
+                       ("B/B.py", PARTNER), ("config.xml", SUBCYCLING_CONFIG),
+                       ("case.toml", f'[precice]\nconfig = "config.xml"\n[participants.A]\ncommand = '
+                                     f'"{old_numpy_python} A.py"\ncwd = "A"\n[participants.B]\n'
+                                     'command = "python3 B.py"\ncwd = "B"\n')):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+    environment_path = os.environ.get("PYTHONPATH", "")
+    try:       # the participant's own venv: nothing of this checkout on its path but what cosim gives every participant
+        os.environ["PYTHONPATH"] = ""
+        summary = run_scene(load_scene(tmp_path / "case.toml"), tmp_path / "out", progress=False)
+    finally:
+        os.environ["PYTHONPATH"] = environment_path
+    import json
+    version, where, seen = json.loads((tmp_path / "A" / "seen.json").read_text())
+    assert version == OLD_NUMPY and summary.windows == 10 and len(seen) == 4 * summary.iterations
+    assert Path(where).is_relative_to(SHIM)          # cosim puts its own package first for the participants it starts
+    installed = subprocess.run([str(old_numpy_python), "-c", "import precice, numpy; print(precice.__file__, "
+                                "numpy.__version__, precice.Participant, precice.Interface)"],
+                               capture_output=True, text=True, env={"PATH": os.environ["PATH"]}, check=True).stdout
+    assert "site-packages" in installed and OLD_NUMPY in installed     # the package installed alone imports there
+
+
+def test_a_watch_point_writes_precices_log_of_the_data_at_its_vertex(tmp_path):
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
+    config = tmp_path / "case" / "precice-config.xml"
+    config.write_text(config.read_text().replace(
+        '<write-data name="Pressure" mesh="Fluid-Nodes" />',
+        '<write-data name="Pressure" mesh="Fluid-Nodes" />\n    <watch-point mesh="Fluid-Nodes" name="Inlet" '
+        'coordinate="0.04;0.0" />'))
+    out = case(tmp_path / "out", tmp_path / "case" / "case.toml", "time.end=1")
+    log = out / "precice-Fluid-watchpoint-Inlet.log"
+    header, *rows = log.read_text().splitlines()
+    assert header.split() == ["Time", "Coordinate0", "Coordinate1", "Pressure", "CrossSectionLength"]
+    table = np.array([[float(v) for v in row.split()] for row in rows])
+    with RunResults(out) as results:
+        assert np.array_equal(table[:, 0], results.windows.time)
+        assert np.array_equal(table[:, 3], results.fields()["Pressure"][:, 0])          # the vertex nearest x = 0.04
+        used = results.calls("Fluid", converged_only=True).inputs["CrossSectionLength"]   # what the fluid read
+        assert np.array_equal(table[:, 4], used[:, 0])
