@@ -58,6 +58,7 @@ class ParticipantHub:
         self.token = secrets.token_hex(16)
         self.identities: dict[str, bytes] = {}           # participant name -> its connection
         self.queues: dict[str, deque] = {}               # name -> its requests not yet taken
+        self.expected: set[str] = set()                  # the participants the run has (their proxies)
         self.announced: list[Path] = []                  # rendezvous files written for participants started by hand
 
     def announce(self, path: Path) -> None:
@@ -105,6 +106,10 @@ class ParticipantHub:
                 continue
             if header.get("op") == "hello" and name is None:
                 name = str(args.get("participant", ""))
+                if name not in self.expected:
+                    self.reply(identity, header.get("id"), error=f"this run has no participant '{name}' (its "
+                                                                 f"participants: {', '.join(sorted(self.expected))})")
+                    continue
                 if name in self.identities:
                     self.reply(identity, header.get("id"), error=f"a participant named '{name}' is connected "
                                                                "already")
@@ -154,6 +159,7 @@ class ParticipantProxy:
         self.timeout = timeout
         self.startup_timeout = startup_timeout
         self.endpoint = hub.endpoint
+        hub.expected.add(name)
         self.pid: int | None = process.pid if process else None
         self.variables: dict[str, Variable] = {}
         self.meshes: dict[str, np.ndarray] = {}

@@ -142,8 +142,8 @@ MEANINGS = {
                          "[Bring your preCICE case](../precice.md)), run as a shell would split it",
     "component.cwd": "with command: the folder it runs in (default: the scene's)",
     "component.rendezvous": "or a program that calls the coupler, started by hand: the JSON file where the coupler "
-                            "writes its address and the run's token for it (a preCICE participant looks next to its "
-                            "configuration, `cosim-run/coupler.json`)",
+                            "writes its address and the run's token for it (a preCICE participant looks in the "
+                            "folder cosim-run next to its configuration)",
     "component.curve": "with address: a key directory from `cosim keys` (its client.key_secret and server.key); "
                        "the connection is CURVE-authenticated and encrypted, as `cosim serve --curve` serves it",
     "component.sections": "the scene's model sections handed to the component's instantiate (the tube: "

@@ -115,6 +115,8 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
                                         components[b.participant]["cores"], [scene.folder])
                  for b in backends if b.entry}
     hub = ParticipantHub() if any(b.command or b.rendezvous for b in backends) else None
+    if hub is not None:
+        hub.expected = {b.name for b in backends if b.command or b.rendezvous}
     for b in backends:
         if b.command and hub is not None:
             processes[b.name] = launcher.spawn_command(

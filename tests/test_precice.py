@@ -200,6 +200,9 @@ MISUSES = [
      "component 'Fluid' in window 4 (t = 0.3 to 0.4), iteration 1: process exited with code 9"),
     ("finalizing in the middle", "participant.advance(dt)", "participant.finalize()",
      "Participant.finalize: finalize while the coupling goes on"),
+    ("a name the run does not have", 'precice.Participant("Fluid", config, 0, 1)',
+     'precice.Participant("Fluids", config, 0, 1)', "this run has no participant 'Fluids' (its participants: Fluid, "
+                                                      "Solid)"),
 ]
 PARTICIPANT = '''
 import os, sys
