@@ -27,23 +27,14 @@ import zmq
 
 from cosim import protocol, stop
 from cosim.component import Variable
-from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimError, NonFiniteOutput, ProtocolError
+from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimError, ProtocolError
 from cosim.launcher import ComponentProcess
+from cosim.proxy import checked_outputs
+from cosim.rundir import alive
 
 SLICE_SECONDS = 0.05
 ENDPOINT_VARIABLE, TOKEN_VARIABLE, PID_VARIABLE = ("COSIM_PARTICIPANT_ENDPOINT", "COSIM_PARTICIPANT_TOKEN",
                                                    "COSIM_COUPLER_PID")
-
-
-def _alive(pid: int) -> bool:
-    import os
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 class ParticipantHub:
@@ -169,6 +160,7 @@ class ParticipantProxy:
         self.roundtrip_seconds: list[float] = []
         self._pending: dict[str, Any] | None = None     # the request the participant waits on
         self._initial: dict[str, np.ndarray] = {}
+        self._written: list[str] = []       # the data it writes: every window-ending advance carries them
         self._window: tuple[float, float] | None = None   # (t, dt) of the last step answered
         self._sent_at = 0.0
         self._closed = False
@@ -186,7 +178,7 @@ class ParticipantProxy:
                     raise ComponentError(self.name, str((header.get("args") or {}).get("message", "failed")))
                 return header, arrays
             stop.check()
-            if self.process is None and self.pid and not _alive(self.pid):     # started by hand, and gone
+            if self.process is None and self.pid and not alive(self.pid):     # started by hand, and gone
                 self.hub.poll(SLICE_SECONDS)
                 if self.hub.queues.get(self.name):
                     continue
@@ -256,11 +248,8 @@ class ParticipantProxy:
                 variables.append(Variable(spec["data"], causality, len(nodes) * dimensions, mesh=spec["mesh"],
                                           components=dimensions))
         self.variables = {v.name: v for v in variables}
-        for name, value in self._initial.items():
-            self.check_outputs({name: value}, what="initial data")
-
-    def describe(self) -> dict[str, Any]:
-        return {"name": self.name, "variables": list(self.variables.values())}
+        self.check_outputs(self._initial)
+        self._written = sorted(v.name for v in variables if v.causality == "output")
 
     def enter_initialization_mode(self, start: float, stop: float) -> None:
         pass
@@ -299,7 +288,7 @@ class ParticipantProxy:
         self._pending = header
         args = header.get("args") or {}
         outputs = {name[len("data:"):]: value for name, value in arrays.items() if name.startswith("data:")}
-        missing = sorted(set(v.name for v in self.variables.values() if v.causality == "output") - set(outputs))
+        missing = [name for name in self._written if name not in outputs]
         if missing:
             raise ComponentError(self.name, f"its advance carried no '{missing[0]}'")
         compute = float(args.get("compute_seconds", roundtrip))
@@ -313,18 +302,9 @@ class ParticipantProxy:
         self.send_step(t, dt, inputs)
         return self.receive_step()
 
-    def check_outputs(self, arrays: Mapping[str, np.ndarray], what: str = "output") -> dict[str, np.ndarray]:
-        """Write data as the participant's setup declares it; a wrong shape, NaN or Inf is an error."""
-        for name, value in arrays.items():
-            variable = self.variables.get(name)
-            if variable is None:
-                raise ComponentError(self.name, f"wrote '{name}', which it does not write")
-            if value.shape != variable.shape:
-                raise ComponentError(self.name, f"{what} '{name}' has shape {value.shape}, but its mesh "
-                                                f"'{variable.mesh}' gives shape {variable.shape}")
-            if not np.isfinite(value).all():
-                raise NonFiniteOutput(self.name, name, value)
-        return dict(arrays)
+    def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Write data as the participant's setup and its mesh declare it; a wrong shape, NaN or Inf is an error."""
+        return checked_outputs(self.name, self.variables, arrays)
 
     # --- the end ------------------------------------------------------------------------------------------------
     def terminate(self) -> dict[str, np.ndarray]:

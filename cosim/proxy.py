@@ -289,13 +289,20 @@ class ComponentProxy:
     # --- checks -------------------------------------------------------------
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Outputs as declared by ``describe``; a wrong name or length (naming both shapes), NaN or Inf is an error."""
-        for name, value in arrays.items():
-            variable = self.variables.get(name)
-            if variable is None:
-                raise ComponentError(self.name, f"returned '{name}', which it did not declare")
-            if value.shape != variable.shape:
-                raise ComponentError(self.name, f"output '{name}' has shape {value.shape}, "
-                                                f"but the component declared shape {variable.shape}")
-            if value.dtype.kind == "f" and not _all_true(np.isfinite(value), axis=None):
-                raise NonFiniteOutput(self.name, name, value)
-        return dict(arrays)
+        return checked_outputs(self.name, self.variables, arrays)
+
+
+def checked_outputs(component: str, variables: Mapping[str, Variable],
+                    arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``arrays`` if each is a variable ``component`` declared, of its shape, with no NaN nor Inf; else the error that
+    names the component, the variable and both shapes (or the first non-finite value)."""
+    for name, value in arrays.items():
+        variable = variables.get(name)
+        if variable is None:
+            raise ComponentError(component, f"returned '{name}', which it did not declare")
+        if value.shape != variable.shape:
+            raise ComponentError(component, f"output '{name}' has shape {value.shape}, "
+                                            f"but the component declared shape {variable.shape}")
+        if value.dtype.kind == "f" and not _all_true(np.isfinite(value), axis=None):
+            raise NonFiniteOutput(component, name, value)
+    return dict(arrays)

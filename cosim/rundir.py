@@ -133,7 +133,7 @@ def _lock_or_wait_for_writer(fd: int) -> None:
             return
         except BlockingIOError:
             holder = os.pread(fd, 64, 0).decode(errors="replace").strip()
-            if _alive(int(holder) if holder.isdigit() else None) or time.monotonic() > deadline:
+            if alive(int(holder) if holder.isdigit() else None) or time.monotonic() > deadline:
                 raise
             time.sleep(0.02)
 
@@ -151,7 +151,7 @@ def settling(path: str | Path) -> bool:
         return False
     except BlockingIOError:
         holder = os.pread(fd, 64, 0).decode(errors="replace").strip()
-        return holder.isdigit() and not _alive(int(holder))
+        return holder.isdigit() and not alive(int(holder))
     finally:
         os.close(fd)
 
@@ -163,12 +163,13 @@ def read_status(path: str | Path) -> dict[str, Any]:
         status = json.loads((Path(path) / STATUS).read_text())
     except (OSError, ValueError):
         return {}
-    if status.get("state") in ("starting", "running") and not _alive(status.get("pid")):
+    if status.get("state") in ("starting", "running") and not alive(status.get("pid")):
         status["state"] = "died"
     return status
 
 
-def _alive(pid: Any) -> bool:
+def alive(pid: Any) -> bool:
+    """Whether a process of this pid runs on this machine."""
     if not isinstance(pid, int) or pid <= 0:
         return False
     try:

@@ -393,8 +393,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
         with log, Launcher(out_dir / "logs") as launcher:
             try:
                 components_started = time.perf_counter()
-                # the coupler imports what its acceleration computes with while the components start
-                hub = start_backends(scene, backends, launcher, while_starting=load_linalg)
+                hub = start_backends(scene, backends, launcher, while_starting=_import_while_components_start)
                 store.ready()
                 for b in backends:
                     log.event(f"component '{b.name}': {b.entry or b.address or b.command}, pid {b.client.pid}, at "
@@ -545,6 +544,13 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                              started=started, windows_at_start=windows_at_start,
                              time=start + windows * dt)
     return RunSummary(out_dir, windows, iterations, wall, unconverged)
+
+
+def _import_while_components_start() -> None:
+    """What the coupler computes with, imported while its components start: the acceleration's LAPACK, and the
+    window's rows of the results file (h5py)."""
+    load_linalg()
+    import cosim.results  # noqa: F401
 
 
 def _final_attributes(store: ResultsWriter, scheme: CouplingScheme | None,

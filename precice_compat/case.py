@@ -22,6 +22,7 @@ the coupler writes where it listens into each participant's exchange directory (
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -136,8 +137,7 @@ def _component(config: Config, name: str, spec: dict[str, Any], folder: Path) ->
                                  "startup_timeout": spec.get("startup_timeout", 60.0)}
     backend = spec.get("backend", "participant")
     environment = {str(k): str(v) for k, v in (spec.get("environment") or {}).items()}
-    environment["PYTHONPATH"] = str(PARTICIPANT_SHIM) + (
-        ":" + environment["PYTHONPATH"] if environment.get("PYTHONPATH") else "")
+    environment["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PARTICIPANT_SHIM), environment.get("PYTHONPATH")]))
     if spec.get("command"):
         component.update(command=spec["command"], cwd=str((folder / spec.get("cwd", "")).resolve()),
                          environment=environment, parameters={"setup": setup})
