@@ -179,6 +179,18 @@ class Component:
         arrays returned may be the component's own buffers, rewritten by its next call (by default: ``step``)."""
         return self.step(t, dt, inputs)
 
+    def input_at(self, name: str, time: float) -> np.ndarray:
+        """Input ``name`` at ``time`` inside the window being computed, as the coupler interpolates it (a
+        component that subcycles, ``cosim.subcycling``): between the steps' inputs for a Runge-Kutta stage, say."""
+        window = getattr(self, "window_inputs", None)
+        if window is None:
+            raise ComponentError(self.name, f"input_at('{name}', {time:g}) outside a subcycled step: set "
+                                            f"components.<name>.substeps or an exchange's waveform_degree")
+        try:
+            return window.at(name, time)
+        except ComponentError as exc:
+            raise ComponentError(self.name, exc.detail) from None
+
     def output_names(self) -> list[str]:
         return [v.name for v in self.variables() if v.causality == "output"]
 

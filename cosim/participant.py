@@ -141,6 +141,7 @@ class ParticipantProxy:
     history_windows = 0
     curve = ""
     saved_state: int | None = None
+    reads_waveforms = True         # its reads inside a window evaluate the waveform the step carries
 
     def __init__(self, name: str, hub: ParticipantHub, process: ComponentProcess | None = None,
                  timeout: float = 120.0, startup_timeout: float = 60.0):
@@ -164,6 +165,7 @@ class ParticipantProxy:
         self._window: tuple[float, float] | None = None   # (t, dt) of the last step answered
         self._sent_at = 0.0
         self._closed = False
+        self.substeps: tuple[np.ndarray, dict[str, np.ndarray]] | None = None   # its last advance's samples
         self.setup: dict[str, Any] = {}
 
     # --- waiting for the participant -----------------------------------------------------------------------------
@@ -264,17 +266,21 @@ class ParticipantProxy:
 
     # --- the coupling -------------------------------------------------------------------------------------------
     def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
-                  save: bool = False, free: int | None = None) -> None:
-        """Answer the pending ``initialize`` or ``advance``: the window [t, t + dt] to compute with ``inputs``, as a
-        new window or the last one again."""
+                  save: bool = False, free: int | None = None,
+                  waveforms: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
+        """Answer the pending ``initialize`` or ``advance``: the window [t, t + dt] to compute with ``inputs`` (the
+        window-end values) and ``waveforms`` (data of degree >= 1: the B-spline's knots and coefficients across the
+        window), as a new window or the last one again."""
         repeat = self._window is not None and abs(self._window[0] - t) <= 1e-9 * max(1.0, abs(t))
         first = self._pending is not None and self._pending.get("op") == "initialize"
         implicit = bool(self.setup.get("implicit", True))
         self._window = (t, dt)
         self._sent_at = time.perf_counter()
+        arrays = {f"data:{name}": np.asarray(value) for name, value in inputs.items()}
+        for name, (knots, coefficients) in (waveforms or {}).items():
+            arrays[f"knots:{name}"], arrays[f"coefficients:{name}"] = knots, coefficients
         self._answer({"ongoing": True, "window_complete": not repeat and not first, "window_start": t, "window": dt,
-                      "write_checkpoint": implicit and not repeat, "read_checkpoint": repeat},
-                     {f"data:{name}": np.asarray(value) for name, value in inputs.items()})
+                      "write_checkpoint": implicit and not repeat, "read_checkpoint": repeat}, arrays)
 
     def receive_step(self) -> dict[str, np.ndarray]:
         """The write data of the participant's next window-ending ``advance``."""
@@ -291,15 +297,39 @@ class ParticipantProxy:
         missing = [name for name in self._written if name not in outputs]
         if missing:
             raise ComponentError(self.name, f"its advance carried no '{missing[0]}'")
+        self.substeps = self._samples(arrays)
         compute = float(args.get("compute_seconds", roundtrip))
         self.compute_seconds.append(compute)
         self.cpu_seconds.append(float(args.get("cpu_seconds", compute)))
         self.roundtrip_seconds.append(roundtrip)
         return self.check_outputs(outputs)
 
+    def _samples(self, arrays: Mapping[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        """The samples an advance carries from the participant's steps inside the window (data with substeps):
+        their normalised times, strictly inside (0, 1) and increasing, and each data item's values there."""
+        times = arrays.get("times")
+        if times is None:
+            return None
+        times = np.asarray(times, dtype=float)
+        if times.ndim != 1 or not (np.all(np.diff(times) > 0) and times.size and 0 < times[0] and times[-1] < 1):
+            raise ComponentError(self.name, f"its substeps' times {np.round(times, 6).tolist()} are not increasing "
+                                            "inside the window")
+        samples = {}
+        for name in self._written:
+            stacked = arrays.get(f"substeps:{name}")
+            if stacked is None:
+                continue
+            expected = (len(times),) + self.variables[name].shape
+            if stacked.shape != expected or not np.isfinite(stacked).all():
+                raise ComponentError(self.name, f"its substeps of '{name}' have shape {stacked.shape} (expected "
+                                                f"{expected}) or are not finite")
+            samples[name] = stacked
+        return (times, samples) if samples else None
+
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
-             save: bool = False, free: int | None = None) -> dict[str, np.ndarray]:
-        self.send_step(t, dt, inputs)
+             save: bool = False, free: int | None = None,
+             waveforms: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> dict[str, np.ndarray]:
+        self.send_step(t, dt, inputs, waveforms=waveforms)
         return self.receive_step()
 
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:

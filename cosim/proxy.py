@@ -69,6 +69,10 @@ class ComponentProxy:
         self.cpu_seconds: list[float] = []         # per step: the component process's CPU time
         self.roundtrip_seconds: list[float] = []
         self._sent_at = 0.0
+        self.substep_count = 1          # the steps it takes per window (cosim.subcycling)
+        self.reads_waveforms = False    # its steps get the waveforms of its inputs of degree >= 1
+        self.substeps: tuple[np.ndarray, dict[str, np.ndarray]] | None = None     # its last step's samples
+        self.substep_calls: list[tuple[dict, dict]] = []     # and each of its steps' inputs and outputs
 
     # --- transport --------------------------------------------------------
     def send(self, op: str, args: Mapping[str, Any] | None = None,
@@ -214,26 +218,50 @@ class ComponentProxy:
         self.call("do_step", {"t": t, "dt": dt})
 
     def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
-                  save: bool = False, free: int | None = None) -> None:
+                  save: bool = False, free: int | None = None,
+                  waveforms: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
         """First half of ``step``: lets the coupler run several components concurrently. With a server that
-        ``step_saves_state``: ``free`` a state handle first, ``save`` the state before the step (``saved_state``)."""
+        ``step_saves_state``: ``free`` a state handle first, ``save`` the state before the step (``saved_state``).
+        A component that subcycles gets its step count and ``waveforms`` (``cosim.subcycling``)."""
         args: dict[str, Any] = {"t": t, "dt": dt, "restore": restore}
         if save:
             args["save"] = True
         if free is not None:
             args["free"] = free
+        if self.substep_count > 1:
+            args["substeps"] = self.substep_count
+        if waveforms:
+            inputs = dict(inputs)
+            for name, (knots, coefficients) in waveforms.items():
+                inputs[f"knots:{name}"], inputs[f"coefficients:{name}"] = knots, coefficients
         self.send("step", args, inputs)
 
     def receive_step(self) -> dict[str, np.ndarray]:
         result, arrays, _ = self.receive()
         if "state" in result:
             self.saved_state = int(result["state"])
+        if "times" in arrays:
+            return self._subcycled(arrays)
         return self.check_outputs(arrays)
 
+    def _subcycled(self, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """A subcycled step's reply: the last outputs; the samples inside the window and each step's call kept."""
+        times = arrays.pop("times")
+        samples = {name[len("substeps:"):]: arrays.pop(name) for name in list(arrays) if name.startswith("substeps:")}
+        given = {name[len("inputs:"):]: arrays.pop(name) for name in list(arrays) if name.startswith("inputs:")}
+        outputs = self.check_outputs(arrays)
+        self.substeps = (times, samples) if len(times) else None
+        steps = len(times) + 1
+        self.substep_calls = [({name: value[k] for name, value in given.items()},
+                               {name: samples[name][k] if k < steps - 1 else outputs[name] for name in outputs})
+                              for k in range(steps)]
+        return outputs
+
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
-             save: bool = False, free: int | None = None) -> dict[str, np.ndarray]:
+             save: bool = False, free: int | None = None,
+             waveforms: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> dict[str, np.ndarray]:
         """free_state, set_state, get_state (each optional), set_values, do_step, get_values in one round trip."""
-        self.send_step(t, dt, inputs, restore, save, free)
+        self.send_step(t, dt, inputs, restore, save, free, waveforms)
         return self.receive_step()
 
     def get_state(self) -> int:

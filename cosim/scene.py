@@ -47,6 +47,7 @@ COMPONENT = {
     "record": False,
     "timeout": Positive(120.0),
     "startup_timeout": Positive(60.0),
+    "substeps": Value(1, low=1),    # steps per window (cosim.subcycling)
     "threads": Positive(1),
     "cores": [],
     "environment": AnyTable(),
@@ -57,7 +58,8 @@ COMPONENT = {
     "fmu": OpenTable(BACKEND),
 }
 BACKENDS = "cosim.backends"     # entry points: a backend kind's component class, registered by its package
-EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity")}
+EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity"),
+            "waveform_degree": Value(0, low=0, high=3), "substeps": False}
 MAX_WINDOWS = 10_000_000
 MAX_FILE_BYTES = 16 << 20
 SCHEMA: dict[str, Any] = {
@@ -135,6 +137,11 @@ MEANINGS = {
     "exchange.from": "the component that sends it",
     "exchange.to": "the component that receives it",
     "exchange.mapping": "how values go from the sender's mesh to the receiver's: a registered mapping (below)",
+    "exchange.waveform_degree": "the receiver's interpolation in time across the window (docs/time.md): 0, the "
+                                "window-end value at every step; 1, linear through the window's start, the sender's "
+                                "substeps and its end; 2 or 3, the B-spline of that degree through them",
+    "exchange.substeps": "the sender's values at each of its steps inside the window are sent, not only the "
+                         "window's end (a participant that subcycles); the acceleration works on all of them",
     "component.entry": "the component's class, \"package.module:Class\", started as a local process (a module next "
                        "to the scene is found)",
     "component.address": "or the address of a component started by hand with `cosim serve`",
@@ -152,6 +159,10 @@ MEANINGS = {
     "component.record": "record every call (every sub-iteration) into /snapshots/<name>: a ROM's training set",
     "component.timeout": "seconds a request may take before the run stops naming the component",
     "component.startup_timeout": "seconds the process may take to start and answer",
+    "component.substeps": "steps the component takes per window, each of dt / substeps, with its inputs "
+                          "interpolated in time at the step's end (the exchange's waveform_degree; docs/time.md); "
+                          "its outputs at the steps inside the window go with the window's end when the exchange has "
+                          "substeps",
     "component.threads": "OpenMP and BLAS threads of the component's process",
     "component.cores": "CPU cores the component's process may run on (Linux affinity; empty: any)",
     "component.environment": "extra environment variables of the component's process",
@@ -446,6 +457,13 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
                              f"'components.{name}.command' too")
         if spec["address"]:
             _address(spec["address"], f"components.{name}.address", source)
+        if spec["substeps"] > 1 and (spec["command"] or spec["rendezvous"]):
+            raise SceneError(f"{source}: 'components.{name}.substeps' is {spec['substeps']}, but '{name}' is a program "
+                             "that calls the coupler: it takes its own steps (get_max_time_step_size), remove it")
+        if spec["substeps"] > 1 and spec["backend"] != "fom" and spec[spec["backend"]]["switch_time"] > 0:
+            raise SceneError(f"{source}: 'components.{name}.substeps' is {spec['substeps']} with a switch of backend "
+                             f"during the run (components.{name}.{spec['backend']}.switch_time): a component that "
+                             "subcycles is served by one backend from the start (switch_time = 0)")
         if spec["curve"] and not spec["address"]:
             raise SceneError(f"{source}: 'components.{name}.curve' is set, but CURVE is for a component served by "
                              f"hand: set 'components.{name}.address' too")
@@ -549,6 +567,13 @@ def _check_consistency(data: dict[str, Any], source: str) -> None:
             raise SceneError(f"{source}: '{where}' is '{name}', but serial-implicit accelerates the data the second "
                              f"participant '{second}' sends: {', '.join(fed_back) or 'none'}")
     kind = acceleration.get("type", "none") if isinstance(acceleration, dict) else acceleration
+    iterated = fed_back if coupling["scheme"] == "serial-implicit" else sorted(exchanged)
+    for i, exchange in enumerate(data["exchange"]):
+        if exchange["substeps"] and coupling["scheme"] not in EXPLICIT and kind != "none" and accelerated \
+                and exchange["data"] in iterated and exchange["data"] not in accelerated:
+            raise SceneError(f"{source}: 'exchange.{i}.substeps' is on for '{exchange['data']}', which the "
+                             f"acceleration does not hold (coupling.acceleration.data: {', '.join(accelerated)}): "
+                             "add it there, or exchange the window's end alone")
     if coupling["scheme"] in EXPLICIT and (kind != "none" or coupling["predictor"] != "none"):
         key = "coupling.acceleration" if kind != "none" else "coupling.predictor"
         raise SceneError(f"{source}: '{key}' is set, but {coupling['scheme']} takes one iteration a window and "

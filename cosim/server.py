@@ -31,6 +31,7 @@ from cosim.checkpoint import pack, unpack
 from cosim.component import Component
 from cosim.errors import ComponentError, CosimError, ProtocolError
 from cosim.launcher import TOKEN_VARIABLE
+from cosim.subcycling import WindowInputs, split_waveforms, subcycle
 
 PARENT_CHECK_SECONDS = 0.5
 
@@ -195,7 +196,13 @@ class ComponentServer:
         if restore is not None:
             component.set_state(restore)
         saved = component.get_state() if args.get("save") else None
-        outputs = component.served_step(protocol.number(args, "t"), protocol.number(args, "dt"), real_inputs(arrays))
+        t, dt = protocol.number(args, "t"), protocol.number(args, "dt")
+        inputs, splines = split_waveforms(real_inputs(arrays))
+        substeps = int(args.get("substeps") or 1)
+        if substeps > 1 or splines:
+            outputs = subcycle(component, t, dt, WindowInputs(t, dt, inputs, splines), substeps)
+        else:
+            outputs = component.served_step(t, dt, inputs)
         return outputs if saved is None else {**outputs, "state": saved}
 
     def handle(self, frames: list, peer: bytes = b"") -> tuple[list, bool]:

@@ -17,6 +17,7 @@ result ``x_tilde = H(x)`` (``observe``), and proposes the next iterate
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,7 @@ class Acceleration:
     HELP: dict[str, str] = {}
 
     def __init__(self, block_sizes: list[int] | None = None) -> None:
+        self.block_sizes = block_sizes
         self.x = np.zeros(0)           # the window's last iterate and the fixed-point map's value there,
         self.x_tilde = np.zeros(0)     # set by observe before any update
         self.iteration = 0
@@ -61,6 +63,12 @@ class Acceleration:
         """A participant's backend changed (ROM and full-order solver): the map x -> H(x) is another one.
 
         Called before the first ``observe`` under the new map; what was learnt of the old map goes."""
+
+    def regrid(self, transform: Callable[[np.ndarray], np.ndarray], block_sizes: list[int]) -> None:
+        """The iterates' samples in time moved to another grid (a producer's substeps changed): every vector kept
+        goes through ``transform``, which resamples a difference of iterates onto the new grid; ``block_sizes``
+        are the data items' new sizes. Called before the first ``observe`` on the new grid."""
+        self.block_sizes = block_sizes
 
 
 @ACCELERATIONS.register("constant")
@@ -109,6 +117,11 @@ class Aitken(Acceleration):
                 self.omega = -self.omega * float(self._r_previous @ dr) / denominator
         self._r_previous = r
         return self.x + self.omega * r
+
+    def regrid(self, transform: Callable[[np.ndarray], np.ndarray], block_sizes: list[int]) -> None:
+        super().regrid(transform, block_sizes)
+        if self._r_previous is not None:
+            self._r_previous = transform(self._r_previous)
 
 
 @ACCELERATIONS.register("iqn-ils")
@@ -200,6 +213,16 @@ class IQNILS(Acceleration):
             W.insert(0, x_tilde - self._xt_previous)
             self._cap(min(self.max_columns, x.size))
         self._r_previous, self._xt_previous = r, x_tilde.copy()
+
+    def regrid(self, transform: Callable[[np.ndarray], np.ndarray], block_sizes: list[int]) -> None:
+        """Every column (of this window and the reused ones) resampled; no column spans the change."""
+        super().regrid(transform, block_sizes)
+        for V, W in self._windows:
+            V[:] = [transform(v) for v in V]
+            W[:] = [transform(w) for w in W]
+        self._r_previous = self._xt_previous = None
+        self._weights = None
+        self._cap(min(self.max_columns, sum(block_sizes)))     # no more columns than unknowns
 
     def _cap(self, limit: int) -> None:
         """Delete the oldest columns beyond ``limit``."""
@@ -397,6 +420,11 @@ class IQNIMVJ(IQNILS):
         super().map_changed()
         if self.on_map_change == "drop-all":
             self.jacobian, self.windows_since_restart = None, 0
+
+    def regrid(self, transform: Callable[[np.ndarray], np.ndarray], block_sizes: list[int]) -> None:
+        """The Jacobian of the old grid starts afresh (as at a restart); the window's columns are resampled."""
+        super().regrid(transform, block_sizes)
+        self.jacobian, self.windows_since_restart = None, 0
 
     def next_iterate(self) -> np.ndarray:
         r = self.x_tilde - self.x

@@ -142,6 +142,7 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
             endpoint = backend.address
         curve = spec["curve"] if process is None else ""    # a launched component is on loopback, never CURVE
         backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"], curve=curve)
+        backend.proxy.substep_count = spec["substeps"]
         if process is None:
             deadline = spec["startup_timeout"] if address_deadline is None else address_deadline
             try:
@@ -216,7 +217,12 @@ def build_scheme(scene: Scene, proxies: dict[str, Participant],
         out_var, in_var = source.variables[data], target.variables[data]
         mapping = make_mapping(spec["mapping"], source.mesh_of(data), target.mesh_of(data),
                                out_var.shape, in_var.shape, f"exchange.{i} ({data})")
-        exchanges.append(Exchange(data, source, target, mapping))
+        exchanges.append(Exchange(data, source, target, mapping, spec["waveform_degree"], spec["substeps"]))
+        if spec["waveform_degree"] > 0 and isinstance(target, ComponentProxy):
+            target.reads_waveforms = True
+    for proxy in proxies.values():
+        if isinstance(proxy, ComponentProxy) and proxy.substep_count > 1:
+            proxy.reads_waveforms = True
     participants = [proxies[name] for name in coupling["participants"]]
     measures = [make_measure(m) for m in coupling["convergence"]]
     check_precision(coupling["convergence"], {e.data: e.source.variables[e.data].precision for e in exchanges})

@@ -5,6 +5,14 @@ reports iterations, convergence, residual measures and the window's values of
 every exchanged data item. Data values are kept on the producer's nodes and mapped
 when sent. In implicit schemes stateful participants are rolled back with
 ``set_state`` (fused into the step request) before every repeated iteration.
+
+Waveforms (``coupler.waveform``): a producer that steps several times in a window (a participant with
+``substeps``) sends its samples with the window's end. An iterate is then, per data item, the window-end value
+(``values``) and the substeps' samples (``series``: normalised times and values). A reader of degree >= 1 gets the
+interpolant through the window's start, the samples and the end. The acceleration works on every sample of the
+window, concatenated per item (samples, then the end), on the time grid of the producer's latest iteration; the
+convergence measures, the extrapolation and the predictors on the window-end values alone. Without substeps an
+iterate is its end values, and everything is as it was.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ from coupler.linalg import norm
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
+from coupler.waveform import resampling, spline
 
 # a scene component as a scheme sees it: one process, a program that calls the coupler (a preCICE participant), or a
 # schedule of backends (full order, then a ROM)
@@ -58,6 +67,11 @@ class Exchange:
     source: Participant
     target: Participant
     mapping: InterfaceMapping
+    degree: int = 0           # the reader's interpolant in time across the window (coupler.waveform)
+    substeps: bool = False    # the producer's samples inside the window are sent
+
+
+Series = dict[str, tuple[np.ndarray, np.ndarray]]    # data -> (normalised times inside the window, samples there)
 
 
 @dataclass
@@ -90,6 +104,10 @@ class CouplingScheme:
         self.on_max_iterations = on_max_iterations
         self.recorders = dict(recorders or {})
         self.values: dict[str, np.ndarray] = {}
+        self.series: Series = {}                  # the last window's substep samples, per data item
+        self._window_start: dict[str, np.ndarray] = {}    # the window's start values (the last window's ends)
+        self._grid: dict[str, np.ndarray] = {}    # the accelerated data's times inside the window, as the
+                                                  # acceleration's columns hold them
         self.divergence_factor = divergence_factor
         self.window = 0
         self.iteration = 0
@@ -109,6 +127,9 @@ class CouplingScheme:
         window counter, the data values, the extrapolation's history, the predictor's start, the acceleration's
         columns or Jacobian, the measures' and the backend schedules' state. Taken between windows."""
         return {"window": self.window, "values": self.values, "next_start": self._next_start,
+                "series": {"times": {name: pair[0] for name, pair in self.series.items()},
+                           "samples": {name: pair[1] for name, pair in self.series.items()}},
+                "grid": self._grid,
                 "extrapolation": object_state(self._extrapolation),
                 "acceleration": object_state(self.acceleration, skip=("surrogate",)),
                 "surrogate": self.surrogate.checkpoint_state() if self.surrogate is not None else None,
@@ -120,6 +141,9 @@ class CouplingScheme:
         """Go on from ``checkpoint_state`` of an earlier run of the same scene (after ``initialize``)."""
         self.window = state["window"]
         self.values = dict(state["values"])
+        stored = state.get("series") or {"times": {}, "samples": {}}
+        self.series = {name: (times, stored["samples"][name]) for name, times in stored["times"].items()}
+        self._grid = dict(state.get("grid") or {})
         self._next_start = state["next_start"]
         restore_object(self._extrapolation, state["extrapolation"])
         restore_object(self.acceleration, state["acceleration"])
@@ -182,7 +206,7 @@ class CouplingScheme:
         estimate of the fixed point, better than the last value (the solvers are not called).
         """
         if converged and self.predictor == "acceleration" and self.accelerated:
-            self._next_start = self._next_iterate(self.accelerated)
+            self._next_start = self._next_iterate(self.accelerated)[0]
 
     @staticmethod
     def _stateful(proxy: Participant) -> TypeGuard[ComponentProxy]:
@@ -194,7 +218,105 @@ class CouplingScheme:
         return {e.data: e.mapping(values[e.data]) for e in self.exchanges if e.target is target}
 
     def block_sizes(self, names: Sequence[str]) -> list[int]:
-        return [self.values[n].size for n in names]
+        return [self.values[n].size * (1 + len(self._grid.get(n, ()))) for n in names]
+
+    def waveforms_for(self, target: Participant, values: Mapping[str, np.ndarray],
+                      series: Series) -> dict[str, Any]:
+        """``{"waveforms": {data: (knots, coefficients)}}`` for a target that reads in time (a participant), for its
+        data of degree >= 1: the B-spline through the window's start, the samples and the end, on its mesh."""
+        if not getattr(target, "reads_waveforms", False):
+            return {}
+        waveforms = {}
+        for e in self.exchanges:
+            if e.target is not target or e.degree < 1:
+                continue
+            start = self._window_start.get(e.data, values[e.data])
+            if e.data not in series:       # start and end: the line through them
+                waveforms[e.data] = (np.array([0.0, 0.0, 1.0, 1.0]),
+                                     np.stack([e.mapping(start), e.mapping(values[e.data])]))
+                continue
+            times, samples = series[e.data]
+            mapped = np.stack([e.mapping(start), *(e.mapping(sample) for sample in samples),
+                               e.mapping(values[e.data])])
+            interpolant = spline(np.concatenate([[0.0], times, [1.0]]), mapped, e.degree)
+            waveforms[e.data] = (interpolant.t, interpolant.c)
+        return {"waveforms": waveforms} if waveforms else {}
+
+    def _take_series(self, proxy: Participant, series: Series) -> None:
+        """The substep samples ``proxy``'s last step sent, into ``series`` (its data without samples leave it)."""
+        sent = getattr(proxy, "substeps", None)
+        for name in self.sent_by(proxy):
+            series.pop(name, None)
+        if sent:
+            times, samples = sent
+            series.update({name: (times, value) for name, value in samples.items()})
+
+    def _degree(self, name: str) -> int:
+        return max((e.degree for e in self.exchanges if e.data == name), default=0)
+
+    def _on_grid(self, values: Mapping[str, np.ndarray], series: Series, name: str,
+                 times: np.ndarray) -> np.ndarray:
+        """The samples of ``name`` at ``times`` inside the window: its own where the grids agree, else its waveform
+        (start, samples, end; the reader's degree) evaluated there."""
+        own = series.get(name)
+        if own is not None and np.array_equal(own[0], times):
+            return own[1]
+        inner, samples = own if own is not None else (np.zeros(0), values[name][None][:0])
+        known = np.concatenate([[0.0], inner, [1.0]])
+        stacked = np.concatenate([self._window_start.get(name, values[name])[None], samples, values[name][None]])
+        matrix = resampling(known, self._degree(name), times)
+        return np.tensordot(matrix, stacked, axes=1)
+
+    def _iterates(self, values: Mapping[str, np.ndarray], series: Series, out: Mapping[str, np.ndarray],
+                  out_series: Series, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """x and H(x) of the accelerated data as vectors: with substeps, every sample on the time grid of the
+        producer's output (the acceleration's columns brought onto it when it changed), then the end."""
+        grid = {name: out_series[name][0] for name in names if name in out_series}
+        if not grid and not self._grid:
+            return self._stack(values, names), self._stack(out, names)
+        if set(grid) != set(self._grid) or any(not np.array_equal(grid[n], self._grid[n]) for n in grid):
+            self._regrid(grid, names)
+        x = np.concatenate([part for name in names for part in (
+            (self._on_grid(values, series, name, grid[name]).ravel(),) if name in grid else ()) + (values[name].ravel(),)])
+        x_tilde = np.concatenate([part for name in names for part in (
+            (out_series[name][1].ravel(),) if name in grid else ()) + (out[name].ravel(),)])
+        return x, x_tilde
+
+    def _regrid(self, grid: dict[str, np.ndarray], names: Sequence[str]) -> None:
+        """The accelerated data's time grid changed: the acceleration's columns (differences of iterates of one
+        window: zero at its start) resampled onto the new grid, item by item."""
+        old = {name: self._grid.get(name, np.zeros(0)) for name in names}
+        new = {name: grid.get(name, np.zeros(0)) for name in names}
+        sizes = {name: self.values[name].size for name in names}
+
+        def transform(vector: np.ndarray) -> np.ndarray:
+            parts, start = [], 0
+            for name in names:
+                count = len(old[name]) + 1
+                block = vector[start:start + count * sizes[name]].reshape(count, sizes[name])
+                start += count * sizes[name]
+                matrix = resampling(np.concatenate([[0.0], old[name], [1.0]]), max(self._degree(name), 1),
+                                    np.concatenate([new[name], [1.0]]))[:, 1:]
+                parts.append((matrix @ block).ravel())
+            return np.concatenate(parts)
+
+        self._grid = {name: times for name, times in grid.items()}
+        self.acceleration.regrid(transform, self.block_sizes(names))
+
+    def _unstack(self, vector: np.ndarray, names: Sequence[str]) -> tuple[dict[str, np.ndarray], Series]:
+        """Inverse of ``_iterates``' vector: end values, and samples on the grid."""
+        if not self._grid:
+            return self._split(vector, names), {}
+        values, series, start = {}, {}, 0
+        for name in names:
+            shape, size = self.values[name].shape, self.values[name].size
+            times = self._grid.get(name)
+            if times is not None:
+                series[name] = (times, vector[start:start + len(times) * size].reshape((len(times),) + shape))
+                start += len(times) * size
+            values[name] = vector[start:start + size].reshape(shape)
+            start += size
+        return values, series
 
     @staticmethod
     def _stack(values: Mapping[str, np.ndarray], names: Sequence[str]) -> np.ndarray:
@@ -214,7 +336,13 @@ class CouplingScheme:
     def _record(self, proxy: Participant, iteration: int, inputs: Mapping[str, np.ndarray],
                 outputs: Mapping[str, np.ndarray]) -> None:
         recorder = self.recorders.get(proxy.name)
-        if recorder is not None:
+        if recorder is None:
+            return
+        steps = getattr(proxy, "substep_calls", None) if getattr(proxy, "substep_count", 1) > 1 else None
+        if steps:        # a component that subcycles: each of its steps is a call
+            for step_inputs, step_outputs in steps:
+                recorder.record(self.window, iteration, step_inputs, step_outputs)
+        else:
             recorder.record(self.window, iteration, inputs, outputs)
 
     def _save_states(self) -> None:
@@ -263,6 +391,7 @@ class CouplingScheme:
         return f"window {self.window} (t = {self.t:g} to {self.t + self.dt:g}), iteration {self.iteration}"
 
     def _begin(self, t: float, dt: float) -> None:
+        self._window_start = dict(self.values)
         self.window += 1
         self.t, self.dt = t, dt
         self.iteration = 0
@@ -278,14 +407,14 @@ class CouplingScheme:
             self.acceleration.map_changed()
         self.acceleration.observe(x, x_tilde)
 
-    def _next_iterate(self, accelerated: Sequence[str]) -> dict[str, np.ndarray]:
+    def _next_iterate(self, accelerated: Sequence[str]) -> tuple[dict[str, np.ndarray], Series]:
         proposal = self.acceleration.next_iterate()
         if not np.isfinite(proposal).all():
             error = DivergenceError(f"the acceleration produced non-finite values (residual norms of this window: "
                                     f"{', '.join(f'{r:.3e}' for r in self._residuals)})")
             error.where = self.position()
             raise error
-        return self._split(proposal, accelerated)
+        return self._unstack(proposal, accelerated)
 
     def _begin_implicit_window(self) -> dict[str, np.ndarray]:
         """Save states, reset acceleration and measures; the first iterate's data values."""
@@ -297,13 +426,14 @@ class CouplingScheme:
             m.start_window()
         return self._predicted()
 
-    def _end_implicit_window(self, values: dict[str, np.ndarray], t: float, iterations: int,
+    def _end_implicit_window(self, values: dict[str, np.ndarray], series: Series, t: float, iterations: int,
                              converged: bool) -> WindowResult:
         self.acceleration.end_window()
         if self.surrogate is not None:
             self.surrogate.end_window(converged)
         self._free_states()
         self.values = values
+        self.series = series
         return self._finish(t, iterations, converged)
 
     def _finish(self, t: float, iterations: int, converged: bool) -> WindowResult:
@@ -370,11 +500,12 @@ class SerialExplicit(CouplingScheme):
         self.iteration = 1
         for proxy in (self.first, self.second):
             inputs = self.inputs_for(proxy, self.values)
-            proxy.send_step(t, dt, inputs)
+            proxy.send_step(t, dt, inputs, **self.waveforms_for(proxy, self.values, self.series))
             self.run_deferred()
             outputs = proxy.receive_step()
             self._record(proxy, 1, inputs, outputs)
             self.values.update({k: outputs[k] for k in self.sent_by(proxy)})
+            self._take_series(proxy, self.series)
         return self._finish(t + dt, 1, True)
 
 
@@ -390,14 +521,17 @@ class ParallelExplicit(CouplingScheme):
         proxies = (self.first, self.second)
         inputs = {p.name: self.inputs_for(p, self.values) for p in proxies}
         for p in proxies:
-            p.send_step(t, dt, inputs[p.name])
+            p.send_step(t, dt, inputs[p.name], **self.waveforms_for(p, self.values, self.series))
         self.run_deferred()
         outputs: dict[str, np.ndarray] = {}
+        series = dict(self.series)
         for p in proxies:
             returned = p.receive_step()
             self._record(p, 1, inputs[p.name], returned)
             outputs.update({k: returned[k] for k in self.sent_by(p)})
+            self._take_series(p, series)
         self.values.update(outputs)
+        self.series = series
         return self._finish(t + dt, 1, True)
 
 
@@ -413,32 +547,44 @@ class SerialImplicit(CouplingScheme):
         forward, feedback = self.sent_by(self.first), self.sent_by(self.second)
         accelerated = self.accelerated
         values = self._begin_implicit_window()
+        series: Series = {}          # the predicted iterate has no samples inside the window
         converged = False
         for iteration in range(1, self.max_iterations + 1):
             self.iteration = iteration
             inputs_first = self.inputs_for(self.first, values)
-            self.first.send_step(t, dt, inputs_first, **self._step_options(self.first, iteration))
+            self.first.send_step(t, dt, inputs_first, **self._step_options(self.first, iteration),
+                                 **self.waveforms_for(self.first, values, series))
             self.run_deferred()
             out_first = self.first.receive_step()
             self._stepped(self.first, iteration)
             self._record(self.first, iteration, inputs_first, out_first)
+            self._take_series(self.first, series)
             inputs_second = self.inputs_for(self.second, out_first)
-            out_second = self.second.step(t, dt, inputs_second, **self._step_options(self.second, iteration))
+            out_second = self.second.step(t, dt, inputs_second, **self._step_options(self.second, iteration),
+                                          **self.waveforms_for(self.second, out_first, series))
+            out_series: Series = {}
+            self._take_series(self.second, out_series)
             self._stepped(self.second, iteration)
             self._record(self.second, iteration, inputs_second, out_second)
             converged = all([m.measure(values[m.data], out_first[m.data] if m.data in forward else out_second[m.data])
                              for m in self.measures])
             values.update({k: out_first[k] for k in forward})
-            x, x_tilde = self._stack(values, accelerated), self._stack(out_second, accelerated)
+            x, x_tilde = self._iterates(values, series, out_second, out_series, accelerated)
             if self.surrogate is not None:
                 self.surrogate.observe(x, self._stack(out_first, forward), x_tilde)
             self._observe(x, x_tilde)
             values.update({k: out_second[k] for k in feedback})
+            series.update({k: v for k, v in out_series.items() if k in feedback})
+            for name in feedback:
+                if name not in out_series:
+                    series.pop(name, None)
             if converged or iteration == self.max_iterations:
                 break
-            values.update(self._next_iterate(accelerated))
+            proposed, proposed_series = self._next_iterate(accelerated)
+            values.update(proposed)
+            series.update(proposed_series)
         self._predict_next_window(converged)
-        return self._end_implicit_window(values, t + dt, iteration, converged)
+        return self._end_implicit_window(values, series, t + dt, iteration, converged)
 
 
 @SCHEMES.register("parallel-implicit")
@@ -453,26 +599,33 @@ class ParallelImplicit(CouplingScheme):
         names = [e.data for e in self.exchanges]
         accelerated = self.accelerated
         values = self._begin_implicit_window()
+        series: Series = {}          # the predicted iterate has no samples inside the window
         converged = False
         proxies = (self.first, self.second)
         for iteration in range(1, self.max_iterations + 1):
             self.iteration = iteration
             inputs = {p.name: self.inputs_for(p, values) for p in proxies}
             for p in proxies:
-                p.send_step(t, dt, inputs[p.name], **self._step_options(p, iteration))
+                p.send_step(t, dt, inputs[p.name], **self._step_options(p, iteration),
+                            **self.waveforms_for(p, values, series))
             self.run_deferred()
             outputs = {}
+            out_series: Series = {}
             for p in proxies:
                 returned = p.receive_step()
                 self._stepped(p, iteration)
                 self._record(p, iteration, inputs[p.name], returned)
                 outputs.update(returned)
+                self._take_series(p, out_series)
             new = {k: outputs[k] for k in names}
             converged = all([m.measure(values[m.data], new[m.data]) for m in self.measures])
-            self._observe(self._stack(values, accelerated), self._stack(new, accelerated))
+            self._observe(*self._iterates(values, series, new, out_series, accelerated))
             values.update(new)
+            series = out_series
             if converged or iteration == self.max_iterations:
                 break
-            values.update(self._next_iterate(accelerated))
+            proposed, proposed_series = self._next_iterate(accelerated)
+            values.update(proposed)
+            series.update(proposed_series)
         self._predict_next_window(converged)
-        return self._end_implicit_window(values, t + dt, iteration, converged)
+        return self._end_implicit_window(values, series, t + dt, iteration, converged)

@@ -62,7 +62,8 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
     return {
         "dimensions": max((config.meshes[m]["dimensions"] for m in meshes), default=2),
         "meshes": meshes,
-        "write": [{"mesh": mesh, "data": data, "dimensions": dimensions(data, mesh)}
+        "write": [{"mesh": mesh, "data": data, "dimensions": dimensions(data, mesh),
+                   "substeps": any(e.substeps for e in config.exchanges if e.data == data and e.source == name)}
                   for data, mesh in participant.writes.items() if data in exchanged],
         "read": [{"mesh": mesh, "data": data, "dimensions": dimensions(data, mesh),
                   "degree": config.data[data]["degree"]} for data, mesh in participant.reads.items()
@@ -103,7 +104,9 @@ def scene_of(config: Config, participants: dict[str, dict[str, Any]], folder: Pa
         component = _component(config, participant, spec, folder)
         components[participant] = component
     exchanges = [{"data": e.data, "from": e.source, "to": e.target,
-                  "mapping": mapping_of(config, e.data, e.source, e.target, e.line)} for e in config.exchanges]
+                  "mapping": mapping_of(config, e.data, e.source, e.target, e.line),
+                  "waveform_degree": config.data[e.data]["degree"], "substeps": e.substeps}
+                 for e in config.exchanges]
     strict = any(m["strict"] for m in scheme["measures"])
     measures = [{k: v for k, v in m.items() if k not in ("strict", "line")} for m in scheme["measures"]]
     minimum = scheme.get("min_iterations")

@@ -24,7 +24,6 @@ MEASURES = {"relative-convergence-measure": "relative", "absolute-convergence-me
 FILTERS = {"QR1": "qr1", "QR2": "qr2", "QR1-absolute": "qr1-absolute"}
 RBF_BASES = {"compact-polynomial-c2": "rbf"}       # Wendland's C2 function: cosim's compact RBF
 V2_RBF = {"rbf-compact-polynomial-c2": "compact-polynomial-c2"}
-NEXT_ISSUE = "time interpolation across the window's substeps (waveform iteration, cosim's next preCICE feature)"
 
 
 @dataclass
@@ -58,6 +57,8 @@ class Exchange:
     target: str
     initialize: bool
     line: int
+    substeps: bool = False          # every substep's values are sent (v3's default)
+    substeps_given: bool = False    # substeps="true" written out
 
 
 @dataclass
@@ -184,9 +185,12 @@ def _data(reader: _Reader, config: Config, element: Element, kind: str) -> None:
     if kind not in ("scalar", "vector"):
         raise reader.fail(element, "data is 'data:scalar' or 'data:vector'")
     name = reader.required(element, "name")
-    degree = int(reader.number(element, "waveform-degree", default=1, integer=True, low=0))
+    # v3: linear in time by default; v2 reads the window's end (its read-data's waveform-order may say otherwise)
+    degree = int(reader.number(element, "waveform-degree", default=1 if config.version >= 3 else 0, integer=True,
+                               low=0))
     if degree > 3:
-        raise reader.fail(element, f"'waveform-degree' is {degree}; allowed: 0 to 3")
+        raise reader.fail(element, f"'waveform-degree' is {degree}; allowed: 0 to 3 (0: the window-end value, 1: "
+                                   "linear, 2 and 3: B-splines through the substeps)")
     reader.done(element)
     if name in config.data:
         raise reader.fail(element, f"data '{name}' is defined twice")
@@ -258,8 +262,14 @@ def _participant(reader: _Reader, config: Config, element: Element) -> None:
             if data not in config.meshes[mesh]["data"]:
                 raise reader.fail(child, f"mesh '{mesh}' does not use data '{data}' (add <use-data name=\"{data}\"/> "
                                          "to the mesh)")
-            if child.get("waveform-order") not in (None, "0"):
-                raise reader.fail(child, f"a waveform order above 0 needs {NEXT_ISSUE}")
+            order = child.get("waveform-order")         # v2: the degree, on the reader's side
+            if order is not None:
+                if child.tag != "read-data":
+                    raise reader.fail(child, "'waveform-order' goes on a <read-data>")
+                degree = int(reader.number(child, "waveform-order", integer=True, low=0))
+                if degree > 3:
+                    raise reader.fail(child, f"'waveform-order' is {degree}; allowed: 0 to 3")
+                config.data[data]["degree"] = degree
             reader.done(child)
             (participant.writes if child.tag == "write-data" else participant.reads)[data] = mesh
         elif prefix == "mapping":
@@ -386,11 +396,14 @@ def _scheme(reader: _Reader, config: Config, element: Element, kind: str) -> Non
         elif child.tag == "extrapolation-order":
             scheme["extrapolation_order"] = int(reader.value_child(child, integer=True, low=0))
         elif child.tag == "exchange":
-            if reader.flag(child, "substeps"):
-                raise reader.fail(child, f"substeps=\"true\" needs {NEXT_ISSUE}")
+            given = child.get("substeps") is not None
+            substeps = reader.flag(child, "substeps", default=config.version >= 3)
+            if substeps and config.version < 3:
+                raise reader.fail(child, "substeps is a preCICE v3 attribute (this configuration is v2)")
             config.exchanges.append(Exchange(reader.required(child, "data"), reader.required(child, "mesh"),
                                              reader.required(child, "from"), reader.required(child, "to"),
-                                             reader.flag(child, "initialize"), child.line))
+                                             reader.flag(child, "initialize"), child.line, substeps,
+                                             given and substeps))
             reader.done(child)
         elif child.tag.endswith("-convergence-measure"):
             scheme["measures"].append(_measure(reader, child))
@@ -548,6 +561,17 @@ def _check(reader: _Reader, config: Config) -> None:
             raise SceneError(f"{config.path}, line {measure['line']}: the measure's data '{measure['data']}' is not "
                              "exchanged by the coupling scheme")
     acceleration = scheme["acceleration"]
+    iterated = {e.data for e in config.exchanges if scheme["kind"] == "parallel-implicit"
+                or (scheme["kind"] == "serial-implicit" and e.source == names[1])}
+    for exchange in config.exchanges:
+        held = acceleration is not None and exchange.data in acceleration["data"]
+        if exchange.substeps and exchange.data in iterated and acceleration is not None and not held:
+            if exchange.substeps_given:
+                raise SceneError(f"{config.path}, line {exchange.line}: <exchange data=\"{exchange.data}\" "
+                                 f"substeps=\"true\">: the acceleration (line {acceleration['line']}) does not hold "
+                                 f"'{exchange.data}', and the samples of every substep are iterated by it: add <data "
+                                 f"name=\"{exchange.data}\" .../> to the acceleration, or substeps=\"false\"")
+            exchange.substeps = False       # the default: its window's end alone, as the acceleration sees it
     if acceleration is not None:
         for data in acceleration["data"]:
             if data not in {e.data for e in config.exchanges}:

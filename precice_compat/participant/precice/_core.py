@@ -4,9 +4,10 @@ checkpoint protocol.
 The coupler drives a participant as it drives any component: a coupling iteration hands the participant its read
 data and takes its write data. Here that is the reply to the participant's ``initialize`` or window-ending
 ``advance`` (the read data, and whether the window is new, repeated, or the last), and the participant's next
-window-ending ``advance`` (its write data). Steps shorter than the window stay local: the window's read data serve
-every step (``waveform-degree`` 0, or a read at the window's end), and the last data written before the window's
-end is sent.
+window-ending ``advance`` (its write data). Steps shorter than the window stay local. A read inside the window
+evaluates the data's waveform there: the window-end value (``waveform-degree`` 0), else the B-spline the coupler
+sent through the window's samples. With ``substeps``, the data written at each step inside the window is kept as a
+sample, and all go with the window's end.
 """
 
 from __future__ import annotations
@@ -19,9 +20,9 @@ from typing import Any
 import numpy as np
 
 from precice._connection import Connection, Error, find_coupler
+from precice._waveform import Waveform
 
 EPSILON = 1e-9        # relative tolerance of times: a step that reaches the window's end to this ends it
-NEXT_ISSUE = "time interpolation inside a window (waveform iteration, cosim's next preCICE feature)"
 
 
 class Core:
@@ -51,6 +52,9 @@ class Core:
         self.vertices: dict[str, list[np.ndarray]] = {mesh: [] for mesh in self.meshes}
         self.written: dict[str, np.ndarray] = {}
         self.received: dict[str, np.ndarray] = {}
+        self.waveforms: dict[str, Waveform] = {}       # read data of degree >= 1: its window's interpolant
+        self.substep_data = sorted(data for (_, data), spec in self.write.items() if spec.get("substeps"))
+        self.samples: list[tuple[float, dict[str, np.ndarray]]] = []    # (normalised time, write data) per substep
         self.window = float(self.setup["window"])
         self.window_start = float(self.setup["start"])
         self.elapsed = 0.0         # the steps taken in the window: the window's size is what is left at its start
@@ -163,12 +167,10 @@ class Core:
             if relative_read_time < 0 or relative_read_time > remaining * (1 + EPSILON) + EPSILON * self.window:
                 raise self.fail(call, f"relative_read_time {relative_read_time:g} is outside the step (0 to {remaining:g}, what is left of the "
                                 "window)")
-            inside = relative_read_time < remaining - EPSILON * self.window
-            if inside and int(spec["degree"]) > 0:
-                raise self.fail(call, f"reading '{data}' at {relative_read_time:g} s inside the window needs "
-                                      f"waveform-degree {int(spec['degree'])}: interpolation in time comes with "
-                                      f"{NEXT_ISSUE}; use waveform-degree=\"0\" (the window's end value at every "
-                                      "step) or read at the window's end")
+            time = (self.elapsed + relative_read_time) / self.window
+            waveform = self.waveforms.get(data)
+            if waveform is not None and time < 1.0 - EPSILON:
+                return waveform(time)[vertex_ids]
         values = self.received.get(data)
         dimensions = int(spec["dimensions"])
         if values is None:
@@ -205,6 +207,9 @@ class Core:
         window to compute, and whether it is a new window, the same one again, or none (the end)."""
         result, received = self._request(op, args, arrays)
         self.received = {name[len("data:"):]: value for name, value in received.items() if name.startswith("data:")}
+        self.waveforms = {name[len("knots:"):]: Waveform(knots, received["coefficients:" + name[len("knots:"):]])
+                          for name, knots in received.items() if name.startswith("knots:")}
+        self.samples = []
         self.ongoing = bool(result["ongoing"])
         self.window_complete = bool(result["window_complete"])
         self.write_checkpoint = bool(result["write_checkpoint"])
@@ -235,8 +240,16 @@ class Core:
         self.write_checkpoint = self.read_checkpoint = self.window_complete = False
         if self.remaining() > EPSILON * self.window:
             self.read_available = False
-            return                                  # a step inside the window: nothing is exchanged
+            if self.substep_data:                   # a step inside the window: its data is a sample, sent later
+                self.samples.append((self.elapsed / self.window, {
+                    data: self._buffer(mesh, data, spec).copy() for (mesh, data), spec in self.write.items()
+                    if data in self.substep_data}))
+            return
         arrays = {"data:" + data: self._buffer(mesh, data, spec) for (mesh, data), spec in self.write.items()}
+        if self.samples:
+            arrays["times"] = np.array([time for time, _ in self.samples])
+            for data in self.substep_data:
+                arrays["substeps:" + data] = np.stack([sample[data] for _, sample in self.samples])
         wall, cpu = self._computing_since
         self._exchange("advance", {"compute_seconds": time.perf_counter() - wall,
                                    "cpu_seconds": time.process_time() - cpu}, arrays)

@@ -1,0 +1,79 @@
+"""A component that subcycles: the steps it takes inside a coupling window, served in one step request.
+
+With ``components.<name>.substeps = N`` the coupler's step request carries the window [t, t + dt], the inputs at
+its end and, for inputs of waveform degree >= 1, their B-spline across the window (knots and coefficients over the
+normalised time [0, 1], ``coupler.waveform``). The server then steps the component N times by dt / N, each time
+with the inputs interpolated at the step's end (the window-end values at the last), and answers with the last
+outputs, the outputs at the steps inside the window (the samples a reader's waveform goes through), and every
+step's inputs (each step is a call of its own in the recording). Inside a step, ``Component.input_at(name, time)``
+gives an input anywhere in the window (a Runge-Kutta stage, say).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from cosim.errors import ComponentError
+
+EPSILON = 1e-9       # relative: a time this close to the window's end is its end
+
+
+class WindowInputs:
+    """A window's inputs in time: the end values, and the interpolants of those of degree >= 1."""
+
+    def __init__(self, t: float, dt: float, inputs: Mapping[str, np.ndarray],
+                 splines: Mapping[str, tuple[np.ndarray, np.ndarray]]):
+        from scipy.interpolate import BSpline
+        self.t, self.dt, self.inputs = t, dt, inputs
+        self.splines = {name: BSpline(knots, coefficients, len(knots) - len(coefficients) - 1, axis=0,
+                                      extrapolate=False)
+                        for name, (knots, coefficients) in splines.items()}
+
+    def at(self, name: str, time: float) -> np.ndarray:
+        """Input ``name`` at absolute ``time`` in the window."""
+        if name not in self.inputs:
+            raise ComponentError("", f"reads '{name}', which is not one of its inputs ({', '.join(self.inputs)})")
+        relative = (time - self.t) / self.dt
+        if relative < -EPSILON or relative > 1 + EPSILON:
+            raise ComponentError("", f"reads '{name}' at t = {time:g}, outside its window [{self.t:g}, "
+                                     f"{self.t + self.dt:g}]")
+        spline = self.splines.get(name)
+        if spline is None or relative >= 1 - EPSILON:
+            return self.inputs[name]
+        return spline(max(relative, 0.0))
+
+
+def split_waveforms(arrays: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, tuple]]:
+    """A step request's arrays: the inputs, and the interpolants sent as ``knots:NAME`` and ``coefficients:NAME``."""
+    inputs = {name: value for name, value in arrays.items() if ":" not in name}
+    splines = {name[len("knots:"):]: (value, arrays[f"coefficients:{name[len('knots:'):]}"])
+               for name, value in arrays.items() if name.startswith("knots:")}
+    return inputs, splines
+
+
+def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps: int) -> dict[str, np.ndarray]:
+    """``substeps`` steps of ``component`` across [t, t + dt]: the last outputs, ``times`` and ``substeps:NAME``
+    (the outputs at the steps inside the window), and ``inputs:NAME`` (every step's inputs, one row each)."""
+    step = dt / substeps
+    outputs: list[dict[str, np.ndarray]] = []
+    inputs: list[dict[str, np.ndarray]] = []
+    component.window_inputs = window
+    try:
+        for k in range(substeps):
+            start, end = t + k * step, (t + dt if k == substeps - 1 else t + (k + 1) * step)
+            given = {name: np.array(window.at(name, end)) for name in window.inputs}
+            returned = component.served_step(start, end - start, given)
+            outputs.append({name: np.array(value) for name, value in returned.items()})
+            inputs.append(given)
+    finally:
+        component.window_inputs = None
+    result = dict(outputs[-1])
+    result["times"] = np.arange(1, substeps) / substeps
+    for name in outputs[-1]:
+        result[f"substeps:{name}"] = np.stack([o[name] for o in outputs[:-1]])
+    for name in inputs[-1]:
+        result[f"inputs:{name}"] = np.stack([i[name] for i in inputs])
+    return result

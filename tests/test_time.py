@@ -1,0 +1,222 @@
+"""Time in the coupling: the waveforms' interpolant, the schemes on samples inside the window, and the two-mass
+oscillator's convergence order under waveform iteration."""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from coupler.acceleration import IQNILS, Acceleration
+from coupler.convergence import make_measure
+from coupler.mapping import make_mapping
+from coupler.schemes import Exchange, ParallelImplicit, SerialImplicit
+from coupler.waveform import evaluate, knots, resampling
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "precice_compat" / "participant"))
+from precice._waveform import Waveform  # noqa: E402
+
+
+# --- the interpolant ----------------------------------------------------------------------------------------------
+def basis(t: np.ndarray, k: int, i: int, x: float) -> float:
+    """The i-th B-spline of degree k on knots t at x, by the Cox-de Boor recursion (right-closed at the end)."""
+    if k == 0:
+        last = t[i + 1] == t[-1] and x == t[-1]
+        return 1.0 if t[i] <= x < t[i + 1] or (last and t[i] < t[i + 1]) else 0.0
+    left = (x - t[i]) / (t[i + k] - t[i]) * basis(t, k - 1, i, x) if t[i + k] > t[i] else 0.0
+    right = (t[i + k + 1] - x) / (t[i + k + 1] - t[i + 1]) * basis(t, k - 1, i + 1, x) if t[i + k + 1] > t[i + 1] \
+        else 0.0
+    return left + right
+
+
+def direct(times: np.ndarray, samples: np.ndarray, k: int, at: np.ndarray) -> np.ndarray:
+    """The interpolating spline built by hand: knots averaged (de Boor), the collocation system solved, the sum of
+    coefficients times basis functions."""
+    n = len(times)
+    t = np.concatenate([[times[0]] * (k + 1), [np.mean(times[j:j + k]) for j in range(1, n - k)],
+                        [times[-1]] * (k + 1)])
+    collocation = np.array([[basis(t, k, i, s) for i in range(n)] for s in times])
+    coefficients = np.linalg.solve(collocation, samples)
+    return np.array([[basis(t, k, i, x) for i in range(n)] for x in at]) @ coefficients
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3])
+def test_the_interpolant_is_the_b_spline_through_the_samples_built_by_hand(degree):
+    rng = np.random.default_rng(degree)
+    times = np.concatenate([[0.0], np.sort(rng.uniform(0.05, 0.95, 4)), [1.0]])
+    samples = rng.normal(size=(6, 3))
+    at = np.linspace(0.0, 1.0, 41)
+    assert np.allclose(evaluate(times, samples, degree, at), direct(times, samples, degree, at), atol=1e-12)
+    assert np.array_equal(evaluate(times, samples, degree, times), samples)      # each sample, exactly
+    t = knots(times, degree)
+    assert len(t) == len(times) + degree + 1 and np.all(np.diff(t) >= 0)
+
+
+def test_the_interpolant_is_linear_at_degree_1_a_polynomial_through_few_samples_and_the_end_at_degree_0():
+    times = np.array([0.0, 0.3, 0.55, 1.0])
+    samples = np.array([1.0, -2.0, 0.5, 4.0])
+    at = np.linspace(0, 1, 23)
+    assert np.allclose(evaluate(times, samples[:, None], 1, at)[:, 0], np.interp(at, times, samples), atol=1e-14)
+    cubic = np.polyfit(times, samples, 3)           # four samples: the cubic through them
+    assert np.allclose(evaluate(times, samples[:, None], 3, at)[:, 0], np.polyval(cubic, at), atol=1e-12)
+    assert np.allclose(evaluate(times[[0, -1]], samples[[0, -1], None], 3, at)[:, 0],     # two samples: a line
+                       np.interp(at, times[[0, -1]], samples[[0, -1]]), atol=1e-14)
+    assert np.array_equal(evaluate(times, samples[:, None], 0, at)[:, 0], np.full(len(at), 4.0))
+    for degree in (1, 2, 3):            # a polynomial of the degree is reproduced
+        values = (times - 0.2) ** degree
+        assert np.allclose(evaluate(times, values[:, None], degree, at)[:, 0], (at - 0.2) ** degree, atol=1e-12)
+    matrix = resampling(times, 2, at)
+    assert np.allclose(matrix @ samples, evaluate(times, samples[:, None], 2, at)[:, 0], atol=1e-14)
+
+
+def test_a_participant_evaluates_the_spline_the_coupler_sends_as_scipy_does():
+    from coupler.waveform import spline
+    times = np.array([0.0, 0.2, 0.45, 0.7, 1.0])
+    samples = np.stack([np.sin(3 * times), np.cos(times)], axis=1)
+    for degree in (1, 2, 3):
+        interpolant = spline(times, samples, degree)
+        waveform = Waveform(interpolant.t, interpolant.c)
+        for x in np.linspace(0, 1, 37):
+            assert np.allclose(waveform(x), interpolant(x), atol=1e-14, rtol=0)
+
+
+# --- the schemes on samples ---------------------------------------------------------------------------------------
+class Variable:
+    def __init__(self, name, causality, size=1):
+        self.name, self.causality, self.shape, self.precision = name, causality, (size,), 0.0
+
+
+class Program:
+    """A participant as the schemes see one, in-process: ``law(t, dt, inputs, waveforms)`` gives its outputs and
+    its samples inside the window (times, values) or None."""
+
+    reads_waveforms = True
+    can_get_and_set_state = False
+    step_saves_state = False
+    repeats_steps = True
+
+    def __init__(self, name, writes, reads, law, initial=0.0):
+        self.name, self.law, self.writes = name, law, writes
+        self.variables = {writes: Variable(writes, "output"), reads: Variable(reads, "input")}
+        self.initial = initial
+        self.substeps = None
+        self.received = []
+
+    def get_values(self, names):
+        return {name: np.array([self.initial]) for name in names}
+
+    def send_step(self, t, dt, inputs, waveforms=None, **_):
+        self.received.append((dict(inputs), dict(waveforms or {})))
+        outputs, self.substeps = self.law(t, dt, inputs, waveforms or {})
+        self._out = outputs
+
+    def receive_step(self):
+        return self._out
+
+    def step(self, t, dt, inputs, **options):
+        self.send_step(t, dt, inputs, **options)
+        return self.receive_step()
+
+
+def scheme_of(kind, first, second, degree=1, acceleration=None, measures=None):
+    identity = make_mapping({"type": "identity"}, np.zeros((1, 2)), np.zeros((1, 2)), (1,), (1,), "test")
+    exchanges = [Exchange(first.writes, first, second, identity, degree, True),
+                 Exchange(second.writes, second, first, identity, degree, True)]
+    measures = measures or [make_measure({"data": second.writes, "type": "absolute", "limit": 1e-12})]
+    accelerated = [second.writes] if kind is SerialImplicit else [first.writes, second.writes]
+    scheme = kind([first, second], exchanges, measures, acceleration, accelerated, max_iterations=60)
+    scheme.initialize()
+    if acceleration is not None:
+        scheme.acceleration = acceleration
+    return scheme
+
+
+def test_the_measures_look_at_the_window_end_and_the_acceleration_at_every_sample():
+    """B's window-end value is fixed and its samples inside the window change with every iteration: the measure,
+    on the end, is met at the second iteration; the acceleration saw every sample (three, then the end)."""
+    times = np.array([0.25, 0.5, 0.75])
+    calls = []
+
+    def law_b(t, dt, inputs, waveforms):
+        calls.append(1)
+        return {"y": np.array([1.0])}, (times, {"y": np.full((3, 1), float(len(calls)))})
+
+    first = Program("A", "x", "y", lambda t, dt, i, w: ({"x": i["y"] * 0.5}, None))
+    second = Program("B", "y", "x", law_b)
+    acceleration = Acceleration()       # plain fixed point: the next iterate is H(x), every sample of it
+    scheme = scheme_of(SerialImplicit, first, second, acceleration=acceleration)
+    result = scheme.advance(0.0, 0.1)
+    assert result.iterations == 2 and result.converged
+    assert acceleration.x.size == 4 and acceleration.x_tilde[:3].tolist() == [2.0, 2.0, 2.0]
+    assert scheme.series["y"][0].tolist() == times.tolist()
+
+
+def test_a_reader_of_degree_1_gets_the_line_through_start_samples_and_end_on_its_mesh():
+    def law_b(t, dt, inputs, waveforms):
+        return {"y": np.array([t + dt])}, (np.array([0.5]), {"y": np.array([[t + 0.5 * dt]])})
+
+    first = Program("A", "x", "y", lambda t, dt, i, w: ({"x": np.array([0.0])}, None))
+    second = Program("B", "y", "x", law_b, initial=0.0)
+    scheme = scheme_of(SerialImplicit, first, second, degree=1, acceleration=None)
+    for window in range(3):
+        scheme.advance(0.1 * window, 0.1)
+    inputs, waveforms = first.received[-1]      # window 3's last iteration: B's samples at 0.2, 0.25 and 0.3
+    knots_, coefficients = waveforms["y"]
+    reader = Waveform(knots_, coefficients)
+    assert np.allclose([reader(s)[0] for s in (0.0, 0.5, 1.0)], [0.2, 0.25, 0.3], atol=1e-15)
+    assert inputs["y"][0] == pytest.approx(0.3)
+
+
+@pytest.mark.parametrize("kind", [SerialImplicit, ParallelImplicit])
+def test_iqn_ils_reuses_past_windows_when_the_number_of_samples_changes(kind):
+    """B is a contraction of A's waveform sampled on a grid of 1, 3, 2, 5, ... samples a window: the columns kept
+    from earlier windows are resampled onto each new grid, and every window converges."""
+    counts = [1, 3, 2, 5, 4, 1, 3]
+    window_of = {"n": 0}
+
+    def law_a(t, dt, inputs, waveforms):
+        return {"x": 0.3 * inputs["y"] + 1.0}, None
+
+    def law_b(t, dt, inputs, waveforms):
+        n = counts[window_of["n"] % len(counts)]
+        grid = np.arange(1, n + 1) / (n + 1)
+        wave = Waveform(*waveforms["x"]) if "x" in waveforms else (lambda s: inputs["x"])
+        samples = np.array([0.5 * wave(s) + np.sin(t + s * dt) for s in grid])
+        return {"y": 0.5 * inputs["x"] + np.sin(t + dt)}, (grid, {"y": samples})
+
+    first = Program("A", "x", "y", law_a)
+    second = Program("B", "y", "x", law_b)
+    acceleration = IQNILS(0.5, reused_time_windows=3)
+    scheme = scheme_of(kind, first, second, acceleration=acceleration,
+                       measures=[make_measure({"data": "y", "type": "absolute", "limit": 1e-10}),
+                                 make_measure({"data": "x", "type": "absolute", "limit": 1e-10})])
+    for window in range(len(counts)):
+        window_of["n"] = window
+        result = scheme.advance(0.1 * window, 0.1)
+        assert result.converged and result.iterations <= 8, (window, result.iterations)
+        assert len(scheme.series["y"][0]) == counts[window]
+
+
+# --- the two-mass oscillator -----------------------------------------------------------------------------------------
+def test_the_oscillator_keeps_its_integrators_order_with_substeps_and_falls_to_first_order_at_degree_0(tmp_path):
+    """``scripts.oscillator_order --small``: windows 0.02 and 0.01, 4 substeps, as participants over preCICE's API and
+    as cosim components that subcycle."""
+    from scripts import oscillator_order
+    assert oscillator_order.main(["--out", str(tmp_path), "--small"]) == 0
+    results = json.loads((tmp_path / "results.json").read_text())
+
+    def order(via, integrator, degree):
+        rows = sorted((r for r in results if (r["via"], r["integrator"], r["degree"]) == (via, integrator, degree)),
+                      key=lambda r: r["window"])
+        return oscillator_order.fitted_order([r["window"] for r in rows], [r["error"] for r in rows])
+
+    for via in ("participants", "components"):
+        assert 0.8 < order(via, "newmark", 0) < 1.4 and 0.8 < order(via, "rk4", 0) < 1.4   # window end: first order
+        assert order(via, "newmark", 3) > 1.9 and order(via, "rk4", 3) > 3.7                # the integrator's order
+        newmark = [r for r in results if (r["via"], r["integrator"], r["degree"]) == (via, "newmark", 3)]
+        assert max(r["energy_change"] for r in newmark) < 1e-12                            # Newmark keeps energy
+    same = {(r["integrator"], r["degree"], r["window"]): r["error"] for r in results if r["via"] == "participants"}
+    for r in results:       # the two ways are one coupling: the same errors to round-off
+        assert r["error"] == pytest.approx(same[r["integrator"], r["degree"], r["window"]], rel=1e-6)
