@@ -71,6 +71,7 @@ class ComponentProxy:
         self._sent_at = 0.0
         self.substep_count = 1          # the steps it takes per window (cosim.subcycling)
         self.reads_waveforms = False    # its steps get the waveforms of its inputs of degree >= 1
+        self.records_steps = False      # it is recorded: a subcycled step returns each step's inputs
         self.substeps: tuple[np.ndarray, dict[str, np.ndarray]] | None = None     # its last step's samples
         self.substep_calls: list[tuple[dict, dict]] = []     # and each of its steps' inputs and outputs
 
@@ -230,6 +231,8 @@ class ComponentProxy:
             args["free"] = free
         if self.substep_count > 1:
             args["substeps"] = self.substep_count
+            if self.records_steps:
+                args["record_steps"] = True
         if waveforms:
             inputs = dict(inputs)
             for name, (knots, coefficients) in waveforms.items():
@@ -254,7 +257,7 @@ class ComponentProxy:
         steps = len(times) + 1
         self.substep_calls = [({name: value[k] for name, value in given.items()},
                                {name: samples[name][k] if k < steps - 1 else outputs[name] for name in outputs})
-                              for k in range(steps)]
+                              for k in range(steps)] if given else []
         return outputs
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,

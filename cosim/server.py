@@ -200,7 +200,8 @@ class ComponentServer:
         inputs, splines = split_waveforms(real_inputs(arrays))
         substeps = int(args.get("substeps") or 1)
         if substeps > 1 or splines:
-            outputs = subcycle(component, t, dt, WindowInputs(t, dt, inputs, splines), substeps)
+            outputs = subcycle(component, t, dt, WindowInputs(t, dt, inputs, splines, substeps), substeps,
+                               bool(args.get("record_steps")))
         else:
             outputs = component.served_step(t, dt, inputs)
         return outputs if saved is None else {**outputs, "state": saved}

@@ -21,16 +21,43 @@ from cosim.errors import ComponentError
 EPSILON = 1e-9       # relative: a time this close to the window's end is its end
 
 
+class Spline:
+    """A B-spline over the window's normalised time: knots and coefficients (first axis: the basis functions),
+    evaluated by de Boor's algorithm (numpy alone: a cheap component's process need not import scipy)."""
+
+    def __init__(self, knots: np.ndarray, coefficients: np.ndarray):
+        self.knots, self.coefficients = np.asarray(knots, dtype=float), np.asarray(coefficients, dtype=float)
+        self.degree = len(self.knots) - len(self.coefficients) - 1
+
+    def __call__(self, x: float) -> np.ndarray:
+        t, c, k = self.knots, self.coefficients, self.degree
+        span = min(max(int(np.searchsorted(t, x, side="right")) - 1, k), len(c) - 1)    # x = 1: the last span
+        d = [c[span - k + j] for j in range(k + 1)]
+        for r in range(1, k + 1):
+            for j in range(k, r - 1, -1):
+                left, right = t[span - k + j], t[span + 1 + j - r]
+                alpha = (x - left) / (right - left)
+                d[j] = (1.0 - alpha) * d[j - 1] + alpha * d[j]
+        return np.array(d[k])
+
+
 class WindowInputs:
     """A window's inputs in time: the end values, and the interpolants of those of degree >= 1."""
 
     def __init__(self, t: float, dt: float, inputs: Mapping[str, np.ndarray],
-                 splines: Mapping[str, tuple[np.ndarray, np.ndarray]]):
-        from scipy.interpolate import BSpline
+                 splines: Mapping[str, tuple[np.ndarray, np.ndarray]], substeps: int = 1):
         self.t, self.dt, self.inputs = t, dt, inputs
-        self.splines = {name: BSpline(knots, coefficients, len(knots) - len(coefficients) - 1, axis=0,
-                                      extrapolate=False)
-                        for name, (knots, coefficients) in splines.items()}
+        self.splines = {name: Spline(knots, coefficients) for name, (knots, coefficients) in splines.items()}
+        ends = np.arange(1, substeps) / substeps
+        # each input at the ends of the steps inside the window
+        self.steps = {name: np.stack([spline(end) for end in ends]) for name, spline in self.splines.items()} \
+            if substeps > 1 else {}
+
+    def at_step(self, name: str, k: int, substeps: int) -> np.ndarray:
+        """Input ``name`` at the end of step ``k`` of ``substeps``."""
+        if k == substeps - 1 or name not in self.steps:
+            return self.inputs[name]
+        return self.steps[name][k]
 
     def at(self, name: str, time: float) -> np.ndarray:
         """Input ``name`` at absolute ``time`` in the window."""
@@ -43,7 +70,7 @@ class WindowInputs:
         spline = self.splines.get(name)
         if spline is None or relative >= 1 - EPSILON:
             return self.inputs[name]
-        return spline(max(relative, 0.0))
+        return spline(min(max(relative, 0.0), 1.0))
 
 
 def split_waveforms(arrays: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, tuple]]:
@@ -54,9 +81,11 @@ def split_waveforms(arrays: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndar
     return inputs, splines
 
 
-def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps: int) -> dict[str, np.ndarray]:
+def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps: int,
+             record: bool = False) -> dict[str, np.ndarray]:
     """``substeps`` steps of ``component`` across [t, t + dt]: the last outputs, ``times`` and ``substeps:NAME``
-    (the outputs at the steps inside the window), and ``inputs:NAME`` (every step's inputs, one row each)."""
+    (the outputs at the steps inside the window), and with ``record`` ``inputs:NAME`` (every step's inputs, one row
+    each)."""
     step = dt / substeps
     outputs: list[dict[str, np.ndarray]] = []
     inputs: list[dict[str, np.ndarray]] = []
@@ -64,7 +93,7 @@ def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps
     try:
         for k in range(substeps):
             start, end = t + k * step, (t + dt if k == substeps - 1 else t + (k + 1) * step)
-            given = {name: np.array(window.at(name, end)) for name in window.inputs}
+            given = {name: window.at_step(name, k, substeps) for name in window.inputs}
             returned = component.served_step(start, end - start, given)
             outputs.append({name: np.array(value) for name, value in returned.items()})
             inputs.append(given)
@@ -74,6 +103,7 @@ def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps
     result["times"] = np.arange(1, substeps) / substeps
     for name in outputs[-1]:
         result[f"substeps:{name}"] = np.stack([o[name] for o in outputs[:-1]])
-    for name in inputs[-1]:
-        result[f"inputs:{name}"] = np.stack([i[name] for i in inputs])
+    if record:
+        for name in inputs[-1]:
+            result[f"inputs:{name}"] = np.stack([i[name] for i in inputs])
     return result

@@ -49,6 +49,10 @@ class Mapping:
     def __call__(self, values: np.ndarray) -> np.ndarray:
         return self.matrix @ values
 
+    def in_time(self, samples: np.ndarray) -> np.ndarray:
+        """Samples in time (first axis), each mapped."""
+        return samples if getattr(self, "identity", False) else np.stack([self(sample) for sample in samples])
+
 
 
 @MAPPINGS.register("identity")
@@ -56,6 +60,8 @@ class IdentityMapping(Mapping):
     """The values as they are: both variables on the same nodes, in the same order."""
 
     needs_meshes = False
+
+    identity = True
 
     def __init__(self, source: np.ndarray | None = None, target: np.ndarray | None = None):
         self.matrix = None

@@ -399,7 +399,7 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
         with log, Launcher(out_dir / "logs") as launcher:
             try:
                 components_started = time.perf_counter()
-                hub = start_backends(scene, backends, launcher, while_starting=_import_while_components_start)
+                hub = start_backends(scene, backends, launcher, while_starting=lambda: _import_while_components_start(scene))
                 store.ready()
                 for b in backends:
                     log.event(f"component '{b.name}': {b.entry or b.address or b.command}, pid {b.client.pid}, at "
@@ -424,6 +424,9 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
                              for n, s in scene["components"].items() if s["record"]}
                 participants = participants_of(backends)
+                for backend in backends:        # a recorded component that subcycles sends each step's inputs
+                    if isinstance(backend.client, ComponentProxy):
+                        backend.client.records_steps = scene["components"][backend.participant]["record"]
                 # the scheme knows a participant by its proxy's name (a ROM serving alone: '<name>_rom'); the
                 # results file by the scene's
                 scheme = build_scheme(scene, participants, {participants[n].name: r for n, r in recorders.items()})
@@ -552,11 +555,13 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
     return RunSummary(out_dir, windows, iterations, wall, unconverged)
 
 
-def _import_while_components_start() -> None:
-    """What the coupler computes with, imported while its components start: the acceleration's LAPACK, and the
-    window's rows of the results file (h5py)."""
+def _import_while_components_start(scene: Scene | None = None) -> None:
+    """What the coupler computes with, imported while its components start: the acceleration's LAPACK, the
+    window's rows of the results file (h5py), and the waveforms' B-splines where a scene interpolates in time."""
     load_linalg()
     import cosim.results  # noqa: F401
+    if scene is not None and any(e["waveform_degree"] or e["substeps"] for e in scene["exchange"]):
+        import scipy.interpolate  # noqa: F401
 
 
 def _final_attributes(store: ResultsWriter, scheme: CouplingScheme | None,

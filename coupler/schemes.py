@@ -42,7 +42,7 @@ from coupler.linalg import norm
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
 from coupler.schedule import BackendSchedule
-from coupler.waveform import resampling, spline
+from coupler.waveform import coefficients, resampling
 
 # a scene component as a scheme sees it: one process, a program that calls the coupler (a preCICE participant), or a
 # schedule of backends (full order, then a ROM)
@@ -71,6 +71,7 @@ class Exchange:
     substeps: bool = False    # the producer's samples inside the window are sent
 
 
+LINE = np.array([0.0, 0.0, 1.0, 1.0])     # the knots of the line through a window's start and end
 Series = dict[str, tuple[np.ndarray, np.ndarray]]    # data -> (normalised times inside the window, samples there)
 
 
@@ -106,6 +107,7 @@ class CouplingScheme:
         self.values: dict[str, np.ndarray] = {}
         self.series: Series = {}                  # the last window's substep samples, per data item
         self._window_start: dict[str, np.ndarray] = {}    # the window's start values (the last window's ends)
+        self._with_substeps = {e.data for e in exchanges if e.substeps}    # data whose samples are exchanged
         self._grid: dict[str, np.ndarray] = {}    # the accelerated data's times inside the window, as the
                                                   # acceleration's columns hold them
         self.divergence_factor = divergence_factor
@@ -230,16 +232,13 @@ class CouplingScheme:
         for e in self.exchanges:
             if e.target is not target or e.degree < 1:
                 continue
-            start = self._window_start.get(e.data, values[e.data])
+            start, end = self._window_start.get(e.data, values[e.data]), values[e.data]
             if e.data not in series:       # start and end: the line through them
-                waveforms[e.data] = (np.array([0.0, 0.0, 1.0, 1.0]),
-                                     np.stack([e.mapping(start), e.mapping(values[e.data])]))
+                waveforms[e.data] = (LINE, e.mapping.in_time(np.stack([start, end])))
                 continue
             times, samples = series[e.data]
-            mapped = np.stack([e.mapping(start), *(e.mapping(sample) for sample in samples),
-                               e.mapping(values[e.data])])
-            interpolant = spline(np.concatenate([[0.0], times, [1.0]]), mapped, e.degree)
-            waveforms[e.data] = (interpolant.t, interpolant.c)
+            mapped = e.mapping.in_time(np.concatenate([start[None], samples, end[None]]))
+            waveforms[e.data] = coefficients(np.concatenate([[0.0], times, [1.0]]), mapped, e.degree)
         return {"waveforms": waveforms} if waveforms else {}
 
     def _take_series(self, proxy: Participant, series: Series) -> None:
@@ -249,7 +248,7 @@ class CouplingScheme:
             series.pop(name, None)
         if sent:
             times, samples = sent
-            series.update({name: (times, value) for name, value in samples.items()})
+            series.update({name: (times, value) for name, value in samples.items() if name in self._with_substeps})
 
     def _degree(self, name: str) -> int:
         return max((e.degree for e in self.exchanges if e.data == name), default=0)
@@ -265,7 +264,7 @@ class CouplingScheme:
         known = np.concatenate([[0.0], inner, [1.0]])
         stacked = np.concatenate([self._window_start.get(name, values[name])[None], samples, values[name][None]])
         matrix = resampling(known, self._degree(name), times)
-        return np.tensordot(matrix, stacked, axes=1)
+        return (matrix @ stacked.reshape(len(known), -1)).reshape((len(times),) + stacked.shape[1:])
 
     def _iterates(self, values: Mapping[str, np.ndarray], series: Series, out: Mapping[str, np.ndarray],
                   out_series: Series, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:

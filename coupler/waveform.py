@@ -15,6 +15,8 @@ The interpolant is linear in the samples, so resampling a waveform on another se
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 MAX_DEGREE = 3
@@ -43,6 +45,20 @@ def spline(times: np.ndarray, samples: np.ndarray, degree: int):
     return make_interp_spline(times, samples, k=k, t=knots(times, k), axis=0)
 
 
+@functools.lru_cache(maxsize=256)
+def _interpolation(times: bytes, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    grid = np.frombuffer(times)
+    identity = spline(grid, np.eye(len(grid)), degree)
+    return identity.t, identity.c
+
+
+def coefficients(times: np.ndarray, samples: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """The knots and coefficients of ``spline(times, samples, degree)``, from the interpolation's matrix (kept per
+    time grid: a window's iterations share theirs)."""
+    knots_, matrix = _interpolation(np.ascontiguousarray(times, dtype=float).tobytes(), int(degree))
+    return knots_, (matrix @ samples.reshape(len(matrix), -1)).reshape((len(matrix),) + samples.shape[1:])
+
+
 def evaluate(times: np.ndarray, samples: np.ndarray, degree: int, at: np.ndarray) -> np.ndarray:
     """The waveform through ``samples`` at ``times`` evaluated ``at`` (normalised times in [0, 1]); a time that is a
     sample's own gives that sample exactly."""
@@ -57,5 +73,13 @@ def evaluate(times: np.ndarray, samples: np.ndarray, degree: int, at: np.ndarray
 
 
 def resampling(times: np.ndarray, degree: int, at: np.ndarray) -> np.ndarray:
-    """The matrix P (len(at) x len(times)) with P @ samples = the waveform through them evaluated ``at``."""
-    return evaluate(times, np.eye(len(times)), degree, at)
+    """The matrix P (len(at) x len(times)) with P @ samples = the waveform through them evaluated ``at`` (kept per
+    pair of grids)."""
+    return _resampling(np.ascontiguousarray(times, dtype=float).tobytes(), int(degree),
+                       np.ascontiguousarray(at, dtype=float).tobytes())
+
+
+@functools.lru_cache(maxsize=256)
+def _resampling(times: bytes, degree: int, at: bytes) -> np.ndarray:
+    grid = np.frombuffer(times)
+    return evaluate(grid, np.eye(len(grid)), degree, np.frombuffer(at))

@@ -207,16 +207,18 @@ def test_the_oscillator_keeps_its_integrators_order_with_substeps_and_falls_to_f
     assert oscillator_order.main(["--out", str(tmp_path), "--small"]) == 0
     results = json.loads((tmp_path / "results.json").read_text())
 
-    def order(via, integrator, degree):
-        rows = sorted((r for r in results if (r["via"], r["integrator"], r["degree"]) == (via, integrator, degree)),
-                      key=lambda r: r["window"])
+    def order(via, integrator, degree, substeps=True):
+        rows = sorted((r for r in results if (r["via"], r["integrator"], r["degree"], r["substeps"]) ==
+                       (via, integrator, degree, substeps)), key=lambda r: r["window"])
         return oscillator_order.fitted_order([r["window"] for r in rows], [r["error"] for r in rows])
 
     for via in ("participants", "components"):
         assert 0.8 < order(via, "newmark", 0) < 1.4 and 0.8 < order(via, "rk4", 0) < 1.4   # window end: first order
         assert order(via, "newmark", 3) > 1.9 and order(via, "rk4", 3) > 3.7                # the integrator's order
+        assert 1.8 < order(via, "rk4", 3, substeps=False) < 2.2      # start and end alone: a line, second order
         newmark = [r for r in results if (r["via"], r["integrator"], r["degree"]) == (via, "newmark", 3)]
         assert max(r["energy_change"] for r in newmark) < 1e-12                            # Newmark keeps energy
-    same = {(r["integrator"], r["degree"], r["window"]): r["error"] for r in results if r["via"] == "participants"}
+    same = {(r["integrator"], r["degree"], r["substeps"], r["window"]): r["error"] for r in results
+            if r["via"] == "participants"}
     for r in results:       # the two ways are one coupling: the same errors to round-off
-        assert r["error"] == pytest.approx(same[r["integrator"], r["degree"], r["window"]], rel=1e-6)
+        assert r["error"] == pytest.approx(same[r["integrator"], r["degree"], r["substeps"], r["window"]], rel=1e-6)
