@@ -2,6 +2,7 @@
 oscillator's convergence order under waveform iteration."""
 
 import json
+import shutil
 import sys
 from pathlib import Path
 
@@ -222,3 +223,87 @@ def test_the_oscillator_keeps_its_integrators_order_with_substeps_and_falls_to_f
             if r["via"] == "participants"}
     for r in results:       # the two ways are one coupling: the same errors to round-off
         assert r["error"] == pytest.approx(same[r["integrator"], r["degree"], r["substeps"], r["window"]], rel=1e-6)
+
+
+# --- bad input: one line, exit 2 -------------------------------------------------------------------------------------
+EXAMPLE = ROOT / "examples" / "oscillator"
+V2_TUBE = ROOT / "examples" / "precice_tube" / "precice-config-v2.xml"
+BAD_CONFIGS = [
+    ("a degree of 4", [('name="Displacement-Left" waveform-degree="3"', 'name="Displacement-Left" waveform-degree="4"')],
+     "line 5: <data:scalar>: 'waveform-degree' is 4; allowed: 0 to 3"),
+    ("substeps on data the acceleration does not hold",
+     [("coupling-scheme:serial-implicit>", "coupling-scheme:parallel-implicit>")],
+     "<exchange data=\"Displacement-Left\" substeps=\"true\">: the acceleration (line 45) does not hold "
+     "'Displacement-Left'"),
+    ("substeps that are no flag", [('to="Mass-Right" initialize="true"\n              substeps="true"',
+                                    'to="Mass-Right" initialize="true"\n              substeps="often"')],
+     "'substeps' is 'often'; allowed: true or false"),
+]
+
+
+@pytest.mark.parametrize("what, changes, message", BAD_CONFIGS, ids=[b[0] for b in BAD_CONFIGS])
+def test_a_bad_time_setting_of_a_configuration_is_one_line(tmp_path, capsys, what, changes, message):
+    from cosim.cli import main
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.txt", "cosim-run"))
+    config = tmp_path / "case" / "precice-config.xml"
+    text = config.read_text()
+    for old, new in changes:
+        assert old in text, what
+        text = text.replace(old, new)
+    config.write_text(text)
+    assert main(["run", str(tmp_path / "case" / "case.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err and message in err and "precice-config.xml" in err, err
+
+
+@pytest.mark.parametrize("what, old, new, message", [
+    ("substeps in a v2 configuration", 'from="Fluid" to="Solid" initialize="true" />',
+     'from="Fluid" to="Solid" initialize="true" substeps="true" />', "substeps is a preCICE v3 attribute"),
+    ("a v2 waveform order of 5", '<read-data name="CrossSectionLength" mesh="Fluid-Nodes-Mesh" />',
+     '<read-data name="CrossSectionLength" mesh="Fluid-Nodes-Mesh" waveform-order="5" />', "'waveform-order' is 5"),
+    ("a v2 waveform order on written data", '<write-data name="Pressure" mesh="Fluid-Nodes-Mesh" />',
+     '<write-data name="Pressure" mesh="Fluid-Nodes-Mesh" waveform-order="1" />',
+     "'waveform-order' goes on a <read-data>"),
+])
+def test_a_bad_time_setting_of_a_v2_configuration_is_one_line(tmp_path, capsys, what, old, new, message):
+    from cosim.cli import main
+    text = V2_TUBE.read_text()
+    assert old in text, what
+    (tmp_path / "precice-config.xml").write_text(text.replace(old, new))
+    assert main(["check", str(tmp_path / "precice-config.xml"), "--static"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err and message in err and "precice-config.xml, line" in err, err
+
+
+BAD_SCENES = [
+    ("a degree of 4", ["exchange.0.waveform_degree=4"], "'exchange.0.waveform_degree' is 4; allowed: [0, 3]"),
+    ("a degree that is no integer", ["exchange.0.waveform_degree=1.5"], "exchange.0.waveform_degree"),
+    ("no steps a window", ["components.Mass-Left.substeps=0"], "'components.Mass-Left.substeps' is 0"),
+    ("substeps on data the acceleration does not hold", ["coupling.scheme=parallel-implicit"],
+     "'exchange.0.substeps' is on for 'Displacement-Left', which the acceleration does not hold"),
+    ("substeps with a switch of backend", ["components.Mass-Left.backend=rom", "components.Mass-Left.rom.model=m.npz",
+                                           "components.Mass-Left.rom.switch_time=0.5"],
+     "a component that subcycles is served by one backend from the start"),
+]
+
+
+@pytest.mark.parametrize("what, overrides, message", BAD_SCENES, ids=[b[0] for b in BAD_SCENES])
+def test_a_bad_time_setting_of_a_scene_is_one_line(tmp_path, capsys, what, overrides, message):
+    from cosim.cli import main
+    arguments = [a for item in overrides for a in ("--set", item)]
+    assert main(["check", str(EXAMPLE / "scene.toml"), "--static", *arguments]) == 2, what
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err and message in err, err
+
+
+def test_a_component_reading_outside_its_window_stops_the_run_in_one_line(tmp_path, capsys):
+    from cosim.cli import main
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.txt", "cosim-run"))
+    component = tmp_path / "case" / "mass_component.py"
+    component.write_text(component.read_text().replace("self.input_at(self.read, t + s)",
+                                                       "self.input_at(self.read, t + s + 1.0)"))
+    code = main(["run", str(tmp_path / "case" / "scene.toml"), "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert "component 'Mass-Left' in window 1 (t = 0 to 0.01), iteration 1: 'step' failed: reads " \
+           "'Displacement-Right' at t = 1, outside its window [0, 0.01]" in err, err
