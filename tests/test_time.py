@@ -307,3 +307,25 @@ def test_a_component_reading_outside_its_window_stops_the_run_in_one_line(tmp_pa
     assert code == 2 and "\n" not in err and "Traceback" not in err, err
     assert "component 'Mass-Left' in window 1 (t = 0 to 0.01), iteration 1: 'step' failed: reads " \
            "'Displacement-Right' at t = 1, outside its window [0, 0.01]" in err, err
+
+
+# --- heat conduction, Dirichlet-Neumann ----------------------------------------------------------------------------
+HEAT = ROOT / "examples" / "heat_conduction"
+
+
+@pytest.mark.parametrize("degree", [1, 0])
+def test_heat_conduction_with_substeps_stays_at_the_convergence_limit_at_degree_1(tmp_path, degree):
+    """The sides take 3 and 2 steps a window; the manufactured solution is linear in time, so at degree 1 each reads
+    the interface exactly at its steps and the coupled error is the iterations' (limit 1e-10 relative, on values
+    of 2 to 3.3): at most 1e-9, where the window-end value (degree 0) is off by beta dt / 3 at the first step."""
+    from coupler.run import run_scene
+    from cosim.scene import load_scene
+    shutil.copytree(HEAT, tmp_path / "case", ignore=shutil.ignore_patterns("*.txt", "cosim-run"))
+    config = tmp_path / "case" / "precice-config.xml"
+    config.write_text(config.read_text().replace('waveform-degree="1"', f'waveform-degree="{degree}"'))
+    run_scene(load_scene(tmp_path / "case" / "case.toml"), tmp_path / "out", progress=False)
+    errors = [np.loadtxt(tmp_path / "case" / f"{side}.txt")[:, 1].max() for side in ("dirichlet", "neumann")]
+    if degree == 1:
+        assert max(errors) < 1e-9, errors
+    else:
+        assert min(errors) > 1e-4, errors
