@@ -329,3 +329,22 @@ def test_heat_conduction_with_substeps_stays_at_the_convergence_limit_at_degree_
         assert max(errors) < 1e-9, errors
     else:
         assert min(errors) > 1e-4, errors
+
+
+# --- restart ---------------------------------------------------------------------------------------------------------
+def test_a_subcycled_run_with_waveforms_resumes_bit_for_bit(tmp_path, monkeypatch):
+    """The oscillator's components (4 steps a window, cubic waveforms, IQN-ILS reusing two windows), stopped after
+    window 25 with a checkpoint every 10: the checkpoint holds the window's samples and the acceleration's columns
+    on their grid, and the resumed run is the uninterrupted one, bit for bit."""
+    from coupler.run import run_scene
+    from cosim.scene import load_scene
+    from tests.test_restart import identical, stopped_at
+    overrides = ["time.end=0.4", "output.checkpoint_every=10",
+                 "coupling.acceleration.reused_time_windows=2"]
+    run_scene(load_scene(EXAMPLE / "scene.toml", overrides), tmp_path / "whole", progress=False)
+    with monkeypatch.context() as patch:
+        stopped_at(25, patch)
+        with pytest.raises(KeyboardInterrupt):
+            run_scene(load_scene(EXAMPLE / "scene.toml", overrides), tmp_path / "cut", progress=False)
+    run_scene(load_scene(EXAMPLE / "scene.toml", overrides), tmp_path / "cut", progress=False, resume=True)
+    identical(tmp_path / "whole", tmp_path / "cut")
