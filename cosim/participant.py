@@ -166,6 +166,8 @@ class ParticipantProxy:
         self._sent_at = 0.0
         self._closed = False
         self.substeps: tuple[np.ndarray, dict[str, np.ndarray]] | None = None   # its last advance's samples
+        self.substep_calls: list[tuple[dict, dict]] = []    # and its steps as calls, for the recording
+        self._sent: tuple[dict[str, np.ndarray], dict[str, tuple]] = ({}, {})    # the last step's inputs, waveforms
         self.setup: dict[str, Any] = {}
 
     # --- waiting for the participant -----------------------------------------------------------------------------
@@ -276,6 +278,7 @@ class ParticipantProxy:
         implicit = bool(self.setup.get("implicit", True))
         self._window = (t, dt)
         self._sent_at = time.perf_counter()
+        self._sent = (dict(inputs), dict(waveforms or {}))
         arrays = {f"data:{name}": np.asarray(value) for name, value in inputs.items()}
         for name, (knots, coefficients) in (waveforms or {}).items():
             arrays[f"knots:{name}"], arrays[f"coefficients:{name}"] = knots, coefficients
@@ -298,11 +301,25 @@ class ParticipantProxy:
         if missing:
             raise ComponentError(self.name, f"its advance carried no '{missing[0]}'")
         self.substeps = self._samples(arrays)
+        self.substep_calls = self._calls(outputs) if self.substeps else []
         compute = float(args.get("compute_seconds", roundtrip))
         self.compute_seconds.append(compute)
         self.cpu_seconds.append(float(args.get("cpu_seconds", compute)))
         self.roundtrip_seconds.append(roundtrip)
         return self.check_outputs(outputs)
+
+    def _calls(self, outputs: Mapping[str, np.ndarray]) -> list[tuple[dict, dict]]:
+        """Its steps inside the window as calls: at each sample's time, the inputs as their waveforms give them
+        there and the samples it wrote; then the window's end."""
+        from scipy.interpolate import BSpline
+        assert self.substeps is not None
+        times, samples = self.substeps
+        inputs, waveforms = self._sent
+        at = {name: BSpline(knots, coefficients, len(knots) - len(coefficients) - 1, axis=0)(times)
+              for name, (knots, coefficients) in waveforms.items()}
+        calls = [({name: at[name][k] if name in at else value for name, value in inputs.items()},
+                  {name: value[k] for name, value in samples.items()}) for k in range(len(times))]
+        return calls + [(inputs, dict(outputs))]
 
     def _samples(self, arrays: Mapping[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
         """The samples an advance carries from the participant's steps inside the window (data with substeps):

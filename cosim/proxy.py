@@ -245,6 +245,7 @@ class ComponentProxy:
             self.saved_state = int(result["state"])
         if "times" in arrays:
             return self._subcycled(arrays)
+        self.substeps, self.substep_calls = None, []
         return self.check_outputs(arrays)
 
     def _subcycled(self, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

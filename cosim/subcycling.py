@@ -101,7 +101,7 @@ def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps
         component.window_inputs = None
     result = dict(outputs[-1])
     result["times"] = np.arange(1, substeps) / substeps
-    for name in outputs[-1]:
+    for name in outputs[-1] if substeps > 1 else ():
         result[f"substeps:{name}"] = np.stack([o[name] for o in outputs[:-1]])
     if record:
         for name in inputs[-1]:

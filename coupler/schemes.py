@@ -337,8 +337,8 @@ class CouplingScheme:
         recorder = self.recorders.get(proxy.name)
         if recorder is None:
             return
-        steps = getattr(proxy, "substep_calls", None) if getattr(proxy, "substep_count", 1) > 1 else None
-        if steps:        # a component that subcycles: each of its steps is a call
+        steps = getattr(proxy, "substep_calls", None)
+        if steps:        # a component or a participant that subcycles: each of its steps is a call
             for step_inputs, step_outputs in steps:
                 recorder.record(self.window, iteration, step_inputs, step_outputs)
         else:

@@ -348,3 +348,55 @@ def test_a_subcycled_run_with_waveforms_resumes_bit_for_bit(tmp_path, monkeypatc
             run_scene(load_scene(EXAMPLE / "scene.toml", overrides), tmp_path / "cut", progress=False)
     run_scene(load_scene(EXAMPLE / "scene.toml", overrides), tmp_path / "cut", progress=False, resume=True)
     identical(tmp_path / "whole", tmp_path / "cut")
+
+
+# --- recording ---------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("way", ["case.toml", "scene.toml"])
+def test_every_step_of_a_subcycled_window_is_a_recorded_call(tmp_path, way):
+    """Both masses take 4 steps a window (Newmark: each reads the other at its steps' ends, which are the other's
+    samples): every iteration is 4 recorded calls, the last one at the window's end with the converged fields, and
+    each call's input is the other mass's output of the same step."""
+    from coupler.run import run_scene
+    from cosim.results import RunResults
+    from cosim.scene import load_scene
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.txt", "cosim-run"))
+    for name in ("case.toml", "scene.toml"):
+        path = tmp_path / "case" / name
+        path.write_text(path.read_text().replace("rk4", "newmark"))
+    run_scene(load_scene(tmp_path / "case" / way, ["time.end=0.1"]), tmp_path / "out", progress=False)
+    with RunResults(tmp_path / "out") as results:
+        left, right = results.calls("Mass-Left"), results.calls("Mass-Right")
+        fields = results.fields()
+        iterations = int(results.windows.iterations.sum())
+    assert len(left.window) == len(right.window) == 4 * iterations
+    last = np.flatnonzero(left.converged)[3::4]
+    assert np.array_equal(left.outputs["Displacement-Left"][last], fields["Displacement-Left"])
+    # serial: the right mass reads the left one's steps of the same iteration
+    assert np.allclose(right.inputs["Displacement-Left"], left.outputs["Displacement-Left"], rtol=0, atol=1e-14)
+
+
+# --- the tube's solvers, subcycled ---------------------------------------------------------------------------------
+def test_the_tube_subcycled_converges_at_its_fluids_first_order_in_the_step(tmp_path):
+    """Windows of 0.1 s, both solvers taking 1, 2 and 4 steps a window with linear waveforms, against the tube run
+    with windows of 0.0125 s: the error at the window ends falls with the step as implicit Euler's first order
+    (ratios near 2 for a halved step, 3 at the last halving, whose step is twice the reference's)."""
+    from coupler.run import run_scene
+    from cosim.results import RunResults
+    from cosim.scene import load_scene
+    from tests.conftest import TUBE_SCENE
+
+    def run(name, overrides):
+        run_scene(load_scene(TUBE_SCENE, ["time.end=1.0", *overrides]), tmp_path / name, progress=False)
+        with RunResults(tmp_path / name) as results:
+            return results.windows.time, results.fields()
+
+    times, reference = run("reference", ["time.dt=0.0125"])
+    errors = []
+    for steps in (1, 2, 4):
+        t, fields = run(f"steps{steps}", ["time.dt=0.1", f"components.fluid.substeps={steps}",
+                                          f"components.solid.substeps={steps}", "exchange.0.waveform_degree=1",
+                                          "exchange.1.waveform_degree=1", "exchange.0.substeps=true",
+                                          "exchange.1.substeps=true"])
+        rows = np.searchsorted(times, t - 1e-9)
+        errors.append(max(np.abs(fields[k] - reference[k][rows]).max() / np.abs(reference[k]).max() for k in fields))
+    assert 1.7 < errors[0] / errors[1] < 2.7 and 2.0 < errors[1] / errors[2] < 3.4, errors
