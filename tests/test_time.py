@@ -318,8 +318,8 @@ def test_heat_conduction_with_substeps_stays_at_the_convergence_limit_at_degree_
     """The sides take 3 and 2 steps a window; the manufactured solution is linear in time, so at degree 1 each reads
     the interface exactly at its steps and the coupled error is the iterations' (limit 1e-10 relative, on values
     of 2 to 3.3): at most 1e-9, where the window-end value (degree 0) is off by beta dt / 3 at the first step."""
-    from coupler.run import run_scene
     from cosim.scene import load_scene
+    from coupler.run import run_scene
     shutil.copytree(HEAT, tmp_path / "case", ignore=shutil.ignore_patterns("*.txt", "cosim-run"))
     config = tmp_path / "case" / "precice-config.xml"
     config.write_text(config.read_text().replace('waveform-degree="1"', f'waveform-degree="{degree}"'))
@@ -336,8 +336,8 @@ def test_a_subcycled_run_with_waveforms_resumes_bit_for_bit(tmp_path, monkeypatc
     """The oscillator's components (4 steps a window, cubic waveforms, IQN-ILS reusing two windows), stopped after
     window 25 with a checkpoint every 10: the checkpoint holds the window's samples and the acceleration's columns
     on their grid, and the resumed run is the uninterrupted one, bit for bit."""
-    from coupler.run import run_scene
     from cosim.scene import load_scene
+    from coupler.run import run_scene
     from tests.test_restart import identical, stopped_at
     overrides = ["time.end=0.4", "output.checkpoint_every=10",
                  "coupling.acceleration.reused_time_windows=2"]
@@ -356,9 +356,9 @@ def test_every_step_of_a_subcycled_window_is_a_recorded_call(tmp_path, way):
     """Both masses take 4 steps a window (Newmark: each reads the other at its steps' ends, which are the other's
     samples): every iteration is 4 recorded calls, the last one at the window's end with the converged fields, and
     each call's input is the other mass's output of the same step."""
-    from coupler.run import run_scene
     from cosim.results import RunResults
     from cosim.scene import load_scene
+    from coupler.run import run_scene
     shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.txt", "cosim-run"))
     for name in ("case.toml", "scene.toml"):
         path = tmp_path / "case" / name
@@ -380,9 +380,9 @@ def test_the_tube_subcycled_converges_at_its_fluids_first_order_in_the_step(tmp_
     """Windows of 0.1 s, both solvers taking 1, 2 and 4 steps a window with linear waveforms, against the tube run
     with windows of 0.0125 s: the error at the window ends falls with the step as implicit Euler's first order
     (ratios near 2 for a halved step, 3 at the last halving, whose step is twice the reference's)."""
-    from coupler.run import run_scene
     from cosim.results import RunResults
     from cosim.scene import load_scene
+    from coupler.run import run_scene
     from tests.conftest import TUBE_SCENE
 
     def run(name, overrides):
