@@ -9,7 +9,9 @@ Newmark's energy is the coupled system's (both masses, three springs): its large
 
 Each run's result is kept in ``--out``/results.json as it comes, and a rerun skips what is there.
 
-    python -m scripts.oscillator_order [--out runs/oscillator_order] [--small] [--via participants|components]
+    python -m scripts.oscillator_order [--out runs/oscillator_order] [--small] [--via participants|components] [--docs]
+
+``--docs`` writes the tables into docs/time.md, between its markers.
 """
 
 from __future__ import annotations
@@ -23,7 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import machine
+
 ROOT = Path(__file__).resolve().parent.parent
+BEGIN, END = "<!-- oscillator:begin (scripts/oscillator_order.py writes this part) -->", "<!-- oscillator:end -->"
 EXAMPLE = ROOT / "examples" / "oscillator"
 MASS, K_WALL, K_MIDDLE = 1.0, 4.0 * np.pi ** 2, 16.0 * np.pi ** 2
 WINDOWS = (0.04, 0.02, 0.01, 0.005)
@@ -131,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default="runs/oscillator_order")
     parser.add_argument("--small", action="store_true", help="two windows, degrees 0 and 3 (tests)")
     parser.add_argument("--via", choices=("participants", "components", "both"), default="both")
+    parser.add_argument("--docs", action="store_true", help="write the tables into docs/time.md")
     args = parser.parse_args(argv)
     ways = ("participants", "components") if args.via == "both" else (args.via,)
     out = Path(args.out)
@@ -152,10 +158,14 @@ def main(argv: list[str] | None = None) -> int:
         results.append(run_one(out / name, integrator, degree, substeps, window, via))
         store.write_text(json.dumps(results, indent=1))
         print(f"{name}: error {results[-1]['error']:.3e}", file=sys.stderr)
-    for via in ways:
-        print(f"\nAs two {'preCICE participants' if via == 'participants' else 'cosim components'} "
-              f"({'case.toml' if via == 'participants' else 'scene.toml'}):\n")
-        print(markdown(results, windows, via))
+    text = "\n\n".join(f"As two {'preCICE participants' if via == 'participants' else 'cosim components'} "
+                       f"(`{'case.toml' if via == 'participants' else 'scene.toml'}`), machine: {machine()}:\n\n"
+                       + markdown(results, windows, via) for via in ways)
+    print(text)
+    if args.docs:
+        page = ROOT / "docs" / "time.md"
+        before, rest = page.read_text().split(BEGIN, 1)
+        page.write_text(before + BEGIN + "\n" + text + "\n" + END + rest.split(END, 1)[1])
     return 0
 
 
