@@ -280,10 +280,11 @@ class ParticipantProxy:
         self._sent_at = time.perf_counter()
         self._sent = (dict(inputs), dict(waveforms or {}))
         arrays = {f"data:{name}": np.asarray(value) for name, value in inputs.items()}
-        for name, (knots, coefficients) in (waveforms or {}).items():
-            arrays[f"knots:{name}"], arrays[f"coefficients:{name}"] = knots, coefficients
+        for name, (_, coefficients) in (waveforms or {}).items():
+            arrays[f"coefficients:{name}"] = coefficients
         self._answer({"ongoing": True, "window_complete": not repeat and not first, "window_start": t, "window": dt,
-                      "write_checkpoint": implicit and not repeat, "read_checkpoint": repeat}, arrays)
+                      "write_checkpoint": implicit and not repeat, "read_checkpoint": repeat,
+                      "knots": {name: knots.tolist() for name, (knots, _) in (waveforms or {}).items()}}, arrays)
 
     def receive_step(self) -> dict[str, np.ndarray]:
         """The write data of the participant's next window-ending ``advance``."""
@@ -300,7 +301,7 @@ class ParticipantProxy:
         missing = [name for name in self._written if name not in outputs]
         if missing:
             raise ComponentError(self.name, f"its advance carried no '{missing[0]}'")
-        self.substeps = self._samples(arrays)
+        self.substeps = self._samples(args.get("times"), arrays)
         self.substep_calls = self._calls(outputs) if self.substeps else []
         compute = float(args.get("compute_seconds", roundtrip))
         self.compute_seconds.append(compute)
@@ -321,13 +322,16 @@ class ParticipantProxy:
                   {name: value[k] for name, value in samples.items()}) for k in range(len(times))]
         return calls + [(inputs, dict(outputs))]
 
-    def _samples(self, arrays: Mapping[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    def _samples(self, given: Any, arrays: Mapping[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
         """The samples an advance carries from the participant's steps inside the window (data with substeps):
-        their normalised times, strictly inside (0, 1) and increasing, and each data item's values there."""
-        times = arrays.get("times")
-        if times is None:
+        their normalised times (in its header), strictly inside (0, 1) and increasing, and each data item's values
+        there."""
+        if given is None:
             return None
-        times = np.asarray(times, dtype=float)
+        try:
+            times = np.asarray(given, dtype=float)
+        except (TypeError, ValueError):
+            raise ComponentError(self.name, f"its substeps' times {given!r} are not numbers") from None
         if times.ndim != 1 or not (np.all(np.diff(times) > 0) and times.size and 0 < times[0] and times[-1] < 1):
             raise ComponentError(self.name, f"its substeps' times {np.round(times, 6).tolist()} are not increasing "
                                             "inside the window")

@@ -233,24 +233,24 @@ class ComponentProxy:
             args["substeps"] = self.substep_count
             if self.records_steps:
                 args["record_steps"] = True
-        if waveforms:
+        if waveforms:       # the knots (a few numbers) in the header, the coefficients as arrays
             inputs = dict(inputs)
-            for name, (knots, coefficients) in waveforms.items():
-                inputs[f"knots:{name}"], inputs[f"coefficients:{name}"] = knots, coefficients
+            args["knots"] = {name: knots.tolist() for name, (knots, _) in waveforms.items()}
+            for name, (_, coefficients) in waveforms.items():
+                inputs[f"coefficients:{name}"] = coefficients
         self.send("step", args, inputs)
 
     def receive_step(self) -> dict[str, np.ndarray]:
         result, arrays, _ = self.receive()
         if "state" in result:
             self.saved_state = int(result["state"])
-        if "times" in arrays:
-            return self._subcycled(arrays)
+        if "times" in result:
+            return self._subcycled(np.array(result["times"], dtype=float), arrays)
         self.substeps, self.substep_calls = None, []
         return self.check_outputs(arrays)
 
-    def _subcycled(self, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def _subcycled(self, times: np.ndarray, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """A subcycled step's reply: the last outputs; the samples inside the window and each step's call kept."""
-        times = arrays.pop("times")
         samples = {name[len("substeps:"):]: arrays.pop(name) for name in list(arrays) if name.startswith("substeps:")}
         given = {name[len("inputs:"):]: arrays.pop(name) for name in list(arrays) if name.startswith("inputs:")}
         outputs = self.check_outputs(arrays)

@@ -197,7 +197,7 @@ class ComponentServer:
             component.set_state(restore)
         saved = component.get_state() if args.get("save") else None
         t, dt = protocol.number(args, "t"), protocol.number(args, "dt")
-        inputs, splines = split_waveforms(real_inputs(arrays))
+        inputs, splines = split_waveforms(real_inputs(arrays), args.get("knots") or {})
         substeps = int(args.get("substeps") or 1)
         if substeps > 1 or splines:
             outputs = subcycle(component, t, dt, WindowInputs(t, dt, inputs, splines, substeps), substeps,

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.errors import ComponentError
+from cosim.errors import ComponentError, ProtocolError
 
 EPSILON = 1e-9       # relative: a time this close to the window's end is its end
 
@@ -73,11 +73,19 @@ class WindowInputs:
         return spline(min(max(relative, 0.0), 1.0))
 
 
-def split_waveforms(arrays: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, tuple]]:
-    """A step request's arrays: the inputs, and the interpolants sent as ``knots:NAME`` and ``coefficients:NAME``."""
+def split_waveforms(arrays: Mapping[str, np.ndarray], knots: Any) -> tuple[dict[str, np.ndarray], dict[str, tuple]]:
+    """A step request's inputs, and its interpolants: their knots from the request's header (``knots``: name ->
+    numbers), their coefficients from its arrays (``coefficients:NAME``)."""
     inputs = {name: value for name, value in arrays.items() if ":" not in name}
-    splines = {name[len("knots:"):]: (value, arrays[f"coefficients:{name[len('knots:'):]}"])
-               for name, value in arrays.items() if name.startswith("knots:")}
+    if not isinstance(knots, dict):
+        raise ProtocolError("argument 'knots' must map input names to lists of numbers")
+    splines = {}
+    for name, values in knots.items():
+        coefficients = arrays.get(f"coefficients:{name}")
+        if name not in inputs or coefficients is None or not isinstance(values, list) \
+                or not 1 <= len(values) - len(coefficients) - 1 <= 3:
+            raise ProtocolError(f"the waveform of input '{name}' is not a B-spline of degree 1 to 3 over its inputs")
+        splines[name] = (np.array(values, dtype=float), coefficients)
     return inputs, splines
 
 
@@ -99,8 +107,8 @@ def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps
             inputs.append(given)
     finally:
         component.window_inputs = None
-    result = dict(outputs[-1])
-    result["times"] = np.arange(1, substeps) / substeps
+    result: dict[str, Any] = dict(outputs[-1])
+    result["times"] = [k / substeps for k in range(1, substeps)]      # in the reply's header
     for name in outputs[-1] if substeps > 1 else ():
         result[f"substeps:{name}"] = np.stack([o[name] for o in outputs[:-1]])
     if record:

@@ -167,10 +167,10 @@ class Core:
             if relative_read_time < 0 or relative_read_time > remaining * (1 + EPSILON) + EPSILON * self.window:
                 raise self.fail(call, f"relative_read_time {relative_read_time:g} is outside the step (0 to {remaining:g}, what is left of the "
                                 "window)")
-            time = (self.elapsed + relative_read_time) / self.window
+            moment = (self.elapsed + relative_read_time) / self.window
             waveform = self.waveforms.get(data)
-            if waveform is not None and time < 1.0 - EPSILON:
-                return waveform(time)[vertex_ids]
+            if waveform is not None and moment < 1.0 - EPSILON:
+                return waveform(moment)[vertex_ids]
         values = self.received.get(data)
         dimensions = int(spec["dimensions"])
         if values is None:
@@ -207,8 +207,8 @@ class Core:
         window to compute, and whether it is a new window, the same one again, or none (the end)."""
         result, received = self._request(op, args, arrays)
         self.received = {name[len("data:"):]: value for name, value in received.items() if name.startswith("data:")}
-        self.waveforms = {name[len("knots:"):]: Waveform(knots, received["coefficients:" + name[len("knots:"):]])
-                          for name, knots in received.items() if name.startswith("knots:")}
+        self.waveforms = {name: Waveform(np.array(knots), received["coefficients:" + name])
+                          for name, knots in (result.get("knots") or {}).items()}
         self.samples = []
         self.ongoing = bool(result["ongoing"])
         self.window_complete = bool(result["window_complete"])
@@ -246,13 +246,13 @@ class Core:
                     if data in self.substep_data}))
             return
         arrays = {"data:" + data: self._buffer(mesh, data, spec) for (mesh, data), spec in self.write.items()}
+        wall, cpu = self._computing_since
+        args: dict[str, Any] = {"compute_seconds": time.perf_counter() - wall, "cpu_seconds": time.process_time() - cpu}
         if self.samples:
-            arrays["times"] = np.array([time for time, _ in self.samples])
+            args["times"] = [moment for moment, _ in self.samples]
             for data in self.substep_data:
                 arrays["substeps:" + data] = np.stack([sample[data] for _, sample in self.samples])
-        wall, cpu = self._computing_since
-        self._exchange("advance", {"compute_seconds": time.perf_counter() - wall,
-                                   "cpu_seconds": time.process_time() - cpu}, arrays)
+        self._exchange("advance", args, arrays)
 
     def finalize(self, call: str) -> None:
         if self.state == "finalized":
