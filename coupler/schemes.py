@@ -238,7 +238,7 @@ class CouplingScheme:
                 continue
             times, samples = series[e.data]
             mapped = e.mapping.in_time(np.concatenate([start[None], samples, end[None]]))
-            waveforms[e.data] = coefficients(np.concatenate([[0.0], times, [1.0]]), mapped, e.degree)
+            waveforms[e.data] = coefficients(times, mapped, e.degree)
         return {"waveforms": waveforms} if waveforms else {}
 
     def _take_series(self, proxy: Participant, series: Series) -> None:

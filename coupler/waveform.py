@@ -46,16 +46,17 @@ def spline(times: np.ndarray, samples: np.ndarray, degree: int):
 
 
 @functools.lru_cache(maxsize=256)
-def _interpolation(times: bytes, degree: int) -> tuple[np.ndarray, np.ndarray]:
-    grid = np.frombuffer(times)
+def _interpolation(inner: bytes, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    grid = np.concatenate([[0.0], np.frombuffer(inner), [END]])
     identity = spline(grid, np.eye(len(grid)), degree)
     return identity.t, identity.c
 
 
-def coefficients(times: np.ndarray, samples: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """The knots and coefficients of ``spline(times, samples, degree)``, from the interpolation's matrix (kept per
-    time grid: a window's iterations share theirs)."""
-    knots_, matrix = _interpolation(np.ascontiguousarray(times, dtype=float).tobytes(), int(degree))
+def coefficients(inner: np.ndarray, samples: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """The knots and coefficients of the spline of ``degree`` through ``samples`` at the window's start, the times
+    ``inner`` inside it and its end, from the interpolation's matrix (kept per time grid: a window's iterations
+    share theirs)."""
+    knots_, matrix = _interpolation(np.ascontiguousarray(inner, dtype=float).tobytes(), int(degree))
     return knots_, (matrix @ samples.reshape(len(matrix), -1)).reshape((len(matrix),) + samples.shape[1:])
 
 

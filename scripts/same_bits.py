@@ -3,7 +3,7 @@ every dataset of their results files compared but the timings.
 
 The runs: the tube's FOM-FOM, the paper's mu1 inlet table, ROM-FOM and FMU-FOM from the start (a ROM trained once,
 on a FOM run to 18 s, with the first checkout), and 30 s each of IQN-IMVJ, Aitken, Jacobi with IQN-ILS on both
-fields, and linear extrapolation.
+fields, and linear extrapolation. With ``--all``: a second of Mok's wall and five windows of the double flap.
 
 Usage: python -m scripts.same_bits TREE_A TREE_B --out DIR   (e.g. a worktree of the commit before a change, and .; a
 rerun into DIR goes on with the runs it lacks)
@@ -30,6 +30,10 @@ RUNS = {
                'coupling.acceleration={type="iqn-ils", data=["pressure","section"], initial_relaxation=0.1}'],
     "extrapolation": ["time.end=30", "coupling.extrapolation_order=1"],
 }
+OTHER_SCENES = {      # the other cases, short: Mok's wall (its structure with inertia) and the double flap (Kratos)
+    "mok": ("scenes/mok.toml", ["time.end=1.0", "mesh.wall_cells=[2,40]"]),
+    "double_flap": ("scenes/double_flap.toml", ["time.end=0.04"]),
+}
 
 
 def cosim(tree: Path, *args: str) -> None:
@@ -48,6 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("trees", nargs=2, type=Path, help="the two checkouts")
     parser.add_argument("--out", type=Path, required=True, help="a new directory for the runs")
+    parser.add_argument("--all", action="store_true", help="Mok's wall and the double flap too (short runs)")
     args = parser.parse_args(argv)
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -59,11 +64,14 @@ def main(argv: list[str] | None = None) -> int:
               "--set", "snapshots.t_max=18", "--out", str(model))
         cosim(trees[0], "export-fmu", str(model), "--out", str(fmu))
     different = 0
-    for name, overrides in RUNS.items():
+    runs = {name: (SCENE, overrides) for name, overrides in RUNS.items()}
+    if args.all:
+        runs.update(OTHER_SCENES)
+    for name, (scene, overrides) in runs.items():
         sets = [f"--set={item.replace('{model}', str(model)).replace('{fmu}', str(fmu))}" for item in overrides]
         for i, tree in enumerate(trees):
             if not (out / f"{name}-{i}" / "status.json").is_file():
-                cosim(tree, "run", SCENE, "--out", str(out / f"{name}-{i}"), "--quiet", *sets)
+                cosim(tree, "run", scene, "--out", str(out / f"{name}-{i}"), "--quiet", *sets)
         a, b = (datasets(out / f"{name}-{i}" / "results.h5") for i in (0, 1))
         moved = sorted(key for key in set(a) | set(b) if a.get(key) != b.get(key))
         different += bool(moved)

@@ -72,6 +72,16 @@ def test_the_interpolant_is_linear_at_degree_1_a_polynomial_through_few_samples_
     assert np.allclose(matrix @ samples, evaluate(times, samples[:, None], 2, at)[:, 0], atol=1e-14)
 
 
+def test_the_coefficients_from_the_kept_matrix_are_the_splines():
+    from coupler.waveform import coefficients, spline
+    inner = np.array([0.2, 0.45, 0.7])
+    samples = np.random.default_rng(3).normal(size=(5, 4, 2))
+    for degree in (1, 2, 3):
+        direct_fit = spline(np.concatenate([[0.0], inner, [1.0]]), samples, degree)
+        knots_, c = coefficients(inner, samples, degree)
+        assert np.array_equal(knots_, direct_fit.t) and np.allclose(c, direct_fit.c, atol=1e-13)
+
+
 def test_a_participant_evaluates_the_spline_the_coupler_sends_as_scipy_does():
     from coupler.waveform import spline
     times = np.array([0.0, 0.2, 0.45, 0.7, 1.0])
