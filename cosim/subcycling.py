@@ -2,7 +2,7 @@
 
 With ``components.<name>.substeps = N`` the coupler's step request carries the window [t, t + dt], the inputs at
 its end and, for inputs of waveform degree >= 1, their B-spline across the window (knots and coefficients over the
-normalised time [0, 1], ``coupler.waveform``). The server then steps the component N times by dt / N, each time
+normalised time [0, 1], as the coupler builds it). The server then steps the component N times by dt / N, each time
 with the inputs interpolated at the step's end (the window-end values at the last), and answers with the last
 outputs, the outputs at the steps inside the window (the samples a reader's waveform goes through), and every
 step's inputs (each step is a call of its own in the recording). Inside a step, ``Component.input_at(name, time)``

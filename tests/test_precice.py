@@ -333,8 +333,8 @@ SUBCYCLING_CONFIG = '''<?xml version="1.0"?>
     <max-time-windows value="10"/>
     <time-window-size value="0.1"/>
     <max-iterations value="30"/>
-    <exchange data="X" mesh="A-Mesh" from="A" to="B"/>
-    <exchange data="B" mesh="B-Mesh" from="B" to="A"/>
+    <exchange data="X" mesh="A-Mesh" from="A" to="B" substeps="false"/>
+    <exchange data="B" mesh="B-Mesh" from="B" to="A" substeps="false"/>
     <relative-convergence-measure data="B" mesh="B-Mesh" limit="1e-12"/>
     <acceleration:IQN-ILS>
       <data name="B" mesh="B-Mesh"/><initial-relaxation value="0.5"/>
