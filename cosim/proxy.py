@@ -251,14 +251,17 @@ class ComponentProxy:
 
     def _subcycled(self, times: np.ndarray, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """A subcycled step's reply: the last outputs; the samples inside the window and each step's call kept."""
-        samples = {name[len("substeps:"):]: arrays.pop(name) for name in list(arrays) if name.startswith("substeps:")}
+        steps = {name[len("steps:"):]: arrays.pop(name) for name in list(arrays) if name.startswith("steps:")}
         given = {name[len("inputs:"):]: arrays.pop(name) for name in list(arrays) if name.startswith("inputs:")}
-        outputs = self.check_outputs(arrays)
+        if any(len(value) != len(times) + 1 for value in steps.values()):
+            raise ComponentError(self.name, f"returned {', '.join(str(len(v)) for v in steps.values())} steps of "
+                                            f"outputs for {len(times) + 1} steps")
+        outputs = self.check_outputs({**arrays, **{name: value[-1] for name, value in steps.items()}})
+        samples = {name: value[:-1] for name, value in steps.items()}
         self.substeps = (times, samples) if len(times) else None
-        steps = len(times) + 1
         self.substep_calls = [({name: value[k] for name, value in given.items()},
-                               {name: samples[name][k] if k < steps - 1 else outputs[name] for name in outputs})
-                              for k in range(steps)] if given else []
+                               {name: steps[name][k] if name in steps else outputs[name] for name in outputs})
+                              for k in range(len(times) + 1)] if given else []
         return outputs
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,

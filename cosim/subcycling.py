@@ -91,9 +91,9 @@ def split_waveforms(arrays: Mapping[str, np.ndarray], knots: Any) -> tuple[dict[
 
 def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps: int,
              record: bool = False) -> dict[str, np.ndarray]:
-    """``substeps`` steps of ``component`` across [t, t + dt]: the last outputs, ``times`` and ``substeps:NAME``
-    (the outputs at the steps inside the window), and with ``record`` ``inputs:NAME`` (every step's inputs, one row
-    each)."""
+    """``substeps`` steps of ``component`` across [t, t + dt]: ``steps:NAME``, each output at every step (the last
+    at the window's end), ``times`` (the steps' ends inside the window), and with ``record`` ``inputs:NAME`` (every
+    step's inputs, one row each)."""
     step = dt / substeps
     outputs: list[dict[str, np.ndarray]] = []
     inputs: list[dict[str, np.ndarray]] = []
@@ -107,10 +107,10 @@ def subcycle(component: Any, t: float, dt: float, window: WindowInputs, substeps
             inputs.append(given)
     finally:
         component.window_inputs = None
-    result: dict[str, Any] = dict(outputs[-1])
-    result["times"] = [k / substeps for k in range(1, substeps)]      # in the reply's header
-    for name in outputs[-1] if substeps > 1 else ():
-        result[f"substeps:{name}"] = np.stack([o[name] for o in outputs[:-1]])
+    # every step's outputs in one array a variable, the window's end last; the times inside it in the header
+    result: dict[str, Any] = {f"steps:{name}": np.stack([o[name] for o in outputs]) for name in outputs[-1]} \
+        if substeps > 1 else dict(outputs[-1])
+    result["times"] = [k / substeps for k in range(1, substeps)]
     if record:
         for name in inputs[-1]:
             result[f"inputs:{name}"] = np.stack([i[name] for i in inputs])
