@@ -233,8 +233,9 @@ class ComponentProxy:
             args["substeps"] = self.substep_count
             if self.records_steps:
                 args["record_steps"] = True
-        if waveforms:       # the knots (a few numbers) in the header, the coefficients as arrays
-            inputs = dict(inputs)
+        if waveforms:       # the knots (a few numbers) in the header, the coefficients as arrays: the last one is
+            # the window-end value, which goes no other way
+            inputs = {name: value for name, value in inputs.items() if name not in waveforms}
             args["knots"] = {name: knots.tolist() for name, (knots, _) in waveforms.items()}
             for name, (_, coefficients) in waveforms.items():
                 inputs[f"coefficients:{name}"] = coefficients

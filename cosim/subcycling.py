@@ -75,17 +75,18 @@ class WindowInputs:
 
 def split_waveforms(arrays: Mapping[str, np.ndarray], knots: Any) -> tuple[dict[str, np.ndarray], dict[str, tuple]]:
     """A step request's inputs, and its interpolants: their knots from the request's header (``knots``: name ->
-    numbers), their coefficients from its arrays (``coefficients:NAME``)."""
+    numbers), their coefficients from its arrays (``coefficients:NAME``, the last of which is the input's value at
+    the window's end)."""
     inputs = {name: value for name, value in arrays.items() if ":" not in name}
     if not isinstance(knots, dict):
         raise ProtocolError("argument 'knots' must map input names to lists of numbers")
     splines = {}
     for name, values in knots.items():
         coefficients = arrays.get(f"coefficients:{name}")
-        if name not in inputs or coefficients is None or not isinstance(values, list) \
-                or not 1 <= len(values) - len(coefficients) - 1 <= 3:
-            raise ProtocolError(f"the waveform of input '{name}' is not a B-spline of degree 1 to 3 over its inputs")
+        if coefficients is None or not isinstance(values, list) or not 1 <= len(values) - len(coefficients) - 1 <= 3:
+            raise ProtocolError(f"the waveform of input '{name}' is not a B-spline of degree 1 to 3")
         splines[name] = (np.array(values, dtype=float), coefficients)
+        inputs[name] = coefficients[-1]        # a clamped B-spline's last coefficient: the window-end value
     return inputs, splines
 
 

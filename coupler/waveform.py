@@ -57,7 +57,10 @@ def coefficients(inner: np.ndarray, samples: np.ndarray, degree: int) -> tuple[n
     ``inner`` inside it and its end, from the interpolation's matrix (kept per time grid: a window's iterations
     share theirs)."""
     knots_, matrix = _interpolation(np.ascontiguousarray(inner, dtype=float).tobytes(), int(degree))
-    return knots_, (matrix @ samples.reshape(len(matrix), -1)).reshape((len(matrix),) + samples.shape[1:])
+    coefficients_ = (matrix @ samples.reshape(len(matrix), -1)).reshape((len(matrix),) + samples.shape[1:])
+    # a clamped interpolating B-spline's first and last coefficients are its first and last samples: exactly so
+    coefficients_[0], coefficients_[-1] = samples[0], samples[-1]
+    return knots_, coefficients_
 
 
 def evaluate(times: np.ndarray, samples: np.ndarray, degree: int, at: np.ndarray) -> np.ndarray:

@@ -80,6 +80,7 @@ def test_the_coefficients_from_the_kept_matrix_are_the_splines():
         direct_fit = spline(np.concatenate([[0.0], inner, [1.0]]), samples, degree)
         knots_, c = coefficients(inner, samples, degree)
         assert np.array_equal(knots_, direct_fit.t) and np.allclose(c, direct_fit.c, atol=1e-13)
+        assert np.array_equal(c[0], samples[0]) and np.array_equal(c[-1], samples[-1])    # the window's ends
 
 
 def test_a_participant_evaluates_the_spline_the_coupler_sends_as_scipy_does():
