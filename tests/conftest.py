@@ -106,6 +106,11 @@ SERIAL_TESTS = ("test_a_campaign_stopped_midway_goes_on_from_its_runs_checkpoint
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    import signal
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        # started in the background by a shell without job control: the runs the tests start would inherit the
+        # ignored SIGINT, and the tests that stop them with it would wait for nothing
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     config.addinivalue_line("markers", "serial: races a run against the clock; `make test` runs it alone")
     config.addinivalue_line("markers", "benchmark: holds a benchmark's small mode to a generous bound on a cost ratio "
                                        "(a regression of several times fails it; it is no timed assertion)")
