@@ -280,11 +280,18 @@ class ParticipantProxy:
         self._sent_at = time.perf_counter()
         self._sent = (dict(inputs), dict(waveforms or {}))
         arrays = {f"data:{name}": np.asarray(value) for name, value in inputs.items()}
-        for name, (_, coefficients) in (waveforms or {}).items():
-            arrays[f"coefficients:{name}"] = coefficients
+        knots, lines = {}, []
+        for name, (knot_vector, coefficients) in (waveforms or {}).items():
+            if len(coefficients) == 2:      # the line from the window's start to its end: the start goes once a
+                lines.append(name)          # window (the participant keeps it), the end is the data already sent
+                if not repeat:
+                    arrays[f"start:{name}"] = coefficients[0]
+            else:
+                knots[name] = knot_vector.tolist()
+                arrays[f"coefficients:{name}"] = coefficients
         self._answer({"ongoing": True, "window_complete": not repeat and not first, "window_start": t, "window": dt,
-                      "write_checkpoint": implicit and not repeat, "read_checkpoint": repeat,
-                      "knots": {name: knots.tolist() for name, (knots, _) in (waveforms or {}).items()}}, arrays)
+                      "write_checkpoint": implicit and not repeat, "read_checkpoint": repeat, "knots": knots,
+                      "lines": lines}, arrays)
 
     def receive_step(self) -> dict[str, np.ndarray]:
         """The write data of the participant's next window-ending ``advance``."""

@@ -22,6 +22,7 @@ import numpy as np
 from precice._connection import Connection, Error, find_coupler
 from precice._waveform import Waveform
 
+LINE = np.array([0.0, 0.0, 1.0, 1.0])     # the knots of the line through a window's start and end
 EPSILON = 1e-9        # relative tolerance of times: a step that reaches the window's end to this ends it
 
 
@@ -53,6 +54,7 @@ class Core:
         self.written: dict[str, np.ndarray] = {}
         self.received: dict[str, np.ndarray] = {}
         self.waveforms: dict[str, Waveform] = {}       # read data of degree >= 1: its window's interpolant
+        self.starts: dict[str, np.ndarray] = {}        # each read data item's value at the window's start
         self.substep_data = sorted(data for (_, data), spec in self.write.items() if spec.get("substeps"))
         self.samples: list[tuple[float, dict[str, np.ndarray]]] = []    # (normalised time, write data) per substep
         self.window = float(self.setup["window"])
@@ -209,6 +211,9 @@ class Core:
         self.received = {name[len("data:"):]: value for name, value in received.items() if name.startswith("data:")}
         self.waveforms = {name: Waveform(np.array(knots), received["coefficients:" + name])
                           for name, knots in (result.get("knots") or {}).items()}
+        for name in result.get("lines") or []:      # the line from the window's start (sent once a window) to its end
+            self.starts[name] = received.get("start:" + name, self.starts.get(name))
+            self.waveforms[name] = Waveform(LINE, np.stack([self.starts[name], self.received[name]]))
         self.samples = []
         self.ongoing = bool(result["ongoing"])
         self.window_complete = bool(result["window_complete"])
