@@ -269,6 +269,17 @@ def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None
         return _serve(entry, bind, name, parent_pid, curve)
 
 
+def _exit_with_parent(parent_pid: int, name: str) -> None:
+    """A component stuck in a step cannot see from the serving loop that its coupler is gone: this thread does,
+    and ends the process a few checks later if the loop has not (no component outlives its run)."""
+    while os.getppid() == parent_pid:
+        time.sleep(PARENT_CHECK_SECONDS)
+    time.sleep(4 * PARENT_CHECK_SECONDS)
+    print(f"{name}: parent process {parent_pid} is gone while a request was being served; exiting", file=sys.stderr)
+    sys.stderr.flush()
+    os._exit(1)
+
+
 def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curve: str | None) -> int:
     component = load_entry(entry, [Path.cwd()])()      # a module in the working directory is found, as a scene's
     if name:
@@ -289,6 +300,9 @@ def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curv
                                  "curve": bool(curve)}) + "\n")
     sys.stdout.flush()
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # later prints go to the log, not the handshake pipe
+    if parent_pid is not None:
+        import threading
+        threading.Thread(target=_exit_with_parent, args=(parent_pid, component.name), daemon=True).start()
     parent_checked = time.monotonic()
     timeout_ms = -1
     try:

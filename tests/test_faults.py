@@ -331,10 +331,14 @@ def test_every_finished_window_is_flushed_while_the_run_goes_on_and_kept_when_it
                                stderr=subprocess.DEVNULL)
     try:
         wait_for(lambda: results_windows_on_disk(out / "results.h5") == 40, "forty windows flushed to disk", timeout=15)
+        components = [pid for pid in children_of(coupler.pid) if "LateHangingSolid" in cmdline(pid)]
     finally:
         coupler.kill()
         coupler.wait(timeout=30)
     wait_for(lambda: not alive_with(str(out)), "the killed run's writer and components to exit on their own")
+    # the solid, stuck in its step, sees its coupler gone from a thread of its own, and exits
+    assert components
+    wait_for(lambda: all(cmdline(pid) == "" for pid in components), "the hung solid to exit", timeout=10)
     with RunResults(out) as results:
         assert len(results.windows) == results.attributes["windows_completed"] == 40
         assert results.fields()["section"].shape == (40, 101)
