@@ -31,6 +31,7 @@ from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimE
 from cosim.launcher import ComponentProcess
 from cosim.proxy import checked_outputs
 from cosim.rundir import alive
+from cosim.subcycling import Spline
 
 SLICE_SECONDS = 0.05
 ENDPOINT_VARIABLE, TOKEN_VARIABLE, PID_VARIABLE = ("COSIM_PARTICIPANT_ENDPOINT", "COSIM_PARTICIPANT_TOKEN",
@@ -319,11 +320,10 @@ class ParticipantProxy:
     def _calls(self, outputs: Mapping[str, np.ndarray]) -> list[tuple[dict, dict]]:
         """Its steps inside the window as calls: at each sample's time, the inputs as their waveforms give them
         there and the samples it wrote; then the window's end."""
-        from scipy.interpolate import BSpline
         assert self.substeps is not None
         times, samples = self.substeps
         inputs, waveforms = self._sent
-        at = {name: BSpline(knots, coefficients, len(knots) - len(coefficients) - 1, axis=0)(times)
+        at = {name: np.stack([Spline(knots, coefficients)(time) for time in times])
               for name, (knots, coefficients) in waveforms.items()}
         calls = [({name: at[name][k] if name in at else value for name, value in inputs.items()},
                   {name: value[k] for name, value in samples.items()}) for k in range(len(times))]
