@@ -155,6 +155,22 @@ def _linear_basis(points: np.ndarray) -> np.ndarray:
     return np.hstack([np.ones((len(points), 1)), points[:, varying]])
 
 
+class ScaledMapping:
+    """A mapping whose values are multiplied by ``scale`` (an exchange's ``scale``: -1 swaps the sign)."""
+
+    identity = False
+
+    def __init__(self, mapping: Mapping, scale: float):
+        self.mapping, self.scale = mapping, float(scale)
+        self.matrix = getattr(mapping, "matrix", None)
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        return self.scale * self.mapping(values)
+
+    def in_time(self, samples: np.ndarray) -> np.ndarray:
+        return self.scale * self.mapping.in_time(samples)
+
+
 def make_mapping(settings: dict[str, Any], source_nodes: np.ndarray, target_nodes: np.ndarray,
                  source_shape: tuple[int, ...], target_shape: tuple[int, ...], where: str) -> Mapping:
     """The mapping ``settings`` names, between two variables of the given shapes on the given nodes."""

@@ -35,7 +35,7 @@ from cosim.scene import BACKEND, EXPLICIT, Scene
 from coupler.acceleration import make_acceleration
 from coupler.convergence import make_measure
 from coupler.linalg import load as load_linalg
-from coupler.mapping import make_mapping
+from coupler.mapping import ScaledMapping, make_mapping
 from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
@@ -217,6 +217,8 @@ def build_scheme(scene: Scene, proxies: dict[str, Participant],
         out_var, in_var = source.variables[data], target.variables[data]
         mapping = make_mapping(spec["mapping"], source.mesh_of(data), target.mesh_of(data),
                                out_var.shape, in_var.shape, f"exchange.{i} ({data})")
+        if spec["scale"] != 1.0:
+            mapping = ScaledMapping(mapping, spec["scale"])
         exchanges.append(Exchange(data, source, target, mapping, spec["waveform_degree"], spec["substeps"]))
         if spec["waveform_degree"] > 0 and isinstance(target, ComponentProxy):
             target.reads_waveforms = True

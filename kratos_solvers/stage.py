@@ -43,13 +43,17 @@ def quiet() -> None:
 class SteppedStage:
     """An initialised ``AnalysisStage`` advanced window by window, solved iteration by iteration."""
 
-    def __init__(self, name: str, stage: Any, solve_step: Any = None, static: bool = False):
+    def __init__(self, name: str, stage: Any, solve_step: Any = None, static: bool = False,
+                 predict_first: bool = False):
         """``static``: the stage has no time history (a static solver), so it may be asked for a later window than
         the next one (a solid FOM kept beside its ROM takes a window now and then): it jumps to it, starting
-        from its last solution."""
+        from its last solution. ``predict_first``: the solver predicts before the stage initialises the step, and
+        again after, in the order Kratos's CoSimulation runs a wrapper (its coupled solver predicts in its own
+        ``InitializeSolutionStep``, and its analysis loop once more)."""
         self.name = name
         self.stage = stage
         self.static = static
+        self.predict_first = predict_first
         self.solve_step = solve_step or stage._GetSolver().SolveSolutionStep
         self.window_start: float | None = None
         self.window_end = 0.0
@@ -84,6 +88,8 @@ class SteppedStage:
             if abs(self.stage.time - (t + dt)) > tolerance:
                 raise ComponentError(self.name, f"time step {dt:g} s differs from Kratos's "
                                                 f"{self.stage.time - current:g} s")
+            if self.predict_first:
+                self.solver.Predict()
             self.stage.InitializeSolutionStep()
             self.solver.Predict()
             self.window_start, self.window_end = t, t + dt

@@ -1,0 +1,119 @@
+"""Aitken relaxation with bounds, and IQN-ILS without filters: the updates of Kratos CoSimulation's ``aitken``
+and ``iqnils``, next to this coupler's own ``aitken`` and ``iqn-ils`` (which restart omega every window, filter
+columns, and cap their total).
+
+Both do their bookkeeping when an update is asked for, that is, for iterations that have not converged: the
+residual of a window's converged iteration takes no part, unlike in ``coupler.acceleration``.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from cosim.schema import Positive, Value
+from coupler.acceleration import ACCELERATIONS, Acceleration
+
+
+@ACCELERATIONS.register("aitken-bounded")
+class BoundedAitken(Acceleration):
+    """Aitken's dynamic relaxation with omega carried from window to window and clamped.
+
+    A window's first update takes min(omega_carried, ``initial_relaxation_max``); each later one
+    omega = -omega_carried (r_prev . (r - r_prev)) / |r - r_prev|^2, clamped to [``relaxation_min``,
+    ``relaxation_max``], which becomes omega_carried. omega_carried starts at ``initial_relaxation``.
+    """
+
+    SETTINGS = {"initial_relaxation": Value(0.1), "initial_relaxation_max": Value(0.45),
+                "relaxation_min": Value(-2.0), "relaxation_max": Value(2.0)}
+    HELP = {"initial_relaxation": "omega before any update",
+            "initial_relaxation_max": "the most a window's first update relaxes by",
+            "relaxation_min": "the least omega", "relaxation_max": "the largest omega"}
+
+    def __init__(self, initial_relaxation: float = 0.1, initial_relaxation_max: float = 0.45,
+                 relaxation_min: float = -2.0, relaxation_max: float = 2.0,
+                 block_sizes: list[int] | None = None) -> None:
+        super().__init__(block_sizes)
+        self.omega = initial_relaxation
+        self.first_max, self.low, self.high = initial_relaxation_max, relaxation_min, relaxation_max
+        self._r_previous: np.ndarray | None = None
+
+    def start_window(self) -> None:
+        super().start_window()
+        self._r_previous = None
+
+    def next_iterate(self) -> np.ndarray:
+        r = self.x_tilde - self.x
+        previous, self._r_previous = self._r_previous, r
+        if previous is None:
+            return self.x + min(self.omega, self.first_max) * r
+        dr = r - previous
+        omega = float(-self.omega * np.inner(previous, dr) / np.inner(dr, dr))
+        self.omega = min(max(omega, self.low), self.high)
+        return self.x + self.omega * r
+
+    def map_changed(self) -> None:
+        self._r_previous = None
+
+
+@ACCELERATIONS.register("iqn-ils-plain")
+class PlainIQNILS(Acceleration):
+    """IQN-ILS with horizons and a minimum-norm least squares, no filter.
+
+    In a window, the last ``iteration_horizon`` residuals r_i and values x~_i = H(x_i) handed to the update give
+    the columns V = [r_0 - r_1, ...], W = [x~_0 - x~_1, ...] (newest first); the columns of the last
+    ``timestep_horizon - 1`` windows follow them. The update is x_next = x + W c + r, c the minimum-norm
+    least-squares solution of V c = -r. A window's first update is x + alpha r while no earlier window left
+    columns.
+    """
+
+    SETTINGS = {"initial_relaxation": Value(0.125, low=0.0, low_open=True), "iteration_horizon": Positive(20),
+                "timestep_horizon": Positive(1)}
+    HELP = {"initial_relaxation": "alpha: the first update x + alpha r before any column exists",
+            "iteration_horizon": "the most residuals of a window kept (their differences are the columns)",
+            "timestep_horizon": "the windows whose columns are used: this one and timestep_horizon - 1 before"}
+
+    def __init__(self, initial_relaxation: float = 0.125, iteration_horizon: int = 20, timestep_horizon: int = 1,
+                 block_sizes: list[int] | None = None) -> None:
+        super().__init__(block_sizes)
+        self.alpha = initial_relaxation
+        self._r: deque[np.ndarray] = deque(maxlen=int(iteration_horizon))
+        self._xt: deque[np.ndarray] = deque(maxlen=int(iteration_horizon))
+        self._old: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=max(int(timestep_horizon) - 1, 0))
+        self._new: tuple[np.ndarray, np.ndarray] | None = None
+
+    def start_window(self) -> None:
+        super().start_window()
+        self._r.clear()
+        self._xt.clear()
+        self._new = None
+
+    def next_iterate(self) -> np.ndarray:
+        r = self.x_tilde - self.x
+        self._r.appendleft(r)
+        self._xt.appendleft(self.x + r)     # x~ as x + r, to the last bit
+        blocks = list(self._old)
+        if len(self._r) > 1:
+            rs, xts = list(self._r), list(self._xt)
+            # rows, then transposed: the least squares sees the memory layout Kratos gives it
+            self._new = (np.array([a - b for a, b in zip(rs[:-1], rs[1:])]).T,
+                         np.array([a - b for a, b in zip(xts[:-1], xts[1:])]).T)
+            blocks.insert(0, self._new)
+        if not blocks:
+            return self.x + self.alpha * r
+        V = np.hstack([v for v, _ in blocks])
+        W = np.hstack([w for _, w in blocks])
+        c = np.linalg.lstsq(V, -r, rcond=None)[0]
+        return self.x + (W @ c + r)
+
+    def end_window(self) -> None:
+        if self._new is not None and self._old.maxlen:
+            self._old.appendleft(self._new)
+        self._new = None
+
+    def map_changed(self) -> None:
+        self._old.clear()
+        self._r.clear()
+        self._xt.clear()
+        self._new = None
