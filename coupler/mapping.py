@@ -155,12 +155,12 @@ def _linear_basis(points: np.ndarray) -> np.ndarray:
     return np.hstack([np.ones((len(points), 1)), points[:, varying]])
 
 
-class ScaledMapping:
+class ScaledMapping(Mapping):
     """A mapping whose values are multiplied by ``scale`` (an exchange's ``scale``: -1 swaps the sign)."""
 
     identity = False
 
-    def __init__(self, mapping: Mapping, scale: float):
+    def __init__(self, mapping: Mapping, scale: float):    # noqa: D107  (no mesh: it wraps a built mapping)
         self.mapping, self.scale = mapping, float(scale)
         self.matrix = getattr(mapping, "matrix", None)
 
