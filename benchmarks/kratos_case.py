@@ -8,7 +8,8 @@ iterations per window and every data entry at each window's end. Prints per case
 that differ), the largest difference of each interface field over its amplitude, the wall times (median,
 min-max) and their ratio.
 
-Usage: python -m benchmarks.kratos_case [--windows N] [--repeat N] [--kind static|dynamic] [--small] [--docs]
+Usage: python -m benchmarks.kratos_case [--windows N] [--repeat N] [--kind static|dynamic] [--mesh coarse|mok]
+                                       [--small] [--docs]
        python -m benchmarks.kratos_case --record FOLDER OUT.npz     (the instrumented Kratos run, in a process)
 """
 
@@ -31,6 +32,7 @@ from cosim.results import RunResults
 
 ROOT = Path(__file__).resolve().parent.parent
 KINDS = ("static", "dynamic")
+MOK_MESH = {"wall_cells": [2, 100], "wall_size": 0.0025, "far_size": 0.03}     # scenes/mok.toml's
 
 
 def record(folder: Path, out: Path) -> None:
@@ -109,6 +111,8 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--repeat", type=int, default=3, help="timed runs of each, alternated")
     parser.add_argument("--kind", choices=KINDS, action="append")
     parser.add_argument("--small", action="store_true", help="5 windows, one timed run each (for the tests)")
+    parser.add_argument("--mesh", choices=("coarse", "mok"), default="coarse",
+                        help="the tests' coarse mesh, or the resolution of scenes/mok.toml")
     parser.add_argument("--docs", action="store_true", help="rewrite the table in docs/kratos.md")
     parser.add_argument("--record", nargs=2, metavar=("FOLDER", "OUT"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -118,12 +122,12 @@ def main(argv: list[str] | None = None) -> dict:
     windows, repeat = (5, 1) if args.small else (args.windows, args.repeat)
     out = fresh_directory("kratos_case")
     lines = [f"machine: {machine()}",
-             f"{windows} windows of 0.1 s, coarse mesh; ours: coupler + 2 solver processes over 127.0.0.1; "
+             f"{windows} windows of 0.1 s, {args.mesh} mesh; ours: coupler + 2 solver processes over 127.0.0.1; "
              f"Kratos's MainKratosCoSim: 1 process; one thread per solver; {repeat} timed run(s) each, alternated"]
     results = {}
     for kind in args.kind or KINDS:
         folder = out / kind
-        case = write_case(folder, kind, windows)
+        case = write_case(folder, kind, windows, None if args.mesh == "coarse" else MOK_MESH)
         walls: dict[str, list[float]] = {"ours": [], "kratos": []}
         for k in range(repeat):
             walls["ours"].append(timed([sys.executable, "-m", "cosim", "run", str(case), "--out",
@@ -147,7 +151,8 @@ def main(argv: list[str] | None = None) -> dict:
     (out / "table.txt").write_text("\n".join(lines) + "\n")
     (out / "results.json").write_text(json.dumps(results))
     if args.docs:
-        rewrite_readme("kratos", lines, f"python -m benchmarks.kratos_case --windows {windows} --repeat {repeat} --docs")
+        rewrite_readme(f"kratos-{args.mesh}", lines, f"python -m benchmarks.kratos_case --windows {windows} "
+                       f"--repeat {repeat} --mesh {args.mesh} --docs")
     return {**results, "out": str(out)}
 
 

@@ -121,7 +121,7 @@ def _exchanges(params: CoSimParameters) -> tuple[list[tuple[dict, Transfer]], di
         for data, role in ((transfer.source, "output"), (transfer.target, "input")):
             field = {"name": name, "data": data.name, "model_part": data.model_part, "variable": data.variable,
                      "dimension": data.dimension, "location": data.location, "role": role,
-                     "window_end": role == "input" and transfer.after_source}
+                     "window_end": role == "input" and _written_at_window_end(params, transfer)}
             known = fields[data.solver].get(name)
             if known is not None and known != field:
                 raise SceneError(f"{transfer.where}: '{data.solver}.{data.name}' would be read and written in one "
@@ -140,6 +140,17 @@ def _exchanges(params: CoSimParameters) -> tuple[list[tuple[dict, Transfer]], di
                 "scale": -1.0 if "swap_sign" in transfer.options else 1.0}
         exchanges.append((spec, transfer))
     return exchanges, fields
+
+
+def _written_at_window_end(params: CoSimParameters, transfer: Transfer) -> bool:
+    """Whether Kratos writes ``transfer`` into its target after the target's last solve of a window (a Gauss-Seidel
+    transfer back to an earlier solver, or any Jacobi transfer, done in the source's output list): the target then
+    ends the window holding a value it did not solve with, and its history (an ALE mesh's) keeps it."""
+    if not transfer.after_source:
+        return False
+    if params.scheme.startswith("parallel"):
+        return True
+    return params.sequence.index(transfer.source.solver) > params.sequence.index(transfer.target.solver)
 
 
 def _exchange_of(data: Data, exchanges: list[tuple[dict, Transfer]], where: str) -> tuple[str, str]:

@@ -1,0 +1,222 @@
+"""Kratos CoSimulation cases under cosim (kratos_compat): the same iterations and fields as Kratos's own coupler on
+the same files, Kratos's accelerators matched bit for bit, and bad CoSimulation files refused in one line."""
+
+from __future__ import annotations
+
+import copy
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.cli import main
+from coupler.acceleration import ACCELERATIONS
+from tests.conftest import needs_kratos
+
+needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None,
+                                reason="needs gmsh (pip install -e '.[mesh]') for the cases' meshes")
+needs_cosim_application = pytest.mark.skipif(
+    importlib.util.find_spec("KratosMultiphysics") is None
+    or importlib.util.find_spec("KratosMultiphysics.CoSimulationApplication") is None,
+    reason="needs Kratos's CoSimulationApplication (pip install -e '.[kratos]')")
+
+
+def linear_iterations(make_update, windows: int = 6, iterations: int = 9, n: int = 40) -> np.ndarray:
+    """Every iterate of a fixed-point iteration x -> A x + b_window accelerated by ``make_update`` (Kratos's
+    ``UpdateSolution(r, x)`` protocol, with InitializeSolutionStep / FinalizeSolutionStep around each window)."""
+    rng = np.random.default_rng(7)
+    A = 0.9 * rng.standard_normal((n, n)) / np.sqrt(n)
+    update = make_update()
+    x, iterates = np.zeros(n), []
+    for _ in range(windows):
+        b = rng.standard_normal(n)
+        update.InitializeSolutionStep()
+        for _ in range(iterations):
+            x = x + update.UpdateSolution(A @ x + b - x, x)
+            iterates.append(x.copy())
+        update.FinalizeSolutionStep()
+    return np.array(iterates)
+
+
+class Ours:
+    """A cosim acceleration behind Kratos's accelerator protocol."""
+
+    def __init__(self, settings: dict):
+        self.acceleration = ACCELERATIONS.create(settings)
+
+    def InitializeSolutionStep(self) -> None:
+        self.acceleration.start_window()
+
+    def FinalizeSolutionStep(self) -> None:
+        self.acceleration.end_window()
+
+    def UpdateSolution(self, r: np.ndarray, x: np.ndarray) -> np.ndarray:
+        self.acceleration.observe(x, x + r)
+        return self.acceleration.next_iterate() - x
+
+
+@needs_cosim_application
+@pytest.mark.parametrize("kratos, ours", [
+    ({"type": "mvqn", "horizon": 5, "alpha": 0.2}, {"type": "mvqn", "horizon": 5, "initial_relaxation": 0.2}),
+    ({"type": "iqnils"}, {"type": "iqn-ils-plain"}),
+    ({"type": "iqnils", "iteration_horizon": 6, "timestep_horizon": 3, "alpha": 0.2},
+     {"type": "iqn-ils-plain", "iteration_horizon": 6, "timestep_horizon": 3, "initial_relaxation": 0.2}),
+    ({"type": "aitken"}, {"type": "aitken-bounded"}),
+    ({"type": "aitken", "init_alpha": 0.3, "init_alpha_max": 0.2, "alpha_max": 0.9, "alpha_min": -0.5},
+     {"type": "aitken-bounded", "initial_relaxation": 0.3, "initial_relaxation_max": 0.2, "relaxation_max": 0.9,
+      "relaxation_min": -0.5}),
+    ({"type": "constant_relaxation", "alpha": 0.3}, {"type": "constant", "relaxation": 0.3}),
+])
+def test_each_kratos_accelerator_is_a_cosim_plugin_with_the_same_iterates_bit_for_bit(kratos, ours):
+    import KratosMultiphysics as KM
+    from KratosMultiphysics.CoSimulationApplication.factories.convergence_accelerator_factory import (
+        CreateConvergenceAccelerator,
+    )
+    theirs = linear_iterations(lambda: CreateConvergenceAccelerator(KM.Parameters(json.dumps(kratos))))
+    mine = linear_iterations(lambda: Ours(ours))
+    assert np.abs(theirs).max() > 1.0          # the iteration went somewhere
+    np.testing.assert_array_equal(mine, theirs)
+
+
+def test_mvqn_is_not_iqn_imvj():
+    """The reason MVQN is a plug-in of its own: on the same problem the iterates part."""
+    mvqn = linear_iterations(lambda: Ours({"type": "mvqn", "horizon": 15, "initial_relaxation": 0.2}))
+    imvj = linear_iterations(lambda: Ours({"type": "iqn-imvj", "initial_relaxation": 0.2}))
+    assert np.abs(mvqn - imvj).max() > 1e-3 * np.abs(mvqn).max()
+
+
+@pytest.fixture(scope="module")
+def wall_case(tmp_path_factory) -> Path:
+    if importlib.util.find_spec("gmsh") is None:
+        pytest.skip("needs gmsh (pip install -e '.[mesh]') for the cases' meshes")
+    from cases.kratos_wall.write import write_case
+    return write_case(tmp_path_factory.mktemp("kratos_wall") / "dynamic", "dynamic", 3).parent
+
+
+def edit(document: dict, path: str, value) -> None:
+    *parents, last = path.split("/")
+    for key in parents:
+        document = document[int(key) if key.isdigit() else key]
+    if value is DELETE:
+        del document[int(last) if last.isdigit() else last]
+    else:
+        document[int(last) if last.isdigit() else last] = value
+
+
+DELETE = object()
+S = "solver_settings"
+BAD = [  # (what, key path in the CoSim file, new value, message)
+    ("an unknown wrapper type", f"{S}/solvers/structure/type", "solver_wrappers.sdof.sdof_solver_wrapper",
+     r"line \d+: 'solver_settings.solvers.structure.type': 'solver_wrappers.sdof.sdof_solver_wrapper' is not a "
+     r"supported solver wrapper \(supported: solver_wrappers.kratos.fluid_dynamics_wrapper"),
+    ("a missing input_file", f"{S}/solvers/fluid/solver_wrapper_settings/input_file", "ProjectParametersCFDD",
+     r"'solver_settings.solvers.fluid.solver_wrapper_settings.input_file': '.*ProjectParametersCFDD.json' does not "
+     r"exist"),
+    ("a model part that does not exist", f"{S}/solvers/structure/data/disp/model_part_name", "Structure.Interface",
+     r"'solver_settings.solvers.structure.data.disp.model_part_name': model part 'Structure.Interface' does not "
+     r"exist in structure's mesh \(it has: Structure, Structure.DISPLACEMENT_BCDisp"),
+    ("an accelerator setting of the wrong type", f"{S}/convergence_accelerators/0/horizon", "15",
+     r"'solver_settings.convergence_accelerators.0.horizon': must be an integer, got '15'"),
+    ("a mapper between data of different dimension", f"{S}/solvers/structure/data/load/dimension", 3,
+     r"'solver_settings.coupling_sequence.1.input_data_list.0': 'fluid.load' has dimension 2 and 'structure.load' "
+     r"has 3: kratos_mapping cannot map between them"),
+    ("an unknown coupled solver", f"{S}/type", "coupled_solvers.block_strong",
+     r"'solver_settings.type': 'coupled_solvers.block_strong' is not supported \(supported: "
+     r"coupled_solvers.gauss_seidel_strong"),
+    ("a refused accelerator", f"{S}/convergence_accelerators/0/type", "anderson",
+     r"'anderson' \(Anderson acceleration\) is not supported \(supported: constant_relaxation, aitken, iqnils, mvqn\)"),
+    ("ibqnls", f"{S}/convergence_accelerators/0/type", "block_ibqnls",
+     r"'block_ibqnls' \(a block accelerator\) is not supported"),
+    ("an unknown criterion", f"{S}/convergence_criteria/0/type", "absolute_norm_energy_conjugate",
+     r"'absolute_norm_energy_conjugate' is not supported \(supported: relative_norm_previous_residual, "
+     r"relative_norm_initial_residual\)"),
+    ("a refused predictor", f"{S}/predictors/0/type", "average_value_based",
+     r"'average_value_based' \(a predictor\) is not supported \(supported: linear\)"),
+    ("an unknown mapper", f"{S}/data_transfer_operators/mapper/mapper_settings/mapper_type", "barycentric",
+     r"'barycentric' is not supported \(supported: nearest_neighbor"),
+    ("add_values", f"{S}/coupling_sequence/1/input_data_list/0/data_transfer_operator_options", ["add_values"],
+     r"'add_values' is not supported for kratos_mapping \(supported: swap_sign, use_transpose"),
+    ("distribute_values", f"{S}/coupling_sequence/1/input_data_list/0/data_transfer_operator_options",
+     ["distribute_values"], r"'distribute_values' is not supported for kratos_mapping"),
+    ("an undefined transfer operator", f"{S}/coupling_sequence/1/output_data_list/0/data_transfer_operator", "map",
+     r"no data transfer operator 'map' \(defined: mapper\)"),
+    ("an unknown solver in the sequence", f"{S}/coupling_sequence/0/name", "fluidd",
+     r"'solver_settings.coupling_sequence.0.name': no solver 'fluidd' \(solvers: fluid, structure\)"),
+    ("data a solver lacks", f"{S}/convergence_criteria/0/data_name", "displacement",
+     r"solver 'fluid' has no data 'displacement' \(it has: disp, load\)"),
+    ("a misspelt accelerator setting", f"{S}/convergence_accelerators/0/horizonn", 5,
+     r"'solver_settings.convergence_accelerators.0.horizonn': is not a setting of 'mvqn' \(its settings: .*horizon"),
+    ("a non-nodal location", f"{S}/solvers/fluid/data/load/location", "element",
+     r"'element' is not supported \(supported: node_historical, node_non_historical\)"),
+    ("a negative relaxation", f"{S}/convergence_accelerators/0/alpha", -0.1,
+     r"'solver_settings.convergence_accelerators.0.alpha': must be positive, got -0.1"),
+    ("an accelerator on data going forward", f"{S}/convergence_accelerators/0/data_name", "load",
+     r"'fluid.load' goes from 'fluid' to 'structure'; in a Gauss-Seidel sequence \(fluid, structure\) only data "
+     r"going back to 'fluid' can be accelerated"),
+    ("no end time", "problem_data/end_time", DELETE, r"'problem_data.end_time': is missing"),
+    ("a coupling operation", f"{S}/coupling_operations", {"scale": {"type": "scaling"}},
+     r"'solver_settings.coupling_operations': coupling operations are not supported by cosim"),
+]
+
+
+@needs_gmsh
+@pytest.mark.parametrize("what, path, value, message", BAD, ids=[b[0] for b in BAD])
+def test_a_bad_cosimulation_file_is_one_line_naming_its_file_line_and_key(wall_case, tmp_path, capsys, what, path,
+                                                                          value, message):
+    import re
+    import shutil
+    folder = tmp_path / "case"
+    shutil.copytree(wall_case, folder)
+    document = json.loads((folder / "ProjectParametersCoSim.json").read_text())
+    edit(document, path, value if value is DELETE else copy.deepcopy(value))
+    (folder / "ProjectParametersCoSim.json").write_text(json.dumps(document, indent=4))
+    code = main(["check", str(folder / "case.toml")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert "\n" not in err and "Traceback" not in err, err
+    assert "ProjectParametersCoSim.json" in err, err
+    assert re.search(message, err), err
+
+
+@needs_gmsh
+def test_a_json_syntax_error_names_its_line(wall_case, tmp_path, capsys):
+    import shutil
+    folder = tmp_path / "case"
+    shutil.copytree(wall_case, folder)
+    lines = (folder / "ProjectParametersCoSim.json").read_text().splitlines()
+    lines[6] = lines[6] + ","          # a second comma on line 7, inside problem_data
+    (folder / "ProjectParametersCoSim.json").write_text("\n".join(lines))
+    assert main(["check", str(folder / "case.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "ProjectParametersCoSim.json, line 7: not valid JSON" in err, err
+
+
+@needs_gmsh
+def test_the_case_becomes_a_scene_with_kratos_settings_as_plugins(wall_case, capsys):
+    from cosim.scene import load_scene
+    scene = load_scene(wall_case / "case.toml", ["coupling.max_iterations=12"]).data
+    coupling = scene["coupling"]
+    assert coupling["scheme"] == "serial-implicit" and coupling["participants"] == ["fluid", "structure"]
+    assert coupling["max_iterations"] == 12 and coupling["on_max_iterations"] == "accept"   # --set wins
+    assert coupling["acceleration"]["type"] == "mvqn" and coupling["acceleration"]["data"] == ["disp"]
+    assert coupling["extrapolation_order"] == 0          # Kratos's linear predictor on a cloned buffer
+    load = next(e for e in scene["exchange"] if e["data"] == "load")
+    assert load["scale"] == -1.0 and load["mapping"] == {"type": "nearest-neighbour", "constraint": "conservative"}
+    assert scene["time"] == {"start": 0.0, "end": pytest.approx(0.3), "dt": 0.1}
+
+
+@needs_kratos
+@needs_gmsh
+@needs_cosim_application
+def test_both_cases_give_kratoss_iterations_and_fields_under_cosim():
+    """cosim run on the unmodified files against Kratos's own coupled analysis of them (5 windows, coarse mesh)."""
+    from benchmarks.kratos_case import main as benchmark
+    results = benchmark(["--small"])
+    for kind in ("static", "dynamic"):
+        result = results[kind]
+        assert result["iterations"] == result["kratos_iterations"], kind
+        assert sum(result["iterations"]) > 2 * len(result["iterations"]), kind     # it iterated
+        for name, difference in result["fields"].items():
+            assert difference <= 5e-3, (kind, name, difference)
