@@ -59,7 +59,7 @@ COMPONENT = {
 }
 BACKENDS = "cosim.backends"     # entry points: a backend kind's component class, registered by its package
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity"),
-            "waveform_degree": Value(0, low=0, high=3), "substeps": False, "scale": Value(1.0)}
+            "waveform_degree": Value(0, low=0, high=3), "substeps": False, "scale": 1.0}
 MAX_WINDOWS = 10_000_000
 MAX_FILE_BYTES = 16 << 20
 SCHEMA: dict[str, Any] = {
@@ -321,6 +321,8 @@ def _reader_for(path: Path, raw: dict[str, Any] | None) -> Any:
     """The installed scene reader for a file of its suffix, or for a TOML file holding its table (None: a scene)."""
     from importlib.metadata import entry_points
     for point in entry_points(group=SCENE_READERS):
+        if raw is not None and point.name not in raw:
+            continue            # a TOML file names its reader by its table (the entry point's name)
         reader = point.load()
         if path.suffix in reader.suffixes or (raw is not None and reader.table in raw):
             return reader

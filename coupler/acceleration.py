@@ -545,6 +545,3 @@ class IQNSurrogate(IQNILS):
             c, V, W = fit                         # c = -V^+ r
             step = step - (W - V - M(V)) @ c      # + (dX - M V) V^+ r, dX = W - V
         return self.x - step
-
-
-from coupler import mvqn, plain_accelerations  # noqa: E402,F401  (they register their updates here)

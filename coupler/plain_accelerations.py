@@ -25,8 +25,8 @@ class BoundedAitken(Acceleration):
     ``relaxation_max``], which becomes omega_carried. omega_carried starts at ``initial_relaxation``.
     """
 
-    SETTINGS = {"initial_relaxation": Value(0.1), "initial_relaxation_max": Value(0.45),
-                "relaxation_min": Value(-2.0), "relaxation_max": Value(2.0)}
+    SETTINGS = {"initial_relaxation": 0.1, "initial_relaxation_max": 0.45, "relaxation_min": -2.0,
+                "relaxation_max": 2.0}
     HELP = {"initial_relaxation": "omega before any update",
             "initial_relaxation_max": "the most a window's first update relaxes by",
             "relaxation_min": "the least omega", "relaxation_max": "the largest omega"}

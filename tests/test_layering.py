@@ -10,7 +10,7 @@ from cosim.cli import commands, parser
 from tests.conftest import ROOT
 
 OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component", "kratos_solvers", "cases",
-        "workflow", "precice_compat")
+        "workflow", "precice_compat", "kratos_compat")
 ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "solid_component": {"cosim"},
            "rom_component": {"cosim"}, "kratos_solvers": {"cosim"},
            # a case sits on everything it names: the coupler, the ROM, its solvers
@@ -18,7 +18,9 @@ ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "
            # the campaign calls the coupler's runs and the ROM's training, export and report
            "workflow": {"cosim", "coupler", "rom_component"},
            # preCICE's cases read into scenes, above the coupler (its participant package imports none of ours)
-           "precice_compat": {"cosim", "coupler"}}
+           "precice_compat": {"cosim", "coupler"},
+           # Kratos CoSimulation cases read into scenes, their solvers run by the Kratos stage driver
+           "kratos_compat": {"cosim", "coupler", "kratos_solvers"}}
 
 
 def imported_packages(path) -> set[tuple[str, int]]:
