@@ -164,6 +164,11 @@ class Component:
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         raise NotImplementedError
 
+    def end_window(self, values: Mapping[str, np.ndarray]) -> None:
+        """The window converged: the last values of the inputs the scene marks ``exchange.at_window_end``. A
+        solver that keeps the data it was last given (Kratos's, whose coupler writes it after the solve) ends the
+        window holding them; the default ignores them."""
+
     def do_step(self, t: float, dt: float) -> None:
         """Advance from ``t`` to ``t + dt`` with the inputs set last."""
         raise NotImplementedError

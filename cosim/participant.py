@@ -354,6 +354,9 @@ class ParticipantProxy:
             samples[name] = stacked
         return (times, samples) if samples else None
 
+    def end_window(self, values: Mapping[str, np.ndarray]) -> None:
+        """A participant keeps its data to itself (refused for it at set-up: ``exchange.at_window_end``)."""
+
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
              save: bool = False, free: int | None = None,
              waveforms: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> dict[str, np.ndarray]:

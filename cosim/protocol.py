@@ -24,7 +24,7 @@ MAX_MESSAGE_BYTES = 512 * 1024 * 1024
 DTYPES = frozenset({"float64", "float32", "int64", "int32", "uint8", "bool"})
 OPS = frozenset({
     "describe", "instantiate", "enter_initialization_mode", "exit_initialization_mode",
-    "set_values", "get_values", "do_step", "step", "get_state", "set_state",
+    "set_values", "get_values", "do_step", "step", "end_window", "get_state", "set_state",
     "free_state", "checkpoint", "restore_checkpoint", "take_over", "terminate", "ping", "shutdown",
 })
 

@@ -215,6 +215,9 @@ class ComponentProxy:
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         return self.check_outputs(self.call("get_values", {"names": list(names)})[1])
 
+    def end_window(self, values: Mapping[str, np.ndarray]) -> None:
+        self.call("end_window", arrays=values)
+
     def do_step(self, t: float, dt: float) -> None:
         self.call("do_step", {"t": t, "dt": dt})
 

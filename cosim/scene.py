@@ -59,7 +59,8 @@ COMPONENT = {
 }
 BACKENDS = "cosim.backends"     # entry points: a backend kind's component class, registered by its package
 EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity"),
-            "waveform_degree": Value(0, low=0, high=3), "substeps": False, "scale": 1.0}
+            "waveform_degree": Value(0, low=0, high=3), "substeps": False, "scale": 1.0,
+            "at_window_end": False}
 MAX_WINDOWS = 10_000_000
 MAX_FILE_BYTES = 16 << 20
 SCHEMA: dict[str, Any] = {
@@ -136,6 +137,8 @@ MEANINGS = {
     "exchange.data": "the exchanged variable's name (an output of `from`, an input of `to`)",
     "exchange.from": "the component that sends it",
     "exchange.to": "the component that receives it",
+    "exchange.at_window_end": "the receiver gets the window's last values when the window converges "
+                              "(Component.end_window), as Kratos's coupler writes data after the last solve",
     "exchange.scale": "a factor on the mapped values (-1: the sign swapped, as a reaction becomes a load)",
     "exchange.mapping": "how values go from the sender's mesh to the receiver's: a registered mapping (below)",
     "exchange.waveform_degree": "the receiver's interpolation in time across the window (docs/time.md): 0, the "

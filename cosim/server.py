@@ -147,6 +147,7 @@ class ComponentServer:
             "set_values": lambda a, arr: c.set_values(real_inputs(arr)),
             "get_values": lambda a, arr: c.get_values(a["names"]),
             "do_step": lambda a, arr: c.do_step(protocol.number(a, "t"), protocol.number(a, "dt")),
+            "end_window": lambda a, arr: c.end_window(real_inputs(arr)),
             "step": self._step,
             "get_state": lambda a, arr: {"handle": c.get_state()},
             "set_state": lambda a, arr: c.set_state(a["handle"]),

@@ -219,7 +219,11 @@ def build_scheme(scene: Scene, proxies: dict[str, Participant],
                                out_var.shape, in_var.shape, f"exchange.{i} ({data})")
         if spec["scale"] != 1.0:
             mapping = ScaledMapping(mapping, spec["scale"])
-        exchanges.append(Exchange(data, source, target, mapping, spec["waveform_degree"], spec["substeps"]))
+        if spec["at_window_end"] and not isinstance(target, ComponentProxy | BackendSchedule):
+            raise SceneError(f"exchange.{i}.at_window_end: '{spec['to']}' is a participant, which keeps its data to "
+                             "itself; only a component takes the window's last values")
+        exchanges.append(Exchange(data, source, target, mapping, spec["waveform_degree"], spec["substeps"],
+                                  spec["at_window_end"]))
         if spec["waveform_degree"] > 0 and isinstance(target, ComponentProxy):
             target.reads_waveforms = True
     for proxy in proxies.values():

@@ -92,6 +92,12 @@ class BackendSchedule:
                 current = proxy
         return current
 
+    def end_window(self, values: Mapping[str, np.ndarray]) -> None:
+        """To the backend that served the window."""
+        backend = self._served or self._sent
+        if backend is not None:
+            backend.end_window(values)
+
     def mesh_of(self, name: str) -> np.ndarray:
         return self.stages[0][1].mesh_of(name)
 

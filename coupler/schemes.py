@@ -69,6 +69,7 @@ class Exchange:
     mapping: InterfaceMapping
     degree: int = 0           # the reader's interpolant in time across the window (coupler.waveform)
     substeps: bool = False    # the producer's samples inside the window are sent
+    at_window_end: bool = False   # the receiver gets the window's last values when it converges
 
 
 LINE = np.array([0.0, 0.0, 1.0, 1.0])     # the knots of the line through a window's start and end
@@ -463,6 +464,9 @@ class CouplingScheme:
                 error.where = where
                 error.residuals = list(self._residuals)
                 raise error
+        for e in self.exchanges:
+            if e.at_window_end:
+                e.target.end_window({e.data: e.mapping(self.values[e.data])})
         if self.accelerated:
             self._extrapolation.store(self._stack(self.values, self.accelerated))
         return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message,

@@ -120,8 +120,7 @@ def _exchanges(params: CoSimParameters) -> tuple[list[tuple[dict, Transfer]], di
         names[name] = transfer
         for data, role in ((transfer.source, "output"), (transfer.target, "input")):
             field = {"name": name, "data": data.name, "model_part": data.model_part, "variable": data.variable,
-                     "dimension": data.dimension, "location": data.location, "role": role,
-                     "window_end": role == "input" and _written_at_window_end(params, transfer)}
+                     "dimension": data.dimension, "location": data.location, "role": role}
             known = fields[data.solver].get(name)
             if known is not None and known != field:
                 raise SceneError(f"{transfer.where}: '{data.solver}.{data.name}' would be read and written in one "
@@ -137,8 +136,16 @@ def _exchanges(params: CoSimParameters) -> tuple[list[tuple[dict, Transfer]], di
             mapping = {"type": "nearest-neighbour",
                        "constraint": "conservative" if "use_transpose" in transfer.options else "consistent"}
         spec = {"data": name, "from": transfer.source.solver, "to": transfer.target.solver, "mapping": mapping,
-                "scale": -1.0 if "swap_sign" in transfer.options else 1.0}
+                "scale": -1.0 if "swap_sign" in transfer.options else 1.0,
+                "at_window_end": _written_at_window_end(params, transfer)}
         exchanges.append((spec, transfer))
+    for solver in params.solvers.values():       # data no transfer uses: recorded with every call, not exchanged
+        used = {f["data"] for f in fields[solver.name].values()}
+        for data in solver.data.values():
+            if data.name not in used and data.name not in fields[solver.name]:
+                fields[solver.name][data.name] = {
+                    "name": data.name, "data": data.name, "model_part": data.model_part, "variable": data.variable,
+                    "dimension": data.dimension, "location": data.location, "role": "local"}
     return exchanges, fields
 
 

@@ -3,9 +3,10 @@
 the case's folder, driven window by window and iteration by iteration (``kratos_solvers.stage.SteppedStage``, in
 the order Kratos's CoSimulation calls a wrapper: advance, predict, initialise, then solve per iteration).
 
-Its variables are the wrapper's ``data`` entries the coupling uses: each a Kratos variable on a model part's
-nodes, ``dimension`` components per node (``(n, d)``; ``(n,)`` for a scalar); inputs are written into the step
-right before each solve, outputs read after it. Each model part is a mesh (its nodes' initial coordinates).
+Its variables are the wrapper's ``data`` entries: each a Kratos variable on a model part's nodes, ``dimension``
+components per node (``(n, d)``; ``(n,)`` for a scalar); inputs are written into the step right before each
+solve, outputs read after it; an entry no transfer uses is a local variable, recorded with every call (the whole
+structure's displacement, for a ROM's decoder). Each model part is a mesh (its nodes' initial coordinates).
 A checkpoint is Kratos's own restart serialisation of the main model part. Kratos is imported only in this
 component's process.
 """
@@ -26,10 +27,7 @@ from kratos_compat.json_source import JsonSource
 from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, node_coordinates, quiet, set_threads
 
 FIELD = {"name": Required(str), "data": Required(str), "model_part": Required(str), "variable": Required(str),
-         "dimension": Value(1, low=1, high=3), "location": "node_historical", "role": Choice("input", ("input", "output")),
-         # an input Kratos writes after its source solves: the solver ends a window holding the value its source
-         # gave last, which is the next window's first input (the accelerated data is predicted by its last value)
-         "window_end": False}
+         "dimension": Value(1, low=1, high=3), "location": "node_historical", "role": Choice("input", ("input", "output", "local"))}
 SCHEMA = {"solver": Required(str), "analysis": Choice("fluid_dynamics", ("fluid_dynamics", "structural_mechanics")),
           "project": Required(str), "folder": Required(str), "threads": 0, "fields": Required(list)}
 
@@ -164,12 +162,16 @@ class KratosStage(KratosComponent):
         return values.copy() if f["dimension"] > 1 else values[:, 0].copy()
 
     def do_step(self, t: float, dt: float) -> None:
-        start = self.stepped.window_start
-        if start is not None and abs(t - start) > 1e-9 * max(1.0, abs(t) + dt):
-            for f in self.fields:      # the window that ends holds what the source gave last, as in Kratos
-                if f["role"] == "input" and f["window_end"]:
-                    self._write(f, self.inputs[f["name"]])
         self.stepped.solve(t, dt, self._write_inputs)
+
+    def end_window(self, values: Mapping[str, np.ndarray]) -> None:
+        """The window's last values of data Kratos writes after this solver's last solve (``at_window_end``): the
+        step that ends holds them, as in Kratos (an ALE fluid's mesh velocity in the next window starts there)."""
+        by_name = {f["name"]: f for f in self.fields if f["role"] == "input"}
+        check_inputs(self, values, {name: self.inputs[name].shape for name in by_name})
+        if self.stepped.window_start is not None:
+            for name, value in values.items():
+                self._write(by_name[name], np.asarray(value, dtype=np.float64))
 
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         by_name = {f["name"]: f for f in self.fields}

@@ -221,3 +221,30 @@ def test_both_cases_give_kratoss_iterations_and_fields_under_cosim():
         assert sum(result["iterations"]) > 2 * len(result["iterations"]), kind     # it iterated
         for name, difference in result["fields"].items():
             assert difference <= 5e-3, (kind, name, difference)
+
+
+@needs_kratos
+@needs_gmsh
+def test_a_kratos_case_resumes_with_the_structure_s_inertia(tmp_path, monkeypatch):
+    """The dynamic wall stopped after window 3 and resumed from its checkpoint (Kratos's serialised model
+    parts and the data entries' last inputs): the same iterations and fields as the run that went through."""
+    from cases.kratos_wall.write import write_case
+    from cosim.checkpoint import read
+    from cosim.results import RunResults
+    from cosim.scene import load_scene
+    from coupler.run import run_scene
+    from tests.test_restart import stopped_at
+    case = write_case(tmp_path / "case", "dynamic", 6)
+    overrides = ["output.checkpoint_every=2"]
+    run_scene(load_scene(case, overrides), tmp_path / "whole", progress=False)
+    with monkeypatch.context() as patch:
+        stopped_at(3, patch)
+        with pytest.raises(KeyboardInterrupt):
+            run_scene(load_scene(case, overrides), tmp_path / "cut", progress=False)
+    assert read(tmp_path / "cut" / "checkpoint.npz")[0]["windows"] == 3      # written at the stop
+    run_scene(load_scene(case, overrides), tmp_path / "cut", progress=False, resume=True)
+    with RunResults(tmp_path / "whole") as whole, RunResults(tmp_path / "cut") as cut:
+        np.testing.assert_array_equal(cut.windows.iterations, whole.windows.iterations)
+        assert len(cut.windows.iterations) == 6
+        for name, values in whole.fields().items():
+            assert np.abs(cut.fields()[name] - values).max() <= 1e-8 * np.abs(values).max(), name
