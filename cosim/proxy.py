@@ -200,7 +200,15 @@ class ComponentProxy:
         return result
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
-        self.call("instantiate", {"parameters": dict(parameters)})
+        self.send_instantiate(parameters)
+        self.receive_instantiate()
+
+    def send_instantiate(self, parameters: Mapping[str, Any]) -> None:
+        """The first half of ``instantiate``: the components of a run build their models at the same time."""
+        self.send("instantiate", {"parameters": dict(parameters)})
+
+    def receive_instantiate(self) -> None:
+        self.receive()
         self.describe()
 
     def enter_initialization_mode(self, start: float, stop: float) -> None:

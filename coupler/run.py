@@ -32,7 +32,7 @@ from cosim.proxy import ComponentProxy
 from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
 from cosim.scene import BACKEND, EXPLICIT, Scene
-from coupler.acceleration import make_acceleration
+from coupler.acceleration import ACCELERATIONS, IQNILS, make_acceleration
 from coupler.convergence import make_measure
 from coupler.linalg import load as load_linalg
 from coupler.mapping import ScaledMapping, make_mapping
@@ -407,6 +407,9 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                 components_started = time.perf_counter()
                 hub = start_backends(scene, backends, launcher, while_starting=lambda: _import_while_components_start(scene))
                 store.ready()
+                for b in backends:      # the components build their models at the same time (Kratos reads meshes)
+                    if isinstance(b.client, ComponentProxy):
+                        b.client.send_instantiate(b.parameters)
                 for b in backends:
                     log.event(f"component '{b.name}': {b.entry or b.address or b.command}, pid {b.client.pid}, at "
                               f"{b.client.endpoint}" + (f", log logs/{b.name}.log" if b.entry or b.command else ""))
@@ -415,7 +418,10 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
                                         b.client.endpoint,
                                         participant=b.participant, kind=b.kind, start_time=b.start_time,
                                         curve=bool(b.client.curve), **placement(b))
-                    b.client.instantiate(b.parameters)
+                    if isinstance(b.client, ComponentProxy):
+                        b.client.receive_instantiate()
+                    else:
+                        b.client.instantiate(b.parameters)
                     if saved is None:
                         store.write_description(b.name, [asdict(v) for v in b.client.variables.values()],
                                                 b.client.meshes)
@@ -562,9 +568,11 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
 
 
 def _import_while_components_start(scene: Scene | None = None) -> None:
-    """What the coupler computes with, imported while its components start: the acceleration's LAPACK, the
-    window's rows of the results file (h5py), and the waveforms' B-splines where a scene interpolates in time."""
-    load_linalg()
+    """What the coupler computes with, imported while its components start: the LAPACK of an acceleration that
+    factorises (IQN-ILS and its kind; SciPy's import is half a second of CPU the components' start-up would share),
+    the window's rows of the results file (h5py), and the waveforms' B-splines where a scene interpolates in time."""
+    if scene is None or issubclass(ACCELERATIONS.classes[scene["coupling"]["acceleration"]["type"]], IQNILS):
+        load_linalg()
     import cosim.results  # noqa: F401
     if scene is not None and any(e["waveform_degree"] or e["substeps"] for e in scene["exchange"]):
         import scipy.interpolate  # noqa: F401
