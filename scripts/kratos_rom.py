@@ -6,7 +6,8 @@ the structure for the ROM from then on by one ``--set`` line while Kratos's flui
 The static wall gets the quasi-static ROM (the double flap's), the dynamic wall the ROM with memory (Mok's).
 Prints e(t) on the whole wall, the interface displacement's error and the coupling iterations against FOM-FOM.
 
-Usage: python -m scripts.kratos_rom [--windows 250] [--switch 12] [--kind static|dynamic] [--small] [--docs]
+Usage: python -m scripts.kratos_rom [--windows 250] [--switch 12] [--kind static|dynamic] [--mesh coarse|mok]
+                                   [--small] [--docs]
 (--small: 40 windows, switching at 2 s, for the tests; --docs: rewrite the block in docs/kratos.md)
 """
 
@@ -19,6 +20,7 @@ import sys
 from pathlib import Path
 
 from benchmarks.common import fresh_directory, machine, rewrite_readme
+from benchmarks.kratos_case import MOK_MESH
 from cases.kratos_wall.write import write_case
 
 ROM_CONFIGS = {
@@ -72,9 +74,9 @@ def cosim(*args: str, log: Path) -> None:
         subprocess.run([sys.executable, "-m", "cosim", *args], check=True, stdout=stream, stderr=subprocess.STDOUT)
 
 
-def protocol(out: Path, kind: str, windows: int, switch: float) -> dict:
+def protocol(out: Path, kind: str, windows: int, switch: float, mesh: str) -> dict:
     """FOM-FOM, training, ROM-FOM and the report of one case; the report's row of the ROM-FOM run."""
-    case = write_case(out / kind, kind, windows)
+    case = write_case(out / kind, kind, windows, MOK_MESH if mesh == "mok" else None)
     log = out / f"{kind}.log"
     cosim("run", str(case), "--out", str(out / f"{kind}_fom"), "--quiet", log=log)
     config = out / f"{kind}_rom.toml"
@@ -90,9 +92,9 @@ def protocol(out: Path, kind: str, windows: int, switch: float) -> dict:
     return json.loads((out / f"{kind}_report" / "report.json").read_text())["runs"][0]
 
 
-def table(rows: dict[str, dict], windows: int, switch: float) -> list[str]:
+def table(rows: dict[str, dict], windows: int, switch: float, mesh: str) -> list[str]:
     lines = [f"machine: {machine()}",
-             f"{windows} windows of 0.1 s, coarse mesh; ROM trained on [0, {switch:g}] s of the FOM-FOM run, serving "
+             f"{windows} windows of 0.1 s, {mesh} mesh; ROM trained on [0, {switch:g}] s of the FOM-FOM run, serving "
              "from then on",
              f"{'':<58}" + "".join(f"{kind + ' wall':>16}" for kind in rows)]
 
@@ -120,17 +122,20 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--windows", type=int, default=250)
     parser.add_argument("--switch", type=float, default=12.0)
     parser.add_argument("--kind", choices=tuple(ROM_CONFIGS), action="append")
+    parser.add_argument("--mesh", choices=("coarse", "mok"), default="coarse",
+                        help="the tests' coarse mesh, or the resolution of scenes/mok.toml")
     parser.add_argument("--small", action="store_true", help="40 windows, switching at 2 s (for the tests)")
     parser.add_argument("--docs", action="store_true", help="rewrite the block in docs/kratos.md")
     args = parser.parse_args(argv)
     windows, switch = (40, 2.0) if args.small else (args.windows, args.switch)
     out = fresh_directory("kratos_rom")
-    rows = {kind: protocol(out, kind, windows, switch) for kind in args.kind or ROM_CONFIGS}
-    lines = table(rows, windows, switch)
+    rows = {kind: protocol(out, kind, windows, switch, args.mesh) for kind in args.kind or ROM_CONFIGS}
+    lines = table(rows, windows, switch, args.mesh)
     print("\n".join(lines))
     (out / "table.txt").write_text("\n".join(lines) + "\n")
     if args.docs:
-        rewrite_readme("kratos-rom", lines, f"python -m scripts.kratos_rom --windows {windows} --switch {switch:g} --docs")
+        rewrite_readme(f"kratos-rom-{args.mesh}", lines, f"python -m scripts.kratos_rom --windows {windows} "
+                       f"--switch {switch:g} --mesh {args.mesh} --docs")
     return {"rows": rows, "out": str(out)}
 
 
