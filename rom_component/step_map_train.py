@@ -29,7 +29,7 @@ KIND = "step-map"
 
 def read_window_data(results: str | Path, spec: dict[str, Any]) -> tuple[WindowData, np.ndarray, float, dict]:
     """Every recorded call of the component, its window end times, the window size, and its two-value locals."""
-    calls, times = recorded_calls(results, spec)
+    calls, times = recorded_calls(results, spec, spec["converged_only"])
     field = spec["field"] or spec["output"]
     finished = calls.window <= len(times)
     F = calls.inputs[spec["input"]][finished].reshape(int(finished.sum()), -1)
@@ -88,7 +88,7 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
     grid = {"force_modes": selection["force_modes"], "disp_modes": selection["disp_modes"],
             "history": dynamics["history"], "ridge": dynamics["ridge"], "quadratic_modes": dynamics["quadratic_modes"]}
     echo(f"{int(data.select(1, last).sum())} calls of '{spec['component']}' in {last} windows (t <= "
-         f"{times[last - 1]:g} s, every sub-iteration), force {data.F.shape[1]}, field {data.U.shape[1]} values")
+         f"{times[last - 1]:g} s, {'converged calls only' if spec['converged_only'] else 'every sub-iteration'}), force {data.F.shape[1]}, field {data.U.shape[1]} values")
     started = time.perf_counter()
     rows = holdout(data, last, grid, dynamics["holdout_fraction"], dynamics["max_radius"])
     cv_seconds = time.perf_counter() - started

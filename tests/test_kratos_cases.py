@@ -208,6 +208,16 @@ def test_the_case_becomes_a_scene_with_kratos_settings_as_plugins(wall_case, cap
     assert scene["time"] == {"start": 0.0, "end": pytest.approx(0.3), "dt": 0.1}
 
 
+@needs_gmsh
+def test_the_cosimulation_file_alone_is_the_same_case(wall_case):
+    """``cosim run ProjectParametersCoSim.json`` reads the file as its case.toml does (the reader by its suffix)."""
+    from cosim.scene import load_scene
+    alone = load_scene(wall_case / "ProjectParametersCoSim.json").data
+    case = load_scene(wall_case / "case.toml").data
+    assert alone["coupling"] == case["coupling"] and alone["exchange"] == case["exchange"]
+    assert alone["components"] == case["components"] and alone["time"] == case["time"]
+
+
 @needs_kratos
 @needs_gmsh
 @needs_cosim_application
