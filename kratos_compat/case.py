@@ -212,8 +212,8 @@ def _acceleration(params: CoSimParameters, accelerated: tuple[list[str], dict[st
     return {**table, "data": names}
 
 
-def _measure(params: CoSimParameters, role: Role, exchanges: list, accelerated: tuple[list[str], dict[str, str]],
-             end: Any = None) -> dict[str, Any]:
+def _measure(params: CoSimParameters, role: Role, exchanges: list,
+             accelerated: tuple[list[str], dict[str, str]]) -> dict[str, Any]:
     names, ends = accelerated
     name, at = _exchange_of(role.data, exchanges, role.where)
     if name in ends and at != ends[name]:

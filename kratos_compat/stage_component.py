@@ -27,7 +27,8 @@ from kratos_compat.json_source import JsonSource
 from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, node_coordinates, quiet, set_threads
 
 FIELD = {"name": Required(str), "data": Required(str), "model_part": Required(str), "variable": Required(str),
-         "dimension": Value(1, low=1, high=3), "location": "node_historical", "role": Choice("input", ("input", "output", "local"))}
+         "dimension": Value(1, low=1, high=3), "location": "node_historical",
+         "role": Choice("input", ("input", "output", "local"))}
 SCHEMA = {"solver": Required(str), "analysis": Choice("fluid_dynamics", ("fluid_dynamics", "structural_mechanics")),
           "project": Required(str), "folder": Required(str), "threads": 0, "fields": Required(list)}
 

@@ -157,6 +157,8 @@ BAD = [  # (what, key path in the CoSim file, new value, message)
      r"'fluid.load' goes from 'fluid' to 'structure'; in a Gauss-Seidel sequence \(fluid, structure\) only data "
      r"going back to 'fluid' can be accelerated"),
     ("no end time", "problem_data/end_time", DELETE, r"'problem_data.end_time': is missing"),
+    ("a criterion on the other end of the accelerated data", f"{S}/convergence_criteria/0/solver", "structure",
+     r"the criterion is on the source of 'disp' and the accelerator on its target; put both on the same data"),
     ("a coupling operation", f"{S}/coupling_operations", {"scale": {"type": "scaling"}},
      r"'solver_settings.coupling_operations': coupling operations are not supported by cosim"),
 ]
