@@ -88,7 +88,7 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
     grid = {"force_modes": selection["force_modes"], "disp_modes": selection["disp_modes"],
             "history": dynamics["history"], "ridge": dynamics["ridge"], "quadratic_modes": dynamics["quadratic_modes"]}
     echo(f"{int(data.select(1, last).sum())} calls of '{spec['component']}' in {last} windows (t <= "
-         f"{times[last - 1]:g} s, {'converged calls only' if spec['converged_only'] else 'every sub-iteration'}), force {data.F.shape[1]}, field {data.U.shape[1]} values")
+         f"{times[last - 1]:g} s, {_which_calls(spec)}), force {data.F.shape[1]}, field {data.U.shape[1]} values")
     started = time.perf_counter()
     rows = holdout(data, last, grid, dynamics["holdout_fraction"], dynamics["max_radius"])
     cv_seconds = time.perf_counter() - started
@@ -134,3 +134,10 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
     persistence.save(out, {**arrays, **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
     echo(f"saved {out}")
     return metadata
+
+
+def _which_calls(spec: dict[str, Any]) -> str:
+    if spec["converged_only"]:
+        return "converged calls only"
+    return "every sub-iteration but a window's unconverged first" if spec["skip_first_iteration"] else \
+        "every sub-iteration"

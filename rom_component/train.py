@@ -26,7 +26,7 @@ from rom_component.selection import energy_choice, holdout_table
 
 CONFIG: dict[str, dict[str, Any]] = {
     "snapshots": {"component": "solid", "input": "pressure", "output": "section", "field": "",
-                  "t_min": 0.0, "t_max": 1e300, "converged_only": False},
+                  "t_min": 0.0, "t_max": 1e300, "converged_only": False, "skip_first_iteration": False},
     "model": {kind: PluginChoice(name) for kind, name in DEFAULT_PARTS.items()},
     "output": {"plots": True},
     "selection": {"choose": Choice("fixed", ("fixed", "holdout", "energy")), "table": False,
@@ -50,6 +50,8 @@ MEANINGS = {
     "snapshots.t_min": "the first window end time whose calls are used [s]",
     "snapshots.t_max": "the last window end time whose calls are used [s]",
     "snapshots.converged_only": "true: only each window's converged call; false: every sub-iteration",
+    "snapshots.skip_first_iteration": "true: a window's first call (the predicted iterate) is left out unless it "
+                                      "converged; for a run whose prediction strays far from the trajectory",
     "model.encoder": "forces to reduced coordinates: a registered encoder (below)",
     "model.regressor": "reduced forces to reduced displacements: a registered regressor (below)",
     "model.decoder": "reduced displacements to the field: a registered decoder (below)",
@@ -101,6 +103,10 @@ def recorded_calls(results: str | Path, spec: dict[str, Any], converged_only: bo
     with RunResults(results) as run:
         calls = run.calls(spec["component"], converged_only=converged_only)
         window_time = run.windows.time
+    if spec.get("skip_first_iteration"):
+        keep = (calls.iteration > 1) | calls.converged
+        calls = Calls({k: v[keep] for k, v in calls.inputs.items()}, {k: v[keep] for k, v in calls.outputs.items()},
+                      calls.window[keep], calls.iteration[keep], calls.converged[keep])
     learned = spec["field"] or spec["output"]
     for kind, var, arrays in (("inputs", spec["input"], calls.inputs), ("outputs", learned, calls.outputs)):
         if var not in arrays:

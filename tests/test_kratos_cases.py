@@ -260,3 +260,24 @@ def test_a_kratos_case_resumes_with_the_structure_s_inertia(tmp_path, monkeypatc
         assert len(cut.windows.iterations) == 6
         for name, values in whole.fields().items():
             assert np.abs(cut.fields()[name] - values).max() <= 1e-8 * np.abs(values).max(), name
+
+
+@needs_kratos
+@needs_gmsh
+def test_a_rom_trains_on_the_recorded_calls_it_is_told_to(wall_case, tmp_path):
+    """Every recorded call of the structure, the converged ones, or all but each window's unconverged first (the
+    predicted iterate): the calls the training reads (``snapshots.converged_only``, ``skip_first_iteration``)."""
+    from cosim.scene import load_scene
+    from coupler.run import run_scene
+    from rom_component.train import recorded_calls
+    run_scene(load_scene(wall_case / "case.toml"), tmp_path / "run", progress=False)
+    spec = {"component": "structure", "input": "load", "output": "disp", "field": "disp_field"}
+    every, _ = recorded_calls(tmp_path / "run", {**spec, "skip_first_iteration": False})
+    converged, _ = recorded_calls(tmp_path / "run", {**spec, "skip_first_iteration": False}, converged_only=True)
+    later, _ = recorded_calls(tmp_path / "run", {**spec, "skip_first_iteration": True})
+    windows = int(every.window.max())
+    assert len(converged) == windows and converged.converged.all()
+    first_unconverged = int(((every.iteration == 1) & ~every.converged).sum())
+    assert first_unconverged == windows             # no window converged at its first iteration here
+    assert len(later) == len(every) - first_unconverged and ((later.iteration > 1) | later.converged).all()
+    np.testing.assert_array_equal(later.outputs["disp_field"], every.outputs["disp_field"][every.iteration > 1])
