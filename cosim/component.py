@@ -123,7 +123,14 @@ class Component:
         }
         for name, nodes in self.meshes().items():
             description[MESH_PREFIX + name] = np.asarray(nodes, dtype=np.float64)
+        for name, lines in self.lines().items():
+            description[LINES_PREFIX + name] = np.asarray(lines, dtype=np.int64)
         return description
+
+    def lines(self) -> dict[str, np.ndarray]:
+        """Optional: a mesh's line elements, (m, 2) indices of its nodes, for a mapping that interpolates on the
+        sender's elements (``nearest-element``); none by default."""
+        return {}
 
     def warn(self, message: str) -> None:
         """A warning for the coupler, delivered with the reply of the current request."""
@@ -248,6 +255,7 @@ class Component:
 
 
 MESH_PREFIX = "mesh:"
+LINES_PREFIX = "lines:"
 
 STATE_METHODS = "save_state(self) -> Any and restore_state(self, state: Any) -> None"
 

@@ -413,3 +413,6 @@ class ParticipantProxy:
     def mesh_of(self, name: str) -> np.ndarray:
         variable = self.variables[name]
         return self.meshes[variable.mesh] if variable.mesh else np.zeros((0, 1))
+
+    def lines_of(self, name: str) -> np.ndarray | None:
+        return None          # a participant's meshes carry no connectivity here

@@ -17,7 +17,7 @@ import numpy as np
 import zmq
 
 from cosim import protocol, stop
-from cosim.component import MESH_PREFIX, Variable
+from cosim.component import LINES_PREFIX, MESH_PREFIX, Variable
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimError, NonFiniteOutput, ProtocolError
 from cosim.launcher import ComponentProcess
 
@@ -181,6 +181,7 @@ class ComponentProxy:
         except (TypeError, ValueError) as exc:
             raise ComponentError(self.name, f"malformed variable description: {exc}") from None
         self.meshes = {k[len(MESH_PREFIX):]: np.array(v) for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
+        self.lines = {k[len(LINES_PREFIX):]: np.array(v) for k, v in arrays.items() if k.startswith(LINES_PREFIX)}
         for variable in self.variables.values():
             if not variable.mesh:
                 continue
@@ -332,6 +333,10 @@ class ComponentProxy:
         """Node coordinates of the mesh variable ``name`` lives on (empty if none)."""
         variable = self.variables[name]
         return self.meshes[variable.mesh] if variable.mesh else np.zeros((0, 1))
+
+    def lines_of(self, name: str) -> np.ndarray | None:
+        """The line elements of that mesh, if the component declares them."""
+        return getattr(self, "lines", {}).get(self.variables[name].mesh)
 
     # --- checks -------------------------------------------------------------
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:

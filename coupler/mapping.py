@@ -8,6 +8,8 @@ components). Mappings are plug-ins chosen by name (``MAPPINGS``):
 - ``nearest-neighbour``: ``consistent`` (for displacements: each target node takes the
   value of its nearest source node) or ``conservative`` (for forces: each source value
   goes to its nearest target node, so totals are preserved).
+- ``nearest-element``: on 2-D interfaces, each target node interpolated at its projection onto the nearest of the
+  sender's line elements (``Component.lines``), or the transpose of that the other way (``conservative``).
 - ``rbf``: radial basis functions with compact support (Wendland C2, radius
   ``support_radius``) plus a linear polynomial, so constant and linear fields are
   reproduced exactly; ``conservative`` is the transpose of the consistent mapping in the
@@ -24,7 +26,7 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.registry import Registry
-from cosim.schema import Choice, Positive
+from cosim.schema import Choice, Positive, Value
 
 if TYPE_CHECKING:
     import scipy.sparse as sp  # imported where a mapping is built: a scene of matching meshes needs no SciPy
@@ -95,6 +97,73 @@ class NearestNeighbour(Mapping):
 
     def __call__(self, values: np.ndarray) -> np.ndarray:
         return np.array(values) if self.identity else self.matrix @ values
+
+
+@MAPPINGS.register("nearest-element")
+class NearestElement(Mapping):
+    """Interpolation on the nearest line element (2-D interfaces; Kratos's ``nearest_element``, preCICE's
+    nearest-projection): ``consistent``, each target node takes the linear interpolation at its projection onto the
+    nearest of the sender's line elements (the nearest point of the sender's polyline; beyond its ends, a node);
+    ``conservative``, the transpose of the consistent mapping the other way, onto the receiver's elements, so sums
+    are kept."""
+
+    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS),
+                "local_coordinate_tolerance": Value(0.25, low=0.0)}
+    HELP = {"constraint": "'consistent' interpolates on the sender's elements, 'conservative' transposes the "
+                          "interpolation of the other direction (on the receiver's elements)",
+            "local_coordinate_tolerance": "how far beyond a line's ends (in its local coordinate, -1 to 1) a "
+                                          "projection is still taken, extrapolated, before the nearest node is"}
+    needs_lines = True
+
+    def __init__(self, source: np.ndarray, target: np.ndarray, lines: np.ndarray,  # noqa: D107
+                 constraint: str = "consistent", local_coordinate_tolerance: float = 0.25):
+        source, target = np.asarray(source, float), np.asarray(target, float)
+        lines = np.asarray(lines, np.int64)
+        if constraint == "consistent":
+            self.matrix = _projection(source, target, lines, local_coordinate_tolerance)
+        else:
+            self.matrix = _projection(target, source, lines, local_coordinate_tolerance).T.tocsr()
+
+
+def _projection(nodes: np.ndarray, points: np.ndarray, lines: np.ndarray, tolerance: float,
+                chunk: int = 256) -> sp.csr_matrix:
+    """The (len(points), len(nodes)) matrix interpolating node values at each point's projection onto a line.
+
+    The nearest projection inside a line wins; else the nearest one within ``tolerance`` of a line's local
+    coordinate (-1 to 1) beyond its ends, extrapolated; else the nearest node."""
+    import scipy.sparse as sp
+    a, b = nodes[lines[:, 0]], nodes[lines[:, 1]]
+    ab = b - a
+    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), np.finfo(float).tiny)
+    margin = tolerance / 2          # in the line's parameter s = (xi + 1) / 2
+    rows, cols, weights = [], [], []
+    for start in range(0, len(points), chunk):
+        p = points[start:start + chunk]
+        s = np.einsum("pij,ij->pi", p[:, None, :] - a[None], ab) / length2          # (points, lines)
+        offset = p[:, None, :] - (a[None] + s[..., None] * ab[None])
+        distance = np.einsum("pij,pij->pi", offset, offset)
+        inside = (s >= 0.0) & (s <= 1.0)
+        near = (s >= -margin) & (s <= 1.0 + margin)
+        best_inside = np.argmin(np.where(inside, distance, np.inf), axis=1)
+        best_near = np.argmin(np.where(near, distance, np.inf), axis=1)
+        index = np.arange(len(p))
+        has_inside, has_near = inside[index, best_inside], near[index, best_near]
+        best = np.where(has_inside, best_inside, best_near)
+        t = s[index, best]
+        to_node = ~(has_inside | has_near)           # no projection: the nearest node
+        if to_node.any():
+            node_distance = np.einsum("pnj,pnj->pn", p[to_node][:, None, :] - nodes[None], p[to_node][:, None, :] - nodes[None])
+            nearest = np.argmin(node_distance, axis=1)
+            best[to_node] = 0
+            t[to_node] = 0.0
+        first = lines[best, 0].copy()
+        if to_node.any():
+            first[to_node] = nearest
+        rows += [start + index, start + index]
+        cols += [first, lines[best, 1]]
+        weights += [1.0 - t, t]
+    return sp.csr_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(len(points), len(nodes)))
 
 
 @MAPPINGS.register("rbf")
@@ -172,8 +241,10 @@ class ScaledMapping(Mapping):
 
 
 def make_mapping(settings: dict[str, Any], source_nodes: np.ndarray, target_nodes: np.ndarray,
-                 source_shape: tuple[int, ...], target_shape: tuple[int, ...], where: str) -> Mapping:
-    """The mapping ``settings`` names, between two variables of the given shapes on the given nodes."""
+                 source_shape: tuple[int, ...], target_shape: tuple[int, ...], where: str,
+                 source_lines: np.ndarray | None = None, target_lines: np.ndarray | None = None) -> Mapping:
+    """The mapping ``settings`` names, between two variables of the given shapes on the given nodes (and, for an
+    element mapping, the line elements of the sender's mesh, or the receiver's for the conservative form)."""
     cls = MAPPINGS.classes[settings["type"]]
     if not cls.needs_meshes:
         if tuple(source_shape) != tuple(target_shape):
@@ -190,4 +261,12 @@ def make_mapping(settings: dict[str, Any], source_nodes: np.ndarray, target_node
                          f"{len(source_nodes)} -> {len(target_nodes)} nodes")
     if np.shape(source_nodes)[1] != np.shape(target_nodes)[1]:
         raise SceneError(f"{where}: meshes of dimension {np.shape(source_nodes)[1]} and {np.shape(target_nodes)[1]}")
+    if getattr(cls, "needs_lines", False):
+        conservative = settings.get("constraint") == "conservative"
+        lines = target_lines if conservative else source_lines
+        side = "receiver" if conservative else "sender"
+        if lines is None or len(lines) == 0:
+            raise SceneError(f"{where}: {settings['type']} mapping ({settings.get('constraint')}) needs the line "
+                             f"elements of the {side}'s mesh, which its component does not declare (Component.lines)")
+        return MAPPINGS.create(settings, source=source_nodes, target=target_nodes, lines=lines)
     return MAPPINGS.create(settings, source=source_nodes, target=target_nodes)

@@ -101,6 +101,9 @@ class BackendSchedule:
     def mesh_of(self, name: str) -> np.ndarray:
         return self.stages[0][1].mesh_of(name)
 
+    def lines_of(self, name: str) -> np.ndarray | None:
+        return self.stages[0][1].lines_of(name)
+
     def output_names(self) -> list[str]:
         return self.stages[0][1].output_names()
 

@@ -18,7 +18,8 @@ What each CoSimulation setting becomes (``docs/kratos.md``):
   and a window that does not converge is accepted (Kratos moves on).
 - A transfer of data (an ``input_data_list`` or ``output_data_list`` entry): an exchange named after the data it
   fills; ``copy``: the identity; ``kratos_mapping`` ``nearest_neighbor``: nearest-neighbour, consistent, or
-  conservative with ``use_transpose``; ``swap_sign``: the exchange's scale -1.
+  conservative with ``use_transpose``; ``nearest_element``: nearest-element, the same way; ``swap_sign``: the
+  exchange's scale -1.
 - Accelerators: ``constant_relaxation``: constant, ``aitken``: aitken-bounded, ``iqnils``: iqn-ils-plain,
   ``mvqn``: mvqn (the same updates, tested against Kratos's own classes).
 - Criteria: ``relative_norm_previous_residual``: any of absolute-rms and relative; ``relative_norm_initial_residual``:
@@ -133,7 +134,8 @@ def _exchanges(params: CoSimParameters) -> tuple[list[tuple[dict, Transfer]], di
         if transfer.operator == "copy":
             mapping = {"type": "identity"}
         else:
-            mapping = {"type": "nearest-neighbour",
+            kind = "nearest-neighbour" if transfer.mapper == "nearest_neighbor" else "nearest-element"
+            mapping = {"type": kind, **transfer.mapper_settings,
                        "constraint": "conservative" if "use_transpose" in transfer.options else "consistent"}
         spec = {"data": name, "from": transfer.source.solver, "to": transfer.target.solver, "mapping": mapping,
                 "scale": -1.0 if "swap_sign" in transfer.options else 1.0,

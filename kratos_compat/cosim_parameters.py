@@ -35,7 +35,7 @@ CRITERIA = {"relative_norm_previous_residual": {"abs_tolerance": 1e-5, "rel_tole
             "relative_norm_initial_residual": {"abs_tolerance": 1e-5, "rel_tolerance": 1e-5, "label": ""}}
 PREDICTORS: dict[str, dict[str, Any]] = {"linear": {}}
 REFUSED_PREDICTORS = ("average_value_based", "linear_derivative_based")
-MAPPERS = ("nearest_neighbor",)
+MAPPERS = ("nearest_neighbor", "nearest_element")
 TRANSFER_OPTIONS = {"kratos_mapping": ("swap_sign", "use_transpose"), "copy": ("swap_sign",)}
 LOCATIONS = ("node_historical", "node_non_historical")
 COMMON = {"type", "solver", "data_name", "echo_level", "label"}
@@ -73,6 +73,7 @@ class Transfer:
     target: Data
     operator: str                 # copy, kratos_mapping
     mapper: str                   # the mapper type of kratos_mapping ("" for copy)
+    mapper_settings: dict[str, Any]
     options: tuple[str, ...]
     where: str
     after_source: bool = False    # in the source's output_data_list: done right after the source solves
@@ -233,7 +234,7 @@ class _Reader:
             raise self.fail((*at, "location"), f"'{location}' is not supported (supported: {', '.join(LOCATIONS)})")
         return Data(solver.name, name, part, variable, dimension, location, self.source.where(at))
 
-    def operators(self, table: dict) -> dict[str, tuple[str, str]]:
+    def operators(self, table: dict) -> dict[str, tuple[str, str, dict[str, Any]]]:
         result = {}
         for name, spec in table.items():
             at: Path_ = ("solver_settings", "data_transfer_operators", name)
@@ -250,15 +251,24 @@ class _Reader:
                 if mapper not in MAPPERS:
                     raise self.fail((*at, "mapper_settings", "mapper_type"),
                                     f"'{mapper}' is not supported (supported: {', '.join(MAPPERS)})")
-                self.only(settings, (*at, "mapper_settings"), {"mapper_type", "echo_level", "search_settings"},
-                          f"the {mapper} mapper")
+                allowed = {"mapper_type", "echo_level", "search_settings"}
+                if mapper == "nearest_element":
+                    allowed.add("local_coord_tolerance")
+                    tolerance = self.get(settings, (*at, "mapper_settings"), "local_coord_tolerance", float, 0.25)
+                    if not tolerance >= 0:
+                        raise self.fail((*at, "mapper_settings", "local_coord_tolerance"),
+                                        f"must be at least 0, got {tolerance}")
+                self.only(settings, (*at, "mapper_settings"), allowed, f"the {mapper} mapper")
+                extra = {"local_coordinate_tolerance": float(settings.get("local_coord_tolerance", 0.25))} \
+                    if mapper == "nearest_element" else {}
             else:
                 self.only(spec, at, {"type", "echo_level"}, "copy")
-            result[name] = (kind, mapper)
+                extra = {}
+            result[name] = (kind, mapper, extra)
         return result
 
     def sequence(self, items: list, solvers: dict[str, Solver],
-                 operators: dict[str, tuple[str, str]]) -> tuple[list[str], list[Transfer]]:
+                 operators: dict[str, tuple[str, str, dict[str, Any]]]) -> tuple[list[str], list[Transfer]]:
         at: Path_ = ("solver_settings", "coupling_sequence")
         order, transfers = [], []
         for i, item in enumerate(items):
@@ -283,7 +293,7 @@ class _Reader:
         return order, transfers
 
     def transfer(self, at: Path_, entry: Any, solver: str, other_key: str, other_data: str, incoming: bool,
-                 solvers: dict[str, Solver], operators: dict[str, tuple[str, str]]) -> Transfer:
+                 solvers: dict[str, Solver], operators: dict[str, tuple[str, str, dict[str, Any]]]) -> Transfer:
         if not isinstance(entry, dict):
             raise self.fail(at, "must be an object")
         self.only(entry, at, {"data", other_key, other_data, "data_transfer_operator",
@@ -307,7 +317,7 @@ class _Reader:
         if operator not in operators:
             raise self.fail((*at, "data_transfer_operator"), f"no data transfer operator '{operator}' "
                                                              f"(defined: {', '.join(operators) or 'none'})")
-        kind, mapper = operators[operator]
+        kind, mapper, mapper_settings = operators[operator]
         options = self.get(entry, at, "data_transfer_operator_options", list, [])
         for k, option in enumerate(options):
             if option not in TRANSFER_OPTIONS[kind]:
@@ -319,7 +329,8 @@ class _Reader:
             raise self.fail(at, f"'{source.solver}.{source.name}' has dimension {source.dimension} and "
                                 f"'{target.solver}.{target.name}' has {target.dimension}: {kind} cannot map "
                                 "between them")
-        return Transfer(source, target, kind, mapper, tuple(options), self.source.where(at), not incoming)
+        return Transfer(source, target, kind, mapper, mapper_settings, tuple(options), self.source.where(at),
+                        not incoming)
 
     def lookup(self, solvers: dict[str, Solver], solver: str, name: str, at: Path_) -> Data:
         if name not in solvers[solver].data:

@@ -122,6 +122,18 @@ class KratosStage(KratosComponent):
             meshes[f["model_part"]] = node_coordinates(self.nodes[f["name"]], max(int(dimension), 2))
         return meshes
 
+    def lines(self) -> dict[str, np.ndarray]:
+        """Each field's model part's two-node conditions, as indices of its nodes (for ``nearest_element``)."""
+        lines = {}
+        for f in self.fields:
+            part = self.model[f["model_part"]]
+            index = {node.Id: i for i, node in enumerate(part.Nodes)}
+            pairs = [[index.get(n.Id, -1) for n in c.GetNodes()] for c in part.Conditions if len(c.GetNodes()) == 2]
+            pairs = [pair for pair in pairs if min(pair) >= 0]
+            if pairs:
+                lines[f["model_part"]] = np.array(pairs, dtype=np.int64)
+        return lines
+
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
         check_inputs(self, values, {name: value.shape for name, value in self.inputs.items()})
         for name, value in values.items():

@@ -281,3 +281,85 @@ def test_a_rom_trains_on_the_recorded_calls_it_is_told_to(wall_case, tmp_path):
     assert first_unconverged == windows             # no window converged at its first iteration here
     assert len(later) == len(every) - first_unconverged and ((later.iteration > 1) | later.converged).all()
     np.testing.assert_array_equal(later.outputs["disp_field"], every.outputs["disp_field"][every.iteration > 1])
+
+
+def arc(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes on a half ellipse and the line elements joining them in order."""
+    nodes = np.stack([np.cos(theta), 0.5 * np.sin(theta)], axis=1)
+    return nodes, np.stack([np.arange(len(nodes) - 1), np.arange(1, len(nodes))], axis=1)
+
+
+def test_nearest_element_interpolates_on_the_senders_lines_and_its_transpose_keeps_sums():
+    from coupler.mapping import make_mapping
+    source, lines = arc(np.linspace(0.0, np.pi, 17))
+    target, target_lines = arc(np.sort(np.random.default_rng(1).uniform(0.0, np.pi, 23)))
+    linear = source @ np.array([[2.0, -1.0], [0.5, 3.0]]) + 1.0           # linear along each line: exact
+    mapping = make_mapping({"type": "nearest-element", "constraint": "consistent"}, source, target,
+                           (17, 2), (23, 2), "test", lines, None)
+    exact = []
+    for x in target:            # the interpolation on the line of the point's projection, by hand
+        best = min(range(len(lines)), key=lambda j: _distance(x, source[lines[j, 0]], source[lines[j, 1]]))
+        a, b = source[lines[best, 0]], source[lines[best, 1]]
+        s = float(np.clip((x - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0))
+        exact.append((1 - s) * linear[lines[best, 0]] + s * linear[lines[best, 1]])
+    np.testing.assert_allclose(mapping(linear), np.array(exact), rtol=0, atol=1e-13)
+    forces = np.random.default_rng(2).normal(size=(17, 2))
+    conservative = make_mapping({"type": "nearest-element", "constraint": "conservative"}, source, target,
+                                (17, 2), (23, 2), "test", None, target_lines)
+    np.testing.assert_allclose(conservative(forces).sum(axis=0), forces.sum(axis=0), rtol=1e-13, atol=1e-13)
+
+
+def _distance(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    s = float(np.clip((x - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0))
+    return float(np.linalg.norm(x - (a + s * (b - a))))
+
+
+def test_nearest_element_without_the_senders_lines_is_refused_naming_them():
+    from cosim.errors import SceneError
+    from coupler.mapping import make_mapping
+    source, _ = arc(np.linspace(0.0, np.pi, 5))
+    with pytest.raises(SceneError, match=r"exchange.1 \(disp\): nearest-element mapping \(consistent\) needs the "
+                                         r"line elements of the sender's mesh"):
+        make_mapping({"type": "nearest-element", "constraint": "consistent"}, source, source, (5, 2), (5, 2),
+                     "exchange.1 (disp)", None, None)
+
+
+@needs_cosim_application
+@pytest.mark.parametrize("beyond", [0.1, 0.6])
+def test_nearest_element_is_kratoss_mapper(beyond):
+    """Against Kratos's MappingApplication on non-matching lines, target nodes reaching beyond the sender's ends
+    (extrapolated within the local coordinate tolerance, else the nearest node): consistent and transposed."""
+    import KratosMultiphysics as KM
+    import KratosMultiphysics.MappingApplication  # noqa: F401
+
+    from coupler.mapping import make_mapping
+    KM.Logger.GetDefaultOutput().SetSeverity(KM.Logger.Severity.WARNING)
+
+    def part(model, name: str, theta: np.ndarray):
+        nodes, lines = arc(theta)
+        mp = model.CreateModelPart(name)
+        mp.AddNodalSolutionStepVariable(KM.DISPLACEMENT)
+        mp.ProcessInfo[KM.DOMAIN_SIZE] = 2
+        for i, (x, y) in enumerate(nodes):
+            mp.CreateNewNode(i + 1, x, y, 0.0)
+        for j, (a, b) in enumerate(lines):
+            mp.CreateNewCondition("LineCondition2D2N", j + 1, [int(a) + 1, int(b) + 1], mp.GetProperties()[0])
+        return mp, nodes, lines
+
+    def values(mp) -> np.ndarray:
+        return np.array([[n.GetSolutionStepValue(KM.DISPLACEMENT)[k] for k in (0, 1)] for n in mp.Nodes])
+
+    model = KM.Model()
+    origin, source, lines = part(model, "origin", np.linspace(0.0, np.pi, 17))
+    destination, target, target_lines = part(
+        model, "destination", np.sort(np.random.default_rng(1).uniform(-beyond, np.pi + beyond, 40)))
+    given = np.stack([source[:, 0] ** 2 + source[:, 1], np.sin(3 * source[:, 0])], axis=1)
+    for node, v in zip(origin.Nodes, given):
+        node.SetSolutionStepValue(KM.DISPLACEMENT, [v[0], v[1], 0.0])
+    mapper = KM.MapperFactory.CreateMapper(origin, destination,
+                                           KM.Parameters('{"mapper_type": "nearest_element", "echo_level": 0}'))
+    for flags, constraint in ((KM.Flags(), "consistent"), (KM.Mapper.USE_TRANSPOSE, "conservative")):
+        mapper.Map(KM.DISPLACEMENT, KM.DISPLACEMENT, flags)
+        ours = make_mapping({"type": "nearest-element", "constraint": constraint}, source, target, given.shape,
+                            target.shape, "test", lines, target_lines)(given)
+        np.testing.assert_allclose(ours, values(destination), rtol=0, atol=1e-12)
