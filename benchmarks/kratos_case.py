@@ -81,9 +81,9 @@ def timed(command: list[str], cwd: Path, log: Path) -> float:
 
 def main_kratos_cosim() -> Path:
     import importlib.util
-    spec = importlib.util.find_spec("KratosMultiphysics.CoSimulationApplication")
+    spec = importlib.util.find_spec("KratosMultiphysics")      # found, not imported (a submodule's would import it)
     assert spec is not None and spec.submodule_search_locations
-    return Path(list(spec.submodule_search_locations)[0]) / "MainKratosCoSim.py"
+    return Path(list(spec.submodule_search_locations)[0]) / "CoSimulationApplication" / "MainKratosCoSim.py"
 
 
 def compare(case: Path, ours: Path, peer: Path) -> dict:

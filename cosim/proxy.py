@@ -57,6 +57,7 @@ class ComponentProxy:
         self._pending: tuple[int, str] | None = None
         self.variables: dict[str, Variable] = {}
         self.meshes: dict[str, np.ndarray] = {}
+        self.lines: dict[str, np.ndarray] = {}
         self.can_get_and_set_state = False
         self.can_checkpoint = False
         self.repeats_steps = False
@@ -336,7 +337,7 @@ class ComponentProxy:
 
     def lines_of(self, name: str) -> np.ndarray | None:
         """The line elements of that mesh, if the component declares them."""
-        return getattr(self, "lines", {}).get(self.variables[name].mesh)
+        return self.lines.get(self.variables[name].mesh)
 
     # --- checks -------------------------------------------------------------
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:

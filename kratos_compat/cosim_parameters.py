@@ -371,10 +371,7 @@ class _Reader:
 def model_parts(project: Path, folder: Path) -> set[str] | None:
     """The model parts a solver's ProjectParameters and its ``.mdpa`` file define (``Main``, ``Main.Sub``, ...);
     None when they cannot be told without Kratos (a mesh in another format)."""
-    try:
-        settings = JsonSource(project).data.get("solver_settings", {})
-    except SceneError:
-        raise
+    settings = JsonSource(project).data.get("solver_settings", {})
     if settings.get("solver_type") == "ale_fluid":
         settings = settings.get("fluid_solver_settings", {})
     main = settings.get("model_part_name", "")

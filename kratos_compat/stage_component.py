@@ -14,6 +14,7 @@ component's process.
 from __future__ import annotations
 
 import os
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -47,10 +48,9 @@ class KratosStage(KratosComponent):
             f["dimension"] = int(f["dimension"])
         os.chdir(prm["folder"])             # Kratos reads the case's paths relative to its folder
         self.project = JsonSource(Path(prm["project"])).data
-        self.settings = {"max_iterations": 0, "on_unconverged": "warn"}
+        self.by_name = {f["name"]: f for f in self.fields}
         quiet()
         set_threads(prm["threads"] or None)
-        import tempfile
         self._workdir = tempfile.TemporaryDirectory(prefix=f"cosim-kratos-{self.name}-")
         self.analysis = prm["analysis"]
         solver = self.project["solver_settings"]
@@ -116,22 +116,19 @@ class KratosStage(KratosComponent):
         return result
 
     def meshes(self) -> dict[str, np.ndarray]:
-        meshes = {}
-        for f in self.fields:
-            dimension = self.project["solver_settings"].get("domain_size", 2)
-            meshes[f["model_part"]] = node_coordinates(self.nodes[f["name"]], max(int(dimension), 2))
-        return meshes
+        dimension = max(int(self.project["solver_settings"].get("domain_size", 2)), 2)
+        return {f["model_part"]: node_coordinates(self.nodes[f["name"]], dimension) for f in self.fields}
 
     def lines(self) -> dict[str, np.ndarray]:
         """Each field's model part's two-node conditions, as indices of its nodes (for ``nearest_element``)."""
         lines = {}
-        for f in self.fields:
-            part = self.model[f["model_part"]]
+        for name in {f["model_part"] for f in self.fields}:
+            part = self.model[name]
             index = {node.Id: i for i, node in enumerate(part.Nodes)}
             pairs = [[index.get(n.Id, -1) for n in c.GetNodes()] for c in part.Conditions if len(c.GetNodes()) == 2]
             pairs = [pair for pair in pairs if min(pair) >= 0]
             if pairs:
-                lines[f["model_part"]] = np.array(pairs, dtype=np.int64)
+                lines[name] = np.array(pairs, dtype=np.int64)
         return lines
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
@@ -180,14 +177,13 @@ class KratosStage(KratosComponent):
     def end_window(self, values: Mapping[str, np.ndarray]) -> None:
         """The window's last values of data Kratos writes after this solver's last solve (``at_window_end``): the
         step that ends holds them, as in Kratos (an ALE fluid's mesh velocity in the next window starts there)."""
-        by_name = {f["name"]: f for f in self.fields if f["role"] == "input"}
-        check_inputs(self, values, {name: self.inputs[name].shape for name in by_name})
+        check_inputs(self, values, {name: value.shape for name, value in self.inputs.items()})
         if self.stepped.window_start is not None:
             for name, value in values.items():
-                self._write(by_name[name], np.asarray(value, dtype=np.float64))
+                self._write(self.by_name[name], np.asarray(value, dtype=np.float64))
 
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
-        by_name = {f["name"]: f for f in self.fields}
+        by_name = self.by_name
         unknown = [n for n in names if n not in by_name]
         if unknown:
             raise ComponentError(self.name, f"unknown variable(s) {', '.join(unknown)}")
