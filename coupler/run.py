@@ -35,7 +35,7 @@ from cosim.scene import BACKEND, EXPLICIT, Scene
 from coupler.acceleration import ACCELERATIONS, IQNILS, make_acceleration
 from coupler.convergence import make_measure
 from coupler.linalg import load as load_linalg
-from coupler.mapping import ScaledMapping, make_mapping
+from coupler.mapping import MAPPINGS, ScaledMapping, make_mapping
 from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
@@ -571,10 +571,15 @@ def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windo
 def _import_while_components_start(scene: Scene | None = None) -> None:
     """What the coupler computes with, imported while its components start: the LAPACK of an acceleration that
     factorises (IQN-ILS and its kind; SciPy's import is half a second of CPU the components' start-up would share),
-    the window's rows of the results file (h5py), and the waveforms' B-splines where a scene interpolates in time."""
+    the window's rows of the results file (h5py), SciPy's KD-tree and sparse matrices where a mapping is built on
+    meshes (their import would otherwise wait until the components are up), and the waveforms' B-splines where a
+    scene interpolates in time."""
     if scene is None or issubclass(ACCELERATIONS.classes[scene["coupling"]["acceleration"]["type"]], IQNILS):
         load_linalg()
     import cosim.results  # noqa: F401
+    if scene is not None and any(MAPPINGS.classes[e["mapping"]["type"]].needs_meshes for e in scene["exchange"]):
+        import scipy.sparse  # noqa: F401
+        import scipy.spatial  # noqa: F401
     if scene is not None and any(e["waveform_degree"] or e["substeps"] for e in scene["exchange"]):
         import scipy.interpolate  # noqa: F401
 
