@@ -44,13 +44,15 @@ from benchmarks.common import (
     rewrite_readme,
 )
 from cosim.component import MESH_PREFIX
-from rom_component import persistence
-from rom_component.compiled import CompiledRom
-from rom_component.component import RomSolid
-from rom_component.estimator import SolidRom, resolve_parts
-from rom_component.fmu_export import export_fmu
-from rom_component.online import OnlineRom
-from rom_component.train import interface_index, load_config, read_interface, read_training_set
+from rom_component import model_file
+from rom_component.fmu.export import export_fmu
+from rom_component.recorded import interface_index, read_interface, read_training_set
+from rom_component.static.compiled import CompiledRom
+from rom_component.static.component import RomSolid
+from rom_component.static.estimator import SolidRom, resolve_parts
+from rom_component.static.load import load_rom
+from rom_component.static.online import OnlineRom
+from rom_component.static.train import load_config
 from solid_component.fmu import FmuSolid
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -143,12 +145,12 @@ def main(argv: list[str] | None = None) -> dict:
     started = time.perf_counter()
     estimator = SolidRom.from_settings(resolve_parts(PARAMS)).fit(F, U)
     fit_seconds = time.perf_counter() - started
-    model_path = persistence.save(out / "model.npz",
+    model_path = model_file.save(out / "model.npz",
                                   {**estimator.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}},
                                   {"regressor": "poly", "params": estimator.settings(), "variables": variables,
                                    "input_variable": "force", "output_variable": "displacement"})
-    online = persistence.load(model_path)
-    fast = OnlineRom(*persistence.load_arrays(model_path), arithmetic="fast")
+    online = load_rom(model_path)
+    fast = OnlineRom(*model_file.load_arrays(model_path), arithmetic="fast")
     fmu_path = export_fmu(model_path, out / "solid_rom.fmu", 2)
     fmu = FmuSolid()
     fmu.instantiate({"path": str(fmu_path)})
@@ -156,8 +158,8 @@ def main(argv: list[str] | None = None) -> dict:
     fmu.exit_initialization_mode()
     slave = fmu.slave
     refs_in, refs_out = list(np.ravel(fmu.inputs["force"][0])), list(np.ravel(fmu.outputs["displacement"][0]))
-    compiled = persistence.load(model_path, "compiled")
-    scalar = CompiledRom(*persistence.load_arrays(model_path), defines=("SOLID_ROM_SCALAR",))
+    compiled = load_rom(model_path, "compiled")
+    scalar = CompiledRom(*model_file.load_arrays(model_path), defines=("SOLID_ROM_SCALAR",))
     component = RomSolid()
     component.instantiate({"model": str(model_path)})
     compiled_component = RomSolid()
@@ -217,7 +219,7 @@ def main(argv: list[str] | None = None) -> dict:
              (f"  the same, products of the {q} leading modes only: reproducible",
               per_call(lambda: leading_online(f), repeat))]
     if args.coupled and not args.small:
-        leading_path = persistence.save(out / "model_leading.npz", leading_arrays,
+        leading_path = model_file.save(out / "model_leading.npz", leading_arrays,
                                         {"regressor": "poly", "params": leading.settings(),
                                          "variables": variables, "input_variable": "force",
                                          "output_variable": "displacement"})

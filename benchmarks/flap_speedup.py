@@ -38,8 +38,8 @@ from pathlib import Path
 from benchmarks.common import CORE_PER_SOLVER, fresh_directory, machine, rewrite_readme
 from cosim.scene import load_scene
 from coupler.run import run_scene
-from rom_component.report import Run, call_windows, compare
-from rom_component.train import load_config, train
+from rom_component.report.compare import Run, call_windows, compare
+from rom_component.static.train import load_config, train
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -29,13 +29,15 @@ from cosim.component import MESH_PREFIX
 from cosim.results import RunResults
 from cosim.scene import load_scene
 from coupler.run import run_scene
-from rom_component import persistence
-from rom_component.component import RomSolid
-from rom_component.estimator import SolidRom
-from rom_component.fmu_export import export_fmu
-from rom_component.online import OnlineRom
-from rom_component.selection import holdout_table
-from rom_component.train import load_config, read_interface, read_snapshots
+from rom_component import model_file
+from rom_component.fmu.export import export_fmu
+from rom_component.recorded import read_interface, read_snapshots
+from rom_component.static.component import RomSolid
+from rom_component.static.estimator import SolidRom
+from rom_component.static.load import load_rom
+from rom_component.static.online import OnlineRom
+from rom_component.static.selection import holdout_table
+from rom_component.static.train import load_config
 from solid_component.fmu import FmuSolid
 from solid_component.tube import TubeSolid
 
@@ -80,13 +82,13 @@ def main(argv: list[str] | None = None) -> dict:
     holdout_table(SolidRom.from_settings(config["model"]), F, U, force_modes, disp_modes, selection["test_fraction"], selection["seed"])
     cv_seconds = time.perf_counter() - started
     variables, meshes = read_interface(results, config["snapshots"])   # the meshes the solid declared
-    model_path = persistence.save(out / "model.npz",
+    model_path = model_file.save(out / "model.npz",
                                   {**estimator.online_arrays(), **{MESH_PREFIX + k: v for k, v in meshes.items()}},
                                   {"regressor": estimator.regressor_.type_name, "params": estimator.settings(),
                                    "variables": variables,
                                    "input_variable": "pressure", "output_variable": "section"})
-    online = persistence.load(model_path)
-    fast = OnlineRom(*persistence.load_arrays(model_path), arithmetic="fast")
+    online = load_rom(model_path)
+    fast = OnlineRom(*model_file.load_arrays(model_path), arithmetic="fast")
     fmu_path = export_fmu(model_path, out / "solid_rom.fmu")
     fmu = FmuSolid()
     fmu.instantiate({"path": str(fmu_path)})

@@ -21,22 +21,22 @@ import numpy as np
 from benchmarks.common import Timing, cold_call, machine, per_call
 from cosim.component import Component
 from cosim.results import RunResults
-from rom_component.fmu_export import export_fmu
-from rom_component.persistence import load_arrays
-from rom_component.step_map_component import StepMapRomSolid
+from rom_component.dynamic.component import StepMapRomSolid
+from rom_component.fmu.export import export_fmu
+from rom_component.model_file import load_arrays
 from solid_component.fmu import FmuSolid
 
 
 def small_model(folder: Path) -> tuple[Path, None]:
     """A step map fitted to the Newmark chain of the tests (12 masses)."""
-    from rom_component import persistence
-    from rom_component.step_map import StepMapRom
-    from rom_component.step_map_train import model_file
+    from rom_component import model_file
+    from rom_component.dynamic.model import StepMapRom
+    from rom_component.dynamic.train import model_contents
     from tests.test_step_map import newmark_calls
     data = newmark_calls()
     fitted = StepMapRom(force_modes=8, disp_modes=6, history=3, ridge=1e-10).fit(data, 120)
-    arrays, metadata = model_file(fitted, data, 120, np.arange(data.U.shape[1]), {}, 0.1, "force", "displacement")
-    return persistence.save(folder / "model.npz", arrays, metadata), None
+    arrays, metadata = model_contents(fitted, data, 120, np.arange(data.U.shape[1]), {}, 0.1, "force", "displacement")
+    return model_file.save(folder / "model.npz", arrays, metadata), None
 
 
 def component_call(component, force: np.ndarray):

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from cosim.results import RunResults
-from rom_component.surrogate_model import DEFAULT_MODEL, RomResponse
+from rom_component.static.surrogate_model import DEFAULT_MODEL, RomResponse
 
 MODELS: list[dict[str, Any]] = [DEFAULT_MODEL,
           {"encoder": {"type": "pod", "modes": 8}, "regressor": {"type": "poly", "method": "ridge"},

@@ -70,16 +70,29 @@ def load_entry(entry: str, folders: Sequence[Path] = ()) -> type:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         module = _module_in(module_name, folders)
+        moved = moved_modules().get(module_name)
+        if module is None and moved:
+            raise CosimError(f"entry '{entry}': module '{module_name}' moved to '{moved}'; write "
+                                   f"'{moved}:{class_name}'") from None
         if module is None:
             raise EntryImportError(f"entry '{entry}': cannot import module '{module_name}': {exc} (a module of your "
                                    "own goes next to the scene file, or on PYTHONPATH)") from None
     cls = getattr(module, class_name, None)
+    moved = moved_modules().get(module_name) if cls is None else None
+    if moved:           # the name is a package now
+        raise CosimError(f"entry '{entry}': module '{module_name}' moved to '{moved}'; write '{moved}:{class_name}'")
     if cls is None:
         raise CosimError(f"entry '{entry}': module '{module_name}' has no '{class_name}'")
     if not (isinstance(cls, type) and issubclass(cls, Component)):
         raise CosimError(f"entry '{entry}': '{class_name}' is not a component class (a subclass of "
                          "cosim.component.Component)")
     return cls
+
+
+def moved_modules() -> dict[str, str]:
+    """The modules our packages moved, old name to new (the ``cosim.moved_modules`` entry points)."""
+    from importlib.metadata import entry_points
+    return {e.name: e.value for e in entry_points(group="cosim.moved_modules")}
 
 
 TRANSPORTS = ("tcp", "ipc")

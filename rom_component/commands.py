@@ -18,10 +18,10 @@ def _train_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from rom_component.train import load_config, train
+    from rom_component.static.train import load_config, train
     config = load_config(args.config, args.set or [])
     if config["dynamics"]["memory"]:
-        from rom_component.step_map_train import train_step_map
+        from rom_component.dynamic.train import train_step_map
         if len(args.results) != 1:
             raise SceneError("dynamics.memory: a step-map ROM trains on one run's recorded calls")
         train_step_map(args.results[0], args.out, config)
@@ -39,7 +39,7 @@ def _report_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from rom_component.report import Run, write_report
+    from rom_component.report.compare import Run, write_report
     labels = {}
     for item in args.label or []:
         directory, sep, name = item.rpartition("=")
@@ -68,7 +68,7 @@ def _export_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _export_fmu(args: argparse.Namespace) -> int:
-    from rom_component.fmu_export import export_fmu
+    from rom_component.fmu.export import export_fmu
     print(f"wrote {export_fmu(args.model, args.out, args.components_per_node)}")
     return 0
 

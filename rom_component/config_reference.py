@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from cosim.reference import plugins, table
 from rom_component.parts import DECODERS, ENCODERS, REGRESSORS
-from rom_component.train import CONFIG, MEANINGS
+from rom_component.static.train import CONFIG, MEANINGS
 
 HEADER = """# ROM configuration reference
 
@@ -41,7 +41,7 @@ A part given as a table without `type` is the default part (`pod`, `rbf`, `linea
 
 def page() -> str:
     """The reference page's Markdown."""
-    owner = "rom_component.train.MEANINGS"
+    owner = "rom_component.static.train.MEANINGS"
     lines = [HEADER]
     for section in CONFIG:
         lines += [f"## `[{section}]`", "", *table(CONFIG[section], MEANINGS, "", f"{section}.", owner), ""]

@@ -106,7 +106,7 @@ def _envelope_shapes(r_f: int) -> dict[str, tuple[int, ...]]:
 
 
 def check_step_map(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]) -> None:
-    """A step-map ROM (``rom_component.step_map``): its matrices' shapes follow from r_f, r_u and the histories."""
+    """A step-map ROM (``rom_component.dynamic.model``): its matrices' shapes follow from r_f, r_u and the histories."""
     for name in STEP_MAP_REQUIRED:
         if name not in arrays:
             raise ModelContentError(f"it lacks the array '{name}'")

@@ -58,7 +58,7 @@ class Encoder(Part):
         raise NotImplementedError
 
     def online_arrays(self) -> dict[str, np.ndarray]:
-        """The online path's arrays E, e of x = E f - e (``rom_component.online``), and what plots need."""
+        """The online path's arrays E, e of x = E f - e (``rom_component.static.online``), and what plots need."""
         raise NotImplementedError
 
     def jacobian(self) -> np.ndarray:

@@ -70,7 +70,7 @@ ridge = [1e-10, 1e-8, 1e-6]
 quadratic_modes = [0]
 """,
 }
-ROM_ENTRY = {"static": "", "dynamic": "rom_component.step_map_component:StepMapRomSolid"}
+ROM_ENTRY = {"static": "", "dynamic": "rom_component.dynamic.component:StepMapRomSolid"}
 
 
 def cosim(*args: str, log: Path) -> None:

@@ -8,7 +8,7 @@ import threading
 import numpy as np
 
 from cosim.component import Variable
-from rom_component.component import RomSolid
+from rom_component.static.component import RomSolid
 from solid_component.tube import TubeSolid
 
 

@@ -2,7 +2,7 @@
 
 from typing import Any
 
-from rom_component.estimator import SolidRom
+from rom_component.static.estimator import SolidRom
 
 
 def solid_rom(r_f: int = 3, r_u: int = 9, regressor: str | dict[str, Any] = "rbf",

@@ -94,7 +94,7 @@ def test_flap_rom_call_benchmark_small(capsys):
 @needs_kratos
 def test_flap_speedup_benchmark_small(capsys):
     from benchmarks import flap_speedup
-    from rom_component.report import Run
+    from rom_component.report.compare import Run
     pin = len(os.sched_getaffinity(0)) >= 2 and {0, 1} <= os.sched_getaffinity(0)
     result = flap_speedup.main(["--small", *(["--pin"] if pin else [])])
     text = capsys.readouterr().out

@@ -12,8 +12,11 @@ from cosim.errors import ComponentError, CosimError
 from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
 from cosim.results import RunResults
-from rom_component import compiled, persistence
-from rom_component.component import RomSolid
+from rom_component import model_file
+from rom_component.fmu.build import library_path
+from rom_component.static import compiled
+from rom_component.static.component import RomSolid
+from rom_component.static.load import load_rom
 from tests.conftest import children_of
 from tests.roms import solid_rom
 from tests.test_flap_rom import calls  # noqa: F401  (the module's fixture)
@@ -22,7 +25,7 @@ from tests.test_rom_integration import TRAIN_END, fom, model, rom_run  # noqa: F
 
 
 def assert_same_calls(path, F):
-    reference, fast = persistence.load(path), persistence.load(path, "compiled")
+    reference, fast = load_rom(path), load_rom(path, "compiled")
     for f in F:
         assert fast(f).tobytes() == reference(f).tobytes()
         assert fast.reduced.tobytes() == reference.reduced.tobytes()
@@ -42,7 +45,7 @@ def flap_model(calls, folder):  # noqa: F811
     F, U, _, _ = calls
     rom = solid_rom(45, 9, {"type": "poly", "quadratic_modes": 4, "term_scaling": "global"}, "quadratic")
     rom.fit(F[::2], U[::2])
-    path = persistence.save(folder / "flap.npz", rom.online_arrays(), {"regressor": "poly", "params": rom.settings()})
+    path = model_file.save(folder / "flap.npz", rom.online_arrays(), {"regressor": "poly", "params": rom.settings()})
     out_of_range = F[1:200:20] + 0.3 * (F[1:200:20] - F.mean(axis=0))
     return path, np.vstack([F[1:400:4], out_of_range])
 
@@ -54,8 +57,8 @@ def test_compiled_calls_are_bit_identical_on_the_double_flap(calls, tmp_path):  
 def test_the_scalar_build_gives_the_vector_builds_bits(calls, tmp_path, monkeypatch):  # noqa: F811
     path, F = flap_model(calls, tmp_path)
     monkeypatch.setenv("COSIM_CACHE", str(tmp_path / "cache"))
-    vector, reference = persistence.load(path, "compiled"), persistence.load(path)
-    scalar = compiled.CompiledRom(*persistence.load_arrays(path), defines=("SOLID_ROM_SCALAR",))
+    vector, reference = load_rom(path, "compiled"), load_rom(path)
+    scalar = compiled.CompiledRom(*model_file.load_arrays(path), defines=("SOLID_ROM_SCALAR",))
     assert scalar._lib._name != vector._lib._name and len(list((tmp_path / "cache").iterdir())) == 2
     for f in F:
         assert scalar(f).tobytes() == vector(f).tobytes() == reference(f).tobytes()
@@ -65,14 +68,14 @@ def test_the_scalar_build_gives_the_vector_builds_bits(calls, tmp_path, monkeypa
 def test_the_library_is_built_once_per_source_and_a_missing_compiler_is_named(models, tmp_path, monkeypatch):  # noqa: F811
     path, _, F = models["rbf"]
     monkeypatch.setenv("COSIM_CACHE", str(tmp_path / "cache"))
-    first = compiled.library_path()
+    first = library_path(compiled.SOURCE)
     built = first.stat().st_mtime_ns
-    persistence.load(path, "compiled")(F[0])
-    assert compiled.library_path() == first and first.stat().st_mtime_ns == built
+    load_rom(path, "compiled")(F[0])
+    assert library_path(compiled.SOURCE) == first and first.stat().st_mtime_ns == built
     assert list((tmp_path / "cache").iterdir()) == [first]       # no build leftovers
     monkeypatch.setenv("CC", "no-such-compiler")                  # another compiler: another library, not built
     with pytest.raises(CosimError, match="no-such-compiler.*not found"):
-        persistence.load(path, "compiled")
+        load_rom(path, "compiled")
 
 
 def test_the_component_takes_compiled_arithmetic_and_names_a_wrong_one(models):  # noqa: F811

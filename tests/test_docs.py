@@ -24,7 +24,7 @@ def test_a_schema_key_or_a_plug_in_setting_without_a_meaning_fails_the_reference
     with pytest.raises(MissingMeaning, match="'component.rom.switch_time'"):
         scene_reference.page()
     monkeypatch.undo()
-    from rom_component.component import ROM_HELP
+    from rom_component.static.component import ROM_HELP
     monkeypatch.delitem(ROM_HELP, "keep_warm")
     with pytest.raises(MissingMeaning, match=r"no meaning for key 'keep_warm' \(the rom backend's parameter_help\)"):
         scene_reference.page()
@@ -37,8 +37,8 @@ def test_a_schema_key_or_a_plug_in_setting_without_a_meaning_fails_the_reference
 
 def test_the_rom_configuration_reference_is_the_generated_one(monkeypatch):
     from rom_component import config_reference
-    from rom_component.regression import PolynomialRegression
-    from rom_component.train import MEANINGS as ROM_MEANINGS
+    from rom_component.static.regression import PolynomialRegression
+    from rom_component.static.train import MEANINGS as ROM_MEANINGS
     page = (ROOT / "docs/reference/rom-config.md").read_text()
     assert page == config_reference.page(), \
         "docs/reference/rom-config.md is stale: python -m rom_component.config_reference > docs/reference/rom-config.md"

@@ -178,7 +178,7 @@ def three_windows(tmp_path_factory):
 @pytest.fixture(scope="module")
 def three_window_rom(three_windows, tmp_path_factory):
     """A ROM (r_f = r_u = 3, quadratic decoder) trained on the three windows' calls: its path and training config."""
-    from rom_component.train import load_config, train
+    from rom_component.static.train import load_config, train
     config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
                                 "snapshots.field=displacement_field", "model.encoder.modes=3", "model.decoder.modes=3",
                                 "model.decoder.type=quadratic", "selection.table=false"])
@@ -210,10 +210,11 @@ def test_three_windows_through_real_processes(three_windows):
 def test_a_rom_learns_the_full_field_and_serves_its_interface_part(three_windows, three_window_rom):
     """Trained on the recorded displacement field (1805 x 2), the ROM's interface path u_G = K u_mean + A u~ (+ B q(u~))
     equals the full reconstruction restricted to the 265 interface nodes."""
-    from rom_component import persistence
-    from rom_component.train import interface_index
+    from rom_component import model_file
+    from rom_component.static.load import load_rom
+    from rom_component.static.train import interface_index
     out, (model, config) = three_windows[0], three_window_rom
-    rom = persistence.load(model)
+    rom = load_rom(model)
     K = interface_index(out / "results.h5", config["snapshots"])
     assert K.shape == (530,) and rom.n_inputs == 530 and rom.n_outputs == 530
     with RunResults(out) as run:
@@ -224,7 +225,7 @@ def test_a_rom_learns_the_full_field_and_serves_its_interface_part(three_windows
     for f in forces:
         u_G = rom(f)
         np.testing.assert_allclose(u_G, rom.full_field(rom.reduced[None])[0][K], rtol=0, atol=1e-13)
-    metadata = persistence.load_arrays(model)[1]
+    metadata = model_file.load_arrays(model)[1]
     assert metadata["field_variable"] == "displacement_field"
     assert [(v["name"], v["mesh"], v["components"]) for v in metadata["variables"]] == \
         [("force", "interface", 2), ("displacement", "interface", 2)]
@@ -249,8 +250,8 @@ def test_the_step_error_script_replays_every_late_step_through_the_rom(three_win
 
 def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
     """FOM-FOM for six windows; a ROM trained on the first three serves the last three; e(t) on the 1805 x 2 field."""
-    from rom_component.report import Run, compare
-    from rom_component.train import load_config, train
+    from rom_component.report.compare import Run, compare
+    from rom_component.static.train import load_config, train
     fom = tmp_path / "fom"
     run_scene(load_scene(SCENE, [f"time.end={6 * DT!r}"]), fom, progress=False)
     config = load_config(None, ["snapshots.input=force", "snapshots.output=displacement",
@@ -272,17 +273,17 @@ def test_the_report_measures_a_double_flap_rom_on_the_whole_field(tmp_path):
 
 
 def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_path, three_window_rom):
-    """The diagnostic solid (rom_component.projected) returns, from its from_time on, the ROM decoder's image of
+    """The diagnostic solid (rom_component.static.projected) returns, from its from_time on, the ROM decoder's image of
     its own displacement field's projection; with rom_modes, those reduced displacements come from the ROM."""
-    from rom_component import persistence
+    from rom_component.static.load import load_rom
     model = three_window_rom[0]
-    rom = persistence.load(model)
+    rom = load_rom(model)
     a = rom.arrays
     for rom_modes in ([], [1]):
         out = tmp_path / f"projected{len(rom_modes)}"
         parameters = (f"{{mesh='{MESHES / 'solid.mdpa'}', model='{model}', project='both', "
                       f"from_time={2 * DT!r}, rom_modes={rom_modes}}}")
-        overrides = [f"time.end={4 * DT!r}", "components.solid.entry='rom_component.projected:ProjectedSolid'",
+        overrides = [f"time.end={4 * DT!r}", "components.solid.entry='rom_component.static.projected:ProjectedSolid'",
                      f"components.solid.parameters={parameters}"]
         run_scene(load_scene(SCENE, overrides), out, progress=False)
         with RunResults(out) as run:
@@ -301,7 +302,7 @@ def test_the_solid_seen_through_a_roms_bases_answers_with_their_projection(tmp_p
         np.testing.assert_allclose(served[late], decoded[late], rtol=0, atol=1e-12 * np.abs(served).max())
         assert np.abs(served[~late] - decoded[~late]).max() > 1e-6 * np.abs(served).max()   # the solid's own before
     with pytest.raises(Exception, match="'project' is 'all'"):
-        from rom_component.projected import ProjectedSolid
+        from rom_component.static.projected import ProjectedSolid
         ProjectedSolid().instantiate({"mesh": str(MESHES / "solid.mdpa"), "model": str(model),
                                       "project": "all", "time": {"end": 1.0, "dt": DT}})
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from sklearn.model_selection import GroupShuffleSplit
 
-from rom_component.manifold import fit_quadratic_manifold, quadratic_terms
-from rom_component.pod import centred_pod
+from rom_component.reduction.manifold import fit_quadratic_manifold, quadratic_terms
+from rom_component.reduction.pod import centred_pod
 from tests.roms import solid_rom
 
 DATA = Path(__file__).parent / "data" / "flap_snapshots.npz"

@@ -12,8 +12,9 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
 from cosim.errors import ComponentError
-from rom_component import persistence
-from rom_component.fmu_export import export_fmu
+from rom_component import model_file
+from rom_component.fmu.export import export_fmu
+from rom_component.static.load import load_rom
 from solid_component.fmu import FmuSolid
 from tests.conftest import ROOT
 from tests.roms import solid_rom
@@ -24,7 +25,7 @@ def train(tmp_path: Path, name: str, n_in: int, n_out: int, components: int, inp
           **parts) -> tuple[Path, np.ndarray]:
     F, U = smooth_data(m=300, n_in=n_in, n_out=n_out, seed=len(name))
     model = solid_rom(**parts).fit(F, U)
-    path = persistence.save(tmp_path / f"{name}.npz", model.online_arrays(),
+    path = model_file.save(tmp_path / f"{name}.npz", model.online_arrays(),
                             {"regressor": model.regressor_.type_name, "params": model.settings(),
                              "input_variable": input_name, "output_variable": output_name,
                              "components_per_node": components})
@@ -68,7 +69,7 @@ def test_exported_fmu_validates(models, name):
 @pytest.mark.parametrize("name", ["rbf", "qm_poly", "qm_cubic"])
 def test_simulate_fmu_reproduces_the_python_rom(models, name):
     model, fmu, F = models[name]
-    rom = persistence.load(model)
+    rom = load_rom(model)
     md = read_model_description(str(fmu))
     inputs = [v.name for v in md.modelVariables if v.causality == "input"]
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
@@ -88,7 +89,7 @@ def test_simulate_fmu_reproduces_the_python_rom(models, name):
 @pytest.mark.parametrize("name", ["rbf", "qm_poly", "qm_cubic"])
 def test_fmu_component_is_bit_identical_to_the_python_rom(models, name):
     model, fmu, F = models[name]
-    rom = persistence.load(model)
+    rom = load_rom(model)
     component = FmuSolid()
     component.instantiate({"path": str(fmu)})
     component.enter_initialization_mode(0.0, 1.0)
@@ -241,8 +242,8 @@ def test_a_model_with_wrong_arrays_is_refused_when_loaded_and_never_exported(mod
         arrays = {name: data[name] for name in data.files}
     bad = tampered(source, tmp_path / "bad.npz", **change(arrays))
     for arithmetic in ("reproducible", "compiled"):
-        with pytest.raises(persistence.ModelFileError, match=message):
-            persistence.load(bad, arithmetic)
+        with pytest.raises(model_file.ModelFileError, match=message):
+            load_rom(bad, arithmetic)
     assert main(["export-fmu", str(bad), "--out", str(tmp_path / "bad.fmu")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and re.search(message, err), err
@@ -261,9 +262,9 @@ def test_a_model_file_is_read_with_a_size_cap_before_anything_is_decompressed(mo
     np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (1 << 28,)})
     with zipfile.ZipFile(bomb, "a") as archive:
         archive.writestr("Phi_bar.npy", header.getvalue() + b"\0" * 64)
-    with pytest.raises(persistence.ModelFileError, match=rf"array 'Phi_bar' declares 2,147,483,648 bytes; a model "
+    with pytest.raises(model_file.ModelFileError, match=rf"array 'Phi_bar' declares 2,147,483,648 bytes; a model "
                                                           rf"holds at most {MAX_MODEL_BYTES:,} in all"):
-        persistence.load_arrays(bomb)
+        model_file.load_arrays(bomb)
 
 
 def unpacked_folders() -> set[str]:

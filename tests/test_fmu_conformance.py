@@ -23,9 +23,9 @@ from fmpy.fmi2 import (
 )
 from fmpy.validation import validate_fmu
 
-from rom_component import persistence
-from rom_component.fmu_export import export_fmu
-from rom_component.native import SOURCE
+from rom_component.fmu.export import export_fmu
+from rom_component.static.compiled import SOURCE
+from rom_component.static.load import load_rom
 from solid_component.fmu import FmuSolid
 from tests.test_fmu import models, train  # noqa: F401  (the module's fixture)
 
@@ -111,7 +111,7 @@ def test_state_machine_refuses_calls_out_of_turn(rbf):
 
 def test_outputs_in_initialization_mode_follow_the_inputs_set_there(rbf):
     model, fmu, F = rbf
-    rom = persistence.load(model)
+    rom = load_rom(model)
     host = Host(fmu)
     try:
         host.slave.setupExperiment(startTime=0.0)
@@ -214,7 +214,7 @@ def test_a_binary_rebuilt_from_sources_is_bit_identical_without_libm(models, tmp
         pytest.skip(f"{how} needs a build tool that is not installed")
     for name in ("rbf", "qm_poly"):
         model, fmu, F = models[name]
-        rom = persistence.load(model)
+        rom = load_rom(model)
         component = FmuSolid()
         component.instantiate({"path": str(rebuilt(fmu, tmp_path / name, how))})
         component.enter_initialization_mode(0.0, 1.0)

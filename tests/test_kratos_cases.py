@@ -269,7 +269,7 @@ def test_a_rom_trains_on_the_recorded_calls_it_is_told_to(wall_case, tmp_path):
     predicted iterate): the calls the training reads (``snapshots.converged_only``, ``skip_first_iteration``)."""
     from cosim.scene import load_scene
     from coupler.run import run_scene
-    from rom_component.train import recorded_calls
+    from rom_component.recorded import recorded_calls
     run_scene(load_scene(wall_case / "case.toml"), tmp_path / "run", progress=False)
     spec = {"component": "structure", "input": "load", "output": "disp", "field": "disp_field"}
     every, _ = recorded_calls(tmp_path / "run", {**spec, "skip_first_iteration": False})

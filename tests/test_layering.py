@@ -76,7 +76,7 @@ def test_the_tube_imports_no_kratos_nor_gmsh():
     import subprocess
     import sys
     code = ("import sys; import cosim.cli, cosim.server, coupler.run, coupler.commands, fluid_component.tube, "
-            "solid_component.tube, solid_component.fmu, rom_component.component, rom_component.commands; "
+            "solid_component.tube, solid_component.fmu, rom_component.static.component, rom_component.commands; "
             "from coupler.run import run_scene; from cosim.scene import load_scene; import tempfile, pathlib; "
             "d = pathlib.Path(tempfile.mkdtemp()); "
             "run_scene(load_scene('scenes/tube_fom.toml', ['time.end=0.3']), d / 'run', progress=False); "
@@ -171,3 +171,55 @@ def test_make_demo_installs_the_tube_s_extras_only_and_the_kratos_targets_every_
     assert "scripts/tube_demo.sh" in demo
     for target in ("demo-flap", "mok", "test"):
         assert "kratos,mesh" in planned(target), target
+
+
+ROM_FAMILIES = ("static", "dynamic")
+ROM_SHARED = ("model_file", "model_check", "envelope", "parts", "recorded", "reduction", "fmu.build", "fmu.package")
+
+
+def rom_part(module: str) -> str:
+    """The part of ``rom_component`` a module belongs to: a family, a shared module or folder, or the top."""
+    name = module.removeprefix("rom_component.")
+    for part in (*ROM_FAMILIES, *ROM_SHARED, "fmu", "report"):
+        if name == part or name.startswith(part + "."):
+            return part
+    return name
+
+
+def test_the_rom_families_import_neither_each_other_nor_the_exports():
+    """rom_component by family: the quasi-static ROM (static/) and the ROM with memory (dynamic/) import each other's
+    modules nowhere; the shared modules (the model file, its checks, the parts, the reduction, the recorded data,
+    the C build) import no family; only the commands, the FMU exports and the report sit on the families."""
+    graph = module_graph(("rom_component",))
+    wrong = [f"{module} imports {target}" for module, targets in sorted(graph.items()) for target in sorted(targets)
+             if (rom_part(module) in ROM_FAMILIES and rom_part(target) in ROM_FAMILIES
+                 and rom_part(target) != rom_part(module))
+             or (rom_part(module) in ROM_SHARED and rom_part(target) in (*ROM_FAMILIES, "fmu", "report"))]
+    assert wrong == []
+    assert {rom_part(m) for m in graph} >= {*ROM_FAMILIES, "reduction", "fmu", "report"}
+
+
+def test_an_entry_naming_a_moved_module_is_told_the_new_one(tmp_path, capsys):
+    """Every module a move left behind has its new name registered, which imports; a scene naming the old module in
+    an entry gets one line naming the new entry."""
+    import importlib
+
+    from cosim.cli import main
+    from cosim.errors import CosimError
+    from cosim.server import load_entry, moved_modules
+    moved = moved_modules()
+    assert "rom_component.step_map_component" in moved and len(moved) >= 20
+    for old, new in moved.items():
+        importlib.import_module(new)
+        try:
+            left = importlib.import_module(old)
+        except ImportError:
+            continue
+        assert hasattr(left, "__path__"), old          # only a package of the same name (rom_component.report)
+    with pytest.raises(CosimError, match="moved to 'rom_component.report.compare'"):
+        load_entry("rom_component.report:Run")
+    code = main(["check", str(ROOT / "scenes" / "mok.toml"), "--set", "components.structure.backend=rom", "--set",
+                 "components.structure.rom.entry=rom_component.step_map_component:StepMapRomSolid"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert "write 'rom_component.dynamic.component:StepMapRomSolid'" in err

@@ -22,8 +22,8 @@ def trained(tmp_path_factory):
     """A 20-window FOM-FOM run on the coarse mesh and a step map trained on its first 15 windows."""
     from cosim.scene import load_scene
     from coupler.run import run_scene
-    from rom_component.step_map_train import train_step_map
-    from rom_component.train import load_config
+    from rom_component.dynamic.train import train_step_map
+    from rom_component.static.train import load_config
     folder = tmp_path_factory.mktemp("mok-rom")
     with pytest.MonkeyPatch.context() as patch:     # the meshes go to this session's cache, never to the user's
         patch.setenv("COSIM_CACHE", str(tmp_path_factory.getbasetemp() / "mok-cache"))

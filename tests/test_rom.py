@@ -5,13 +5,14 @@ import pytest
 from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV
 
-from rom_component import persistence
-from rom_component.decoders import PodDecoder, QuadraticManifoldDecoder
-from rom_component.encoders import PodEncoder
-from rom_component.estimator import SolidRom
-from rom_component.manifold import quadratic_terms
-from rom_component.pod import centred_pod, energy_rank
-from rom_component.regression import PolynomialRegression, RbfRegression, cubic_index, product_index
+from rom_component import model_file
+from rom_component.reduction.decoders import PodDecoder, QuadraticManifoldDecoder
+from rom_component.reduction.encoders import PodEncoder
+from rom_component.reduction.manifold import quadratic_terms
+from rom_component.reduction.pod import centred_pod, energy_rank
+from rom_component.static.estimator import SolidRom
+from rom_component.static.load import load_rom
+from rom_component.static.regression import PolynomialRegression, RbfRegression, cubic_index, product_index
 from tests.roms import solid_rom
 
 
@@ -187,13 +188,13 @@ def test_save_load_round_trips_bit_for_bit(tmp_path):
     F, U = smooth_data()
     model = solid_rom(3, 4, decoder="quadratic").fit(F, U)
     arrays = model.online_arrays()
-    path = persistence.save(tmp_path / "model.npz", arrays, {"regressor": "rbf", "note": "x"})
-    loaded_arrays, metadata = persistence.load_arrays(path)
-    assert metadata["note"] == "x" and metadata["format"] == persistence.FORMAT
+    path = model_file.save(tmp_path / "model.npz", arrays, {"regressor": "rbf", "note": "x"})
+    loaded_arrays, metadata = model_file.load_arrays(path)
+    assert metadata["note"] == "x" and metadata["format"] == model_file.FORMAT
     assert set(loaded_arrays) == set(arrays)
     for name, value in arrays.items():
         assert loaded_arrays[name].dtype == value.dtype and loaded_arrays[name].tobytes() == value.tobytes(), name
-    reloaded = persistence.load(path)
+    reloaded = load_rom(path)
     direct = model.to_online()
     for f in F[:20]:
         assert reloaded(f).tobytes() == direct(f).tobytes()
@@ -202,16 +203,16 @@ def test_save_load_round_trips_bit_for_bit(tmp_path):
 def test_model_files_with_pickles_or_garbage_are_refused(tmp_path):
     pickled = tmp_path / "pickled.npz"
     np.savez(pickled, metadata_json=np.frombuffer(b"{}", dtype=np.uint8), E=np.array([{"a": 1}], dtype=object))
-    with pytest.raises(persistence.ModelFileError, match="array 'E' holds Python objects"):
-        persistence.load(pickled)
+    with pytest.raises(model_file.ModelFileError, match="array 'E' holds Python objects"):
+        load_rom(pickled)
     garbage = tmp_path / "garbage.npz"
     garbage.write_bytes(b"this is not a zip file")
-    with pytest.raises(persistence.ModelFileError, match="not a valid .npz"):
-        persistence.load(garbage)
-    with pytest.raises(persistence.ModelFileError, match="does not exist"):
-        persistence.load(tmp_path / "missing.npz")
-    with pytest.raises(persistence.ModelFileError, match="dtype object"):
-        persistence.save(tmp_path / "x.npz", {"a": np.array([None], dtype=object)}, {})
+    with pytest.raises(model_file.ModelFileError, match="not a valid .npz"):
+        load_rom(garbage)
+    with pytest.raises(model_file.ModelFileError, match="does not exist"):
+        load_rom(tmp_path / "missing.npz")
+    with pytest.raises(model_file.ModelFileError, match="dtype object"):
+        model_file.save(tmp_path / "x.npz", {"a": np.array([None], dtype=object)}, {})
 
 
 def test_clone_and_grid_search_work_on_the_estimator():
@@ -275,7 +276,7 @@ def test_one_feature_scale_for_every_term_keeps_the_online_path_and_the_fit():
 
 
 def test_the_chosen_modes_are_the_fewest_within_the_tolerance_of_the_best():
-    from rom_component.selection import SelectionTable
+    from rom_component.static.selection import SelectionTable
     errors = np.array([[8.5e-3, 2.8e-3, 6.8e-4, 5.0e-4, 4.2e-4],     # r_u = 5
                        [8.4e-3, 2.7e-3, 6.6e-4, np.nan, 4.1e-4]])    # r_u = 9 (one cell not computed)
     table = SelectionTable([5, 10, 20, 30, 60], [5, 9], errors, errors / 0.2, (60, 9), (18, 4), 100, 5)
@@ -288,8 +289,8 @@ def test_the_chosen_modes_are_the_fewest_within_the_tolerance_of_the_best():
 
 def test_the_holdout_plot_gives_each_curve_its_own_colour_and_keeps_the_legend_off_the_curves():
     """The tube's table: 7 r_u for 2 splits, 14 curves, more than matplotlib's 10 default colours."""
-    from rom_component.selection import SelectionTable
-    from rom_component.training_plots import _pyplot, holdout_figure
+    from rom_component.static.selection import SelectionTable
+    from rom_component.static.training_plots import _pyplot, holdout_figure
     plt = _pyplot()
     errors = np.linspace(1e-3, 1e-1, 7 * 6).reshape(7, 6)
     tables = {split: SelectionTable([1, 2, 3, 4, 5, 6], [1, 3, 5, 7, 9, 11, 13], errors, errors, (3, 9), (2, 5),
@@ -312,7 +313,7 @@ def test_the_holdout_plot_gives_each_curve_its_own_colour_and_keeps_the_legend_o
 def test_the_trust_plot_puts_windows_inside_the_range_at_zero_and_says_when_none_left_it():
     from types import SimpleNamespace
 
-    from rom_component.report_plots import _pyplot, trust_figure
+    from rom_component.report.plots import _pyplot, trust_figure
     plt = _pyplot()
     e = np.linspace(1e-3, 2e-3, 6)
     inside = SimpleNamespace(label="in", trust=np.array([np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]))
@@ -335,7 +336,7 @@ def test_the_trust_plot_puts_windows_inside_the_range_at_zero_and_says_when_none
 def test_a_curve_hidden_under_a_bit_identical_one_says_so_in_the_legend():
     from types import SimpleNamespace
 
-    from rom_component.report_plots import _pyplot, iterations_figure, noted_labels
+    from rom_component.report.plots import _pyplot, iterations_figure, noted_labels
     assert noted_labels([("a", np.ones(3)), ("b", np.ones(3)), ("c", np.ones(3) + 1e-12)]) == \
         ["a", "b (identical to a: hidden under it)", "c"]
     plt = _pyplot()
@@ -386,7 +387,7 @@ def test_an_ill_conditioned_spline_system_is_explained_not_warned_raw():
     """Sub-iterations of one window give nearly equal reduced forces: scipy's LinAlgWarning becomes a note."""
     import warnings
 
-    from rom_component.regression import RbfRegression
+    from rom_component.static.regression import RbfRegression
     x = np.concatenate([np.linspace(0.0, 1.0, 20), np.linspace(0.0, 1.0, 20) + 1e-13])[:, None]
     with warnings.catch_warnings():
         warnings.simplefilter("error")          # no raw warning may escape

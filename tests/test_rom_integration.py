@@ -15,9 +15,10 @@ from cosim.errors import ComponentError, SceneError
 from cosim.results import RunResults
 from cosim.scene import load_scene
 from coupler.run import run_scene
-from rom_component import persistence
-from rom_component.selection import holdout_table
-from rom_component.train import load_config, read_snapshots
+from rom_component import model_file
+from rom_component.recorded import read_snapshots
+from rom_component.static.selection import holdout_table
+from rom_component.static.train import load_config
 from tests.conftest import ROOT, TUBE_SCENE, children_of
 from tests.roms import solid_rom
 
@@ -133,7 +134,7 @@ def test_report_compares_runs_and_writes_figures(fom, model, tmp_path):
 
 
 def test_a_speed_up_above_its_bound_is_shown_as_noise_never_as_a_result():
-    from rom_component.report import _table
+    from rom_component.report.compare import _table
     row = {"label": "mu2", "reference_label": "fom_mu2", "switch_time": 0.1, "monitor_error": 1e-3,
            "iterations_ratio": 1.0, "wall_seconds": 10.0, "total_speedup": 1.55, "total_speedup_bound": 0.93,
            "total_speedup_noise": True, "solid": {"speedup_compute": 1.2, "speedup_roundtrip": 1.0,
@@ -150,7 +151,7 @@ def test_a_speed_up_above_its_bound_is_shown_as_noise_never_as_a_result():
 
 
 def test_the_iterations_interval_has_the_spread_of_the_windows_and_widens_with_their_correlation():
-    from rom_component.report import iterations_interval
+    from rom_component.report.compare import iterations_interval
     rng = np.random.default_rng(3)
     reference = np.full(250, 6)
     run = reference + rng.integers(-1, 2, 250)                  # +-1 iteration a window, independent
@@ -290,7 +291,7 @@ def test_fmu_whose_sizes_do_not_fit_the_scene_is_refused(tmp_path):
 
 
 def persistence_save(path, estimator):
-    return persistence.save(path, estimator.online_arrays(), {"regressor": "rbf", "input_variable": "pressure",
+    return model_file.save(path, estimator.online_arrays(), {"regressor": "rbf", "input_variable": "pressure",
                                                               "output_variable": "section"})
 
 
@@ -404,7 +405,7 @@ def test_train_with_fixed_modes_fits_them_without_a_hold_out_table(fom, tmp_path
 
 
 def test_the_cost_plot_keeps_every_point_visible_and_says_when_one_model_has_two_costs():
-    from rom_component.report_plots import _pyplot, cost_figure
+    from rom_component.report.plots import _pyplot, cost_figure
 
     def row(calls: int, error: float, rom_cpu: float, modes: int) -> dict:
         return {"reference_solid_calls": 3800, "fom_solid_calls": 600, "rom_solid_calls": calls,
@@ -429,8 +430,8 @@ def test_the_run_plot_s_iteration_axis_has_whole_ticks_and_a_fom_report_no_warni
     import warnings
 
     from cosim.plots import iterations_panel
-    from rom_component.report import Run, write_report
-    from rom_component.report_plots import _pyplot
+    from rom_component.report.compare import Run, write_report
+    from rom_component.report.plots import _pyplot
     plt = _pyplot()
     fig, ax = plt.subplots()
     iterations_panel(ax, np.arange(40) * 0.1, np.array([2, 3] * 20))

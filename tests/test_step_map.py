@@ -5,7 +5,7 @@ coupling's sub-iterations repeat them."""
 import numpy as np
 import pytest
 
-from rom_component.step_map import StepMapRom, UnstableModel, WindowData, companion_radius, holdout, stabilised
+from rom_component.dynamic.model import StepMapRom, UnstableModel, WindowData, companion_radius, holdout, stabilised
 
 DT = 0.1
 

@@ -10,7 +10,7 @@ import shutil
 import numpy as np
 import pytest
 
-from rom_component.step_map import StepMapRom
+from rom_component.dynamic.model import StepMapRom
 from tests.test_step_map import newmark_calls
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler")
@@ -20,19 +20,19 @@ N = 12
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     """A step-map model file and its FMU (probe 'tip': the chain's last mass, x and y as its two values)."""
-    from rom_component import persistence
-    from rom_component.fmu_export import export_fmu
-    from rom_component.step_map_train import model_file
+    from rom_component import model_file
+    from rom_component.dynamic.train import model_contents
+    from rom_component.fmu.export import export_fmu
     data = newmark_calls()
     # a two-valued field per node so that a probe is a node: the chain's displacement and zero
     data.U = np.stack([data.U, np.zeros_like(data.U)], axis=2).reshape(len(data.U), -1)
     fitted = StepMapRom(force_modes=8, disp_modes=6, history=3, ridge=1e-10).fit(data, 120)
-    arrays, metadata = model_file(fitted, data, 120, np.arange(2 * N), {"tip": np.array([2 * N - 2, 2 * N - 1])},
+    arrays, metadata = model_contents(fitted, data, 120, np.arange(2 * N), {"tip": np.array([2 * N - 2, 2 * N - 1])},
                                   0.1, "force", "displacement")
     metadata["variables"] = [{"name": "force", "mesh": "", "components": 1},
                              {"name": "displacement", "mesh": "", "components": 2}]
     folder = tmp_path_factory.mktemp("step-map")
-    persistence.save(folder / "model.npz", arrays, metadata)
+    model_file.save(folder / "model.npz", arrays, metadata)
     export_fmu(folder / "model.npz", folder / "model.fmu")
     return folder / "model.npz", folder / "model.fmu", data
 
@@ -45,7 +45,7 @@ def calls(data, windows: int = 30, per_window: int = 3) -> list[tuple[float, np.
 
 
 def test_numpy_compiled_and_fmu_give_the_same_bits(model):
-    from rom_component.step_map_component import StepMapRomSolid
+    from rom_component.dynamic.component import StepMapRomSolid
     from solid_component.fmu import FmuSolid
     path, fmu_path, data = model
     components = []
@@ -87,7 +87,7 @@ def test_fmpy_repeats_windows_by_the_fmu_state_and_resumes_from_its_serialisatio
     from fmpy.fmi2 import FMU2Slave
     from fmpy.validation import validate_fmu
 
-    from rom_component.step_map_component import StepMapRomSolid
+    from rom_component.dynamic.component import StepMapRomSolid
     from tests.conftest import fmpy_slave
     path, fmu_path, data = model
     assert validate_fmu(str(fmu_path)) == []
@@ -135,13 +135,13 @@ def test_fmpy_repeats_windows_by_the_fmu_state_and_resumes_from_its_serialisatio
 
 def test_a_static_model_is_refused_by_the_step_map_component(tmp_path):
     from cosim.errors import ComponentError
-    from rom_component import persistence
-    from rom_component.step_map_component import StepMapRomSolid
+    from rom_component import model_file
+    from rom_component.dynamic.component import StepMapRomSolid
     from tests.roms import solid_rom
     rng = np.random.default_rng(0)
     F, U = rng.standard_normal((30, 5)), rng.standard_normal((30, 4))
     rom = solid_rom(3, 3, "rbf", "linear").fit(F, U)
-    persistence.save(tmp_path / "static.npz", rom.online_arrays(), {"regressor": "rbf"})
+    model_file.save(tmp_path / "static.npz", rom.online_arrays(), {"regressor": "rbf"})
     with pytest.raises(ComponentError, match="not a step map"):
         StepMapRomSolid().instantiate({"model": str(tmp_path / "static.npz")})
 
@@ -150,7 +150,7 @@ def test_a_call_beyond_the_training_range_warns_or_fails(model):
     """Trust as for the static ROM: the window's reduced force against the training envelope, in every arithmetic;
     a warning the coupler folds into one line per window, or an error that says how far."""
     from cosim.errors import ComponentError
-    from rom_component.step_map_component import StepMapRomSolid
+    from rom_component.dynamic.component import StepMapRomSolid
     path, _, data = model
     far = data.F[50] * 40.0
     for arithmetic in ("reproducible", "compiled"):
@@ -175,13 +175,13 @@ def test_a_serialised_state_is_refused_by_another_model_and_when_damaged_and_an_
     leaves the error state, as FMI 2.0 allows."""
     from fmpy.fmi1 import FMICallException
 
-    from rom_component import persistence
-    from rom_component.fmu_export import export_fmu
+    from rom_component import model_file
+    from rom_component.fmu.export import export_fmu
     from tests.conftest import fmpy_slave
     path, fmu_path, data = model
-    arrays, metadata = persistence.load_arrays(path)
+    arrays, metadata = model_file.load_arrays(path)
     other = {**arrays, "c": arrays["c"] + 1e-3}              # another model of the same sizes
-    persistence.save(tmp_path / "other.npz", other, metadata)
+    model_file.save(tmp_path / "other.npz", other, metadata)
     export_fmu(tmp_path / "other.npz", tmp_path / "other.fmu")
 
     mine, refs = fmpy_slave(fmu_path, "step_map")
@@ -221,14 +221,14 @@ def test_a_serialised_state_is_refused_by_another_model_and_when_damaged_and_an_
 
 def test_a_step_map_model_with_a_bad_window_or_a_grown_history_matrix_is_refused(model, tmp_path, capsys):
     from cosim.cli import main
-    from rom_component import persistence
+    from rom_component import model_file
     path, _, _ = model
-    arrays, metadata = persistence.load_arrays(path)
-    with pytest.raises(persistence.ModelFileError, match="its metadata's 'dt'"):
-        persistence.save(tmp_path / "nan.npz", arrays, {**metadata, "dt": float("nan")})
+    arrays, metadata = model_file.load_arrays(path)
+    with pytest.raises(model_file.ModelFileError, match="its metadata's 'dt'"):
+        model_file.save(tmp_path / "nan.npz", arrays, {**metadata, "dt": float("nan")})
     bad = tmp_path / "grown.npz"
     np.savez(bad, **{**arrays, "W_z": arrays["W_z"] * 1e6},
-             metadata_json=np.frombuffer(__import__("json").dumps({"format": persistence.FORMAT, **metadata}).encode(),
+             metadata_json=np.frombuffer(__import__("json").dumps({"format": model_file.FORMAT, **metadata}).encode(),
                                          dtype=np.uint8))
     assert main(["export-fmu", str(bad), "--out", str(tmp_path / "grown.fmu")]) == 2
     err = capsys.readouterr().err.strip()

@@ -212,7 +212,7 @@ def test_a_failed_training_stops_the_run_in_one_line_with_its_status_failed(tmp_
 
     from cosim.errors import CosimError
     from coupler.run import run_scene
-    from rom_component.surrogate_model import RomResponse
+    from rom_component.static.surrogate_model import RomResponse
 
     def failing(self, inputs, outputs, windows):
         raise ValueError("the fit could not be made")

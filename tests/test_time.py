@@ -424,7 +424,7 @@ def test_a_rom_trained_on_a_subcycled_run_is_trained_per_step_and_serves_subcycl
     from cosim.results import RunResults
     from cosim.scene import load_scene
     from coupler.run import run_scene
-    from rom_component.train import recorded_calls
+    from rom_component.recorded import recorded_calls
     from tests.conftest import TUBE_SCENE
     subcycled = ["time.end=4.0", "components.solid.substeps=2", "components.solid.record=true",
                  "exchange.0.waveform_degree=1", "exchange.1.waveform_degree=1", "exchange.1.substeps=true"]

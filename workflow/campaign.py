@@ -23,8 +23,8 @@ was stopped midway starts again from its beginning. A run directory that is run 
 ``<run>.failed-<time>`` (``--retry-failed``), ``<run>.stale-<time>`` (it ended, and its model changed since) or
 ``<run>.stopped-<time>``. The report of every prediction goes to
 ``DIR/report/``, the training logs (hold-out tables, timings) to ``DIR/models/<name>.log``.
-Training, the FMU export and the report are the ROM's own functions (``rom_component.train``, ``.fmu_export``,
-``.report``), called directly: the campaign is a workflow above the coupler and the ROM.
+Training, the FMU export and the report are the ROM's own functions (``rom_component.static.train``, ``.fmu.export``,
+``.report.compare``), called directly: the campaign is a workflow above the coupler and the ROM.
 """
 
 from __future__ import annotations
@@ -54,9 +54,9 @@ from coupler.sweep import (
     scene_fingerprint,
     setting_keys,
 )
-from rom_component.fmu_export import export_fmu
-from rom_component.report import Run, write_report
-from rom_component.train import load_config, train
+from rom_component.fmu.export import export_fmu
+from rom_component.report.compare import Run, write_report
+from rom_component.static.train import load_config, train
 from workflow.scheduler import Scheduler
 
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "recipes": AnyTable(),

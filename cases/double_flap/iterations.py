@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from cosim.results import RunResults
-from rom_component import persistence
 from rom_component.envelope import range_excess
+from rom_component.static.load import load_rom
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -41,7 +41,7 @@ def call_excess(run: RunResults, model: str | Path, component: str = "solid") ->
                                                                                       np.ndarray]:
     """(window, iteration, excess) of every recorded call of ``component``: how far its input lies beyond the
     training range of ``model`` (range widths, 0 inside), computed as the ROM's trust does."""
-    rom = persistence.load(model)
+    rom = load_rom(model)
     calls = run.calls(component)
     inputs = calls.inputs[rom.metadata.get("input_variable", "pressure")].reshape(len(calls.window), -1)
     if rom.envelope is None:

@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 
 from cosim.results import RunResults
-from rom_component import persistence
+from rom_component import model_file
+from rom_component.static.load import load_rom
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -33,8 +34,8 @@ def responses(model: Path, results: Path, window: int | None,
     """Per force mode: (mode index, size ratio ROM / solid, cosine); with ``steps``: per sub-iteration step of
     the window, the relative error of the ROM's response along it."""
     from kratos_solvers.solid import standalone_solid
-    rom = persistence.load(model, "reproducible")
-    arrays, _ = persistence.load_arrays(model)
+    rom = load_rom(model, "reproducible")
+    arrays, _ = model_file.load_arrays(model)
     with RunResults(results) as run:
         calls = run.calls("solid")
         window = int(np.median(calls.window)) if window is None else window

@@ -21,14 +21,14 @@ from pathlib import Path
 import numpy as np
 
 from cosim.results import RunResults
-from rom_component import persistence
+from rom_component.static.load import load_rom
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def step_errors(results: Path, model: Path, windows: tuple[int, int], first: int = 3) -> dict[str, np.ndarray]:
     """Median errors along the late steps and of the levels: per reduced displacement and on the interface."""
-    rom = persistence.load(model, "fast")
+    rom = load_rom(model, "fast")
     a = rom.arrays
     with RunResults(results) as run:
         calls = run.calls("solid")

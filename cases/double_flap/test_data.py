@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rom_component.pod import centred_pod
-from rom_component.train import interface_index, load_config, read_snapshots
+from rom_component.recorded import interface_index, read_snapshots
+from rom_component.reduction.pod import centred_pod
+from rom_component.static.train import load_config
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -266,7 +266,7 @@ static int load_model(Instance *inst, const char *file, const char *guid) {
 }
 
 /* natural logarithm of a positive finite x (normal or subnormal): musl's log (FreeBSD msun e_log.c),
- * < 1 ulp, with + - * / only; rom_component/portable_log.py repeats it operation for operation */
+ * < 1 ulp, with + - * / only; rom_component/static/portable_log.py repeats it operation for operation */
 static double rom_log(double x) {
     static const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10,
         Lg1 = 6.666666666666735130e-01, Lg2 = 3.999999999940941908e-01, Lg3 = 2.857142874366239149e-01,
@@ -943,7 +943,7 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
     (void)s; (void)value; return unsupported(c, "fmi2GetStringStatus");
 }
 
-/* ---- in-process use (rom_component.compiled; not part of FMI) ------------------------ */
+/* ---- in-process use (rom_component.static.compiled; not part of FMI) ------------------------ */
 /* The same binary serves a Python process directly: open an instance on a resource folder with plain
  * calloc/free and a logger that keeps the last message, then evaluate the interface path on the caller's
  * arrays, with no FMI state machine and no value references in between. */

@@ -1,5 +1,5 @@
 /*
- * A step-map ROM of a structure with inertia (rom_component.step_map) as an FMI 2.0 Co-Simulation FMU whose
+ * A step-map ROM of a structure with inertia (rom_component.dynamic.model) as an FMI 2.0 Co-Simulation FMU whose
  * state is the structure's reduced history. One fmi2DoStep advances one window:
  *
  *   x   = E f - e                                      reduced force (r_f)

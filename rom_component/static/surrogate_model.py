@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from rom_component.estimator import SolidRom, resolve_parts
+from rom_component.static.estimator import SolidRom, resolve_parts
 
 # cheap to refit while the run goes on, and chosen for its derivative: on the double flap's sub-iteration secants
 # (docs/notebook/2026-12-02-rom-accelerated-coupling.md) 32 force modes, 8 displacement modes and a ridge polynomial

@@ -14,7 +14,7 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.model_selection import GroupShuffleSplit, train_test_split
 
-from rom_component.pod import centred_pod, energy_rank
+from rom_component.reduction.pod import centred_pod, energy_rank
 
 
 @dataclass

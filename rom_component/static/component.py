@@ -17,7 +17,7 @@ import numpy as np
 from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
 from cosim.errors import ComponentError, CosimError
 from cosim.schema import Choice, FilePath, Value
-from rom_component.persistence import load
+from rom_component.static.load import load_rom
 
 ARITHMETIC = ("reproducible", "compiled", "fast")   # compiled: the FMU's C code in-process, same results
 ROM_SCHEMA = {"model": FilePath(), "arithmetic": Choice("reproducible", ARITHMETIC),
@@ -59,7 +59,7 @@ class RomSolid(Component):
         if not prm["model"]:
             raise ComponentError(self.name, "parameter 'model' (path of the trained .npz) is not set")
         try:
-            self.rom = load(prm["model"], prm["arithmetic"])
+            self.rom = load_rom(prm["model"], prm["arithmetic"])
         except CosimError as exc:   # a bad model file, or no compiler for the compiled arithmetic
             raise ComponentError(self.name, str(exc)) from None
         self.on_out_of_range, self.range_margin = prm["on_out_of_range"], prm["range_margin"]

@@ -1,10 +1,10 @@
-"""The step-map ROM's online path in NumPy, with its history (``rom_component.step_map``).
+"""The step-map ROM's online path in NumPy, with its history (``rom_component.dynamic.model``).
 
 ``evaluate(f)`` is a window's call from the history, which it leaves as it is; ``commit()`` moves the
 window's last call into the history; ``take_over`` builds a history from a full-order run's converged
 windows. ``arithmetic="reproducible"`` runs every sum in the order of the C code (``fmu/step_map_rom.c``):
 long dot products as NumPy's pairwise row sums, the decoder as a sum over the reduced coordinates in order,
-so the FMU and the in-process C path (``step_map_native.CompiledStepMap``) give the same bits;
+so the FMU and the in-process C path (``rom_component.dynamic.compiled.CompiledStepMap``) give the same bits;
 ``"fast"`` uses BLAS products.
 """
 
@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rom_component.step_map_native import rest_history
+from rom_component.dynamic.compiled import rest_history
 
 
 class OnlineStepMap:

@@ -1,6 +1,6 @@
-"""The step-map ROM's C code (``fmu/step_map_rom.c``): the binary resource of a model's arrays it reads, its
-compilation into the cache for the in-process path (``CompiledStepMap``), and the FMU export with the history as
-the FMU's state (``export_step_map_fmu``). Both run the same C code, so a run served in-process with
+"""The step-map ROM's C code (``fmu/step_map_rom.c``): the binary resource of a model's arrays it reads, and the
+in-process path that calls it (``CompiledStepMap``). The FMU (``rom_component.fmu.step_map_rom``) runs the same
+C code, so a run served in-process with
 ``arithmetic = "compiled"`` or by the FMU gives the same bits; the C sums follow the component's
 ``reproducible`` NumPy arithmetic, which gives them too.
 """
@@ -9,26 +9,19 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import json
 import struct
 import tempfile
 import uuid
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from cosim.component import MESH_PREFIX
 from cosim.errors import CosimError
-from rom_component.compiled import library_path
-from rom_component.fmu_package import description_root, pack, real_variables, scalar_names
-from rom_component.native import NAME_BYTES, compile_binary, write_sources
+from rom_component.fmu.build import C_SOURCES, NAME_BYTES, library_path
 
-SOURCE = Path(__file__).with_name("fmu") / "step_map_rom.c"
-MODEL_IDENTIFIER = "step_map_rom"
-
+SOURCE = C_SOURCES / "step_map_rom.c"
 
 def rest_history(arrays: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """The reduced displacement and force of the structure at rest (zero field, zero force)."""
@@ -89,7 +82,7 @@ class CompiledStepMap:
     window's last call into the history, ``history`` / ``set_history``, ``take_over``."""
 
     def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any]):
-        self.lib = bind(ctypes.CDLL(str(library_path(source=SOURCE))))
+        self.lib = bind(ctypes.CDLL(str(library_path(SOURCE))))
         self.folder = tempfile.TemporaryDirectory(prefix="cosim-step-map-")
         guid = model_guid(arrays, metadata, 1)
         Path(self.folder.name, "rom.bin").write_bytes(resource_bytes(arrays, metadata, guid, 1))
@@ -146,40 +139,3 @@ class CompiledStepMap:
             self.handle = None
         self.folder.cleanup()
 
-
-def model_description(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], guid: str,
-                      components: int) -> bytes:
-    """``modelDescription.xml``: the force in, the interface displacement out, the probes as locals."""
-    (r_f, n_in), (n_out, r_u) = arrays["E"].shape, arrays["A"].shape
-    declared = {v["name"]: v for v in metadata.get("variables", [])}
-    inputs = scalar_names(metadata["input_variable"], n_in, components)
-    outputs = scalar_names(metadata["output_variable"], n_out,
-                           int(declared.get(metadata["output_variable"], {}).get("components", components)))
-    probes = [name for probe in metadata.get("probes", []) for name in scalar_names(probe, 2, 1)]
-    root, _ = description_root(MODEL_IDENTIFIER, guid,
-                               f"step-map ROM of a structure with inertia: r_f={r_f}, r_u={r_u}, history of "
-                               f"{metadata['history']} windows, window {metadata['dt']:g} s; the history is the "
-                               "FMU's state", False, SOURCE.name)
-    ET.SubElement(root, "DefaultExperiment", {"stepSize": repr(float(metadata["dt"]))})
-    real_variables(root, inputs, outputs, probes)
-    ET.indent(root)
-    return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
-
-
-def export_step_map_fmu(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], out: Path,
-                        components: int) -> Path:
-    """The FMU of a step-map model; the same model gives the same bytes."""
-    guid = model_guid(arrays, metadata, components)
-    with tempfile.TemporaryDirectory() as tmp:
-        root = Path(tmp)
-        for folder in ("sources", "resources", "binaries/linux64"):
-            (root / folder).mkdir(parents=True)
-        write_sources(root / "sources", SOURCE)
-        (root / "resources" / "rom.bin").write_bytes(resource_bytes(arrays, metadata, guid, components))
-        (root / "modelDescription.xml").write_bytes(model_description(arrays, metadata, guid, components))
-        meshes = {k[len(MESH_PREFIX):]: v.tolist() for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
-        (root / "resources" / "interface.json").write_text(json.dumps(
-            {"variables": metadata.get("variables", []), "meshes": meshes, "history_windows": int(metadata["history"]),
-             "take_over": "step_map_take_over"}, sort_keys=True))
-        compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so", source=SOURCE)
-        return pack(root, out)

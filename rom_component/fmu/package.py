@@ -1,6 +1,6 @@
 """What every FMU ``cosim export-fmu`` writes shares: scalar variable names of array variables, the
 ``ScalarVariable`` elements of ``modelDescription.xml``, and the archive, packed so that the same files give the
-same bytes. The static ROM's export (``fmu_export``) and the step map's (``step_map_native``) use it.
+same bytes. Each family's FMU (``solid_rom``, ``step_map_rom``) uses it.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ displacement field (the paper's e(t) = ||U - U_rom|| / mean_t ||U||), accumulate
 coupling iterations against the reference (with a bootstrap interval over the predicted windows),
 the solid speed-up sigma (compute and round trip per call), the total speed-up and its bound
 (T_f + T_s) / (T_f + T_s / sigma).
-Writes ``report.json``, ``report.txt`` and the PNGs of ``rom_component.report_plots``, which
+Writes ``report.json``, ``report.txt`` and the PNGs of ``rom_component.report.plots``, which
 adds a scene's own plots from its component package. A reference must have run the same scene.
 """
 
@@ -22,9 +22,9 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.results import RunResults
+from rom_component.model_file import ModelFileError, load_arrays
 from rom_component.parts import describe_parts
-from rom_component.persistence import ModelFileError, load_arrays
-from rom_component.report_plots import write_plots
+from rom_component.report.plots import write_plots
 
 
 def iterations_interval(iterations: np.ndarray, reference: np.ndarray, block: int = 10, resamples: int = 4000,

@@ -11,8 +11,9 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import math
-import os
+import struct
 import tempfile
+import uuid
 import weakref
 from collections.abc import Callable, Mapping
 from functools import partial
@@ -22,35 +23,50 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from cosim.errors import CosimError
+from rom_component.fmu.build import C_SOURCES, NAME_BYTES, library_path
 from rom_component.model_check import check_arrays
-from rom_component.native import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
-from rom_component.online import OnlineRom
+from rom_component.static.online import OnlineRom
+
+SOURCE = C_SOURCES / "solid_rom.c"
 
 
-def cache_dir() -> Path:
-    return Path(os.environ.get("COSIM_CACHE") or Path.home() / ".cache" / "cosim")
 
 
-def library_path(defines: tuple[str, ...] = (), source: Path = SOURCE) -> Path:
-    """The compiled library of ``source`` (the static ROM's by default) for its present text, the compiler and
-    ``defines``, built if missing."""
-    compiler = os.environ.get("CC", "cc")
-    digest = hashlib.sha256(source.read_bytes() + compiler.encode() + " ".join(defines).encode()).hexdigest()[:16]
-    target = cache_dir() / f"{source.stem}-{digest}.so"
-    if target.is_file():
-        return target
-    target.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
-        sources = Path(tmp)
-        write_sources(sources, source)
-        built = sources / target.name
-        compile_binary(sources, built, defines, source)
-        os.replace(built, target)    # atomic: processes building at once all end with a whole library
-    return target
+def resource_bytes(rom: OnlineRom, guid: str, components: int) -> bytes:
+    """The binary resource the C code reads (little-endian; format in ``solid_rom.c``)."""
+    a = rom.arrays
+    rbf = rom.regressor == "rbf"
+    r_f, n_in = rom.E.shape
+    n_out, r_u = rom.A.shape
+    m = len(a["centres"]) if rbf else len(rom.qi) + len(rom.ci)
+    names = [rom.metadata.get("input_variable", "force"), rom.metadata.get("output_variable", "displacement")]
+    for name in names:
+        if len(name.encode()) > NAME_BYTES:
+            raise CosimError(f"variable name '{name}' is longer than {NAME_BYTES} bytes")
+    header = b"CSROM04\0" + guid.encode().ljust(40, b"\0")[:40] + b"".join(n.encode().ljust(NAME_BYTES, b"\0")
+                                                                        for n in names)
+    header += struct.pack("<8i", n_in, n_out, r_f, r_u, m, 0 if rbf else 1, 1 if rom.quadratic_decoder else 0,
+                          components)
+    parts = [rom.E, rom.e]
+    parts += [a["centres"]] if rbf else []
+    body = b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in parts)
+    if not rbf:
+        body += np.concatenate([rom.qi, rom.ci]).astype("<i4").tobytes()
+        body += np.concatenate([rom.qj, rom.cj]).astype("<i4").tobytes()
+        body += np.concatenate([np.full(len(rom.qi), -1), rom.ck]).astype("<i4").tobytes()   # -1: no third factor
+    tail = [rom.H, rom.A.T, rom.base] + ([rom.B.T] if rom.quadratic_decoder else [])   # decoders transposed
+    body += b"".join(np.ascontiguousarray(p, dtype="<f8").tobytes() for p in tail)
+    return header + body
+
+
+def model_guid(rom: OnlineRom, components: int) -> str:
+    """A GUID derived from the model's content: the same model exports the same FMU."""
+    digest = hashlib.sha256(resource_bytes(rom, "", components)).digest()
+    return "{" + str(uuid.UUID(bytes=digest[:16], version=4)) + "}"
 
 
 def _library(defines: tuple[str, ...] = ()) -> ctypes.CDLL:
-    lib = ctypes.CDLL(str(library_path(defines)))
+    lib = ctypes.CDLL(str(library_path(SOURCE, defines)))
     lib.solid_rom_open.restype = ctypes.c_void_p
     lib.solid_rom_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
     lib.solid_rom_last_error.restype = ctypes.c_char_p

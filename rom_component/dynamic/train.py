@@ -1,5 +1,5 @@
 """``cosim train`` for a structure with inertia (``dynamics.memory = true``): a step-map ROM
-(``rom_component.step_map``) chosen by hold-out over whole windows and saved as a model file.
+(``rom_component.dynamic.model``) chosen by hold-out over whole windows and saved as a model file.
 
 The hold-out fits every combination of the grid (mode counts, history lengths, ridge penalties,
 quadratic modes) on the first windows of the training range and runs each over the last
@@ -19,10 +19,10 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from cosim.errors import SceneError
-from rom_component import persistence
+from rom_component import model_file
+from rom_component.dynamic.model import StepMapRom, UnstableModel, WindowData, holdout
 from rom_component.envelope import fit_envelope
-from rom_component.step_map import StepMapRom, UnstableModel, WindowData, holdout
-from rom_component.train import interface_index, read_interface, recorded_calls
+from rom_component.recorded import interface_index, read_interface, recorded_calls
 
 KIND = "step-map"
 
@@ -55,7 +55,7 @@ def probe_rows(U: np.ndarray, probes: dict[str, np.ndarray]) -> dict[str, np.nda
     return found
 
 
-def model_file(model: StepMapRom, data: WindowData, last: int, K: np.ndarray, probes: dict[str, np.ndarray],
+def model_contents(model: StepMapRom, data: WindowData, last: int, K: np.ndarray, probes: dict[str, np.ndarray],
                dt: float, input_name: str, output_name: str) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """The arrays and metadata of a fitted model's file: the served output's rows ``K`` of the field, the probes'
     rows (``probe_rows``), the training envelope of the reduced forces of windows 1 to ``last``."""
@@ -121,7 +121,7 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
          f"part's spectral radius {step.radius_served:.6f}; rollout over the training windows e = {training_error:.3e}")
     K = interface_index(results, spec) if spec["field"] else np.arange(data.U.shape[1])
     found = probe_rows(data.U, probes)
-    arrays, metadata = model_file(model, data, last, K, found, dt, spec["input"], spec["output"])
+    arrays, metadata = model_contents(model, data, last, K, found, dt, spec["input"], spec["output"])
     variables, meshes = read_interface(results, spec)
     metadata.update({
         "field_variable": spec["field"], "component": spec["component"], "results": str(results),
@@ -131,7 +131,7 @@ def train_step_map(results: str | Path, out: str | Path, config: dict[str, Any],
                       "rows": [{**row.settings, "error": row.error if np.isfinite(row.error) else None,
                                 "radius": row.radius if np.isfinite(row.radius) else None} for row in rows]},
     })
-    persistence.save(out, {**arrays, **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
+    model_file.save(out, {**arrays, **{MESH_PREFIX + k: v for k, v in meshes.items()}}, metadata)
     echo(f"saved {out}")
     return metadata
 

@@ -5,9 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from cosim.schema import Value
-from rom_component.manifold import fit_quadratic_manifold, product_derivative, quadratic_index, quadratic_terms
 from rom_component.parts import DECODERS, Decoder
-from rom_component.pod import centred_pod
+from rom_component.reduction.manifold import (
+    fit_quadratic_manifold,
+    product_derivative,
+    quadratic_index,
+    quadratic_terms,
+)
+from rom_component.reduction.pod import centred_pod
 
 MODES_HELP = "r_u, the number of displacement modes (capped by the data: at most snapshots - 1)"
 
@@ -45,7 +50,7 @@ class PodDecoder(Decoder):
 @DECODERS.register("quadratic")
 class QuadraticManifoldDecoder(PodDecoder):
     """u = u_mean + Phi u~ + Phi_bar q(u~): the POD plus a quadratic manifold fitted to its residual
-    (``rom_component.manifold``)."""
+    (``rom_component.reduction.manifold``)."""
 
     SETTINGS = {"modes": Value(9, low=1), "regularization": Value(1e-6, low=0.0)}
     HELP = {"modes": MODES_HELP,

@@ -1,4 +1,4 @@
-"""``cosim export-fmu``: a trained solid ROM as an FMI 2.0 Co-Simulation FMU.
+"""The quasi-static solid ROM as an FMI 2.0 Co-Simulation FMU.
 
 The FMU holds ``modelDescription.xml``, the compiled ``binaries/linux64/solid_rom.so``,
 its C sources (``sources/``: ``solid_rom.c`` and the FMI 2.0 headers) and the model's
@@ -12,13 +12,17 @@ from __future__ import annotations
 import json
 import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from cosim.component import MESH_PREFIX
-from rom_component.fmu_package import description_root, pack, real_variables, scalar_names
-from rom_component.native import SOURCE, compile_binary, model_guid, resource_bytes, write_sources
-from rom_component.online import OnlineRom
-from rom_component.persistence import load_arrays
+from rom_component.fmu.build import compile_binary, write_sources
+from rom_component.fmu.package import description_root, pack, real_variables, scalar_names
+from rom_component.static.compiled import SOURCE, model_guid, resource_bytes
+from rom_component.static.online import OnlineRom
 
 MODEL_IDENTIFIER = "solid_rom"
 LOG_CATEGORIES = {"logEvents": "instantiation and termination (with loggingOn)",
@@ -41,16 +45,9 @@ def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
 
 
-def export_fmu(model: str | Path, out: str | Path, components_per_node: int | None = None) -> Path:
-    """Write the FMU for the ROM stored in ``model``; returns its path. The same model gives the same bytes."""
-    arrays, metadata = load_arrays(model)
-    if metadata.get("kind") == "step-map":      # a ROM with memory: its history is the FMU's state
-        from rom_component.step_map_native import export_step_map_fmu
-        declared = {v["name"]: v for v in metadata.get("variables", [])}
-        components = components_per_node or int(declared.get(metadata["input_variable"], {}).get("components", 1))
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        return export_step_map_fmu(arrays, metadata, out, components)
+def export_solid_rom_fmu(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], out: Path,
+                         components_per_node: int | None = None) -> Path:
+    """The FMU of a quasi-static ROM; the same model gives the same bytes."""
     rom = OnlineRom(arrays, metadata)
     declared = {v["name"]: v for v in metadata.get("variables", [])}
     input_components = declared.get(metadata.get("input_variable"), {}).get("components", 1)
@@ -58,18 +55,16 @@ def export_fmu(model: str | Path, out: str | Path, components_per_node: int | No
     scalar_names("input", rom.n_inputs, components)
     scalar_names("output", rom.n_outputs, components)
     guid = model_guid(rom, components)
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         for folder in ("sources", "resources", "binaries/linux64"):
             (root / folder).mkdir(parents=True)
-        write_sources(root / "sources")
+        write_sources(root / "sources", SOURCE)
         (root / "resources" / "rom.bin").write_bytes(resource_bytes(rom, guid, components))
         (root / "modelDescription.xml").write_bytes(model_description(rom, guid, components))
         if metadata.get("variables"):   # the meshes the solid declared, for the coupler's mappings
             meshes = {k[len(MESH_PREFIX):]: v.tolist() for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
             (root / "resources" / "interface.json").write_text(
                 json.dumps({"variables": metadata["variables"], "meshes": meshes}, sort_keys=True))
-        compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so")
+        compile_binary(root / "sources", root / "binaries" / "linux64" / f"{MODEL_IDENTIFIER}.so", SOURCE)
         return pack(root, out)

@@ -17,7 +17,6 @@ import numpy as np
 
 from cosim.errors import CosimError
 from rom_component.model_check import ModelContentError, check_arrays, check_members
-from rom_component.online import OnlineRom
 
 FORMAT = "cosim-solid-rom/1"
 
@@ -81,15 +80,3 @@ def load_arrays(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]
     except ModelContentError as exc:
         raise ModelFileError(f"model file '{path}': {exc}") from None
     return arrays, metadata
-
-
-def load(path: str | Path, arithmetic: str = "reproducible") -> OnlineRom:
-    """The online ROM stored in ``path`` (``arithmetic``: see ``OnlineRom``)."""
-    arrays, metadata = load_arrays(path)
-    try:
-        if arithmetic == "compiled":
-            from rom_component.compiled import CompiledRom
-            return CompiledRom(arrays, metadata)
-        return OnlineRom(arrays, metadata, arithmetic)
-    except (KeyError, ValueError) as exc:
-        raise ModelFileError(f"model file '{path}' is incomplete: {exc}") from None

@@ -16,12 +16,12 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from rom_component.decoders import PodDecoder
-from rom_component.encoders import PodEncoder
 from rom_component.envelope import fit_envelope
-from rom_component.online import OnlineRom
 from rom_component.parts import PARTS, Decoder, Encoder, Part, Regressor
-from rom_component.regression import PolynomialRegression, RbfRegression
+from rom_component.reduction.decoders import PodDecoder
+from rom_component.reduction.encoders import PodEncoder
+from rom_component.static.online import OnlineRom
+from rom_component.static.regression import PolynomialRegression, RbfRegression
 
 
 class SolidRom(RegressorMixin, BaseEstimator):

@@ -20,7 +20,7 @@ import numpy as np
 from cosim.component import Component, Variable
 from cosim.errors import ComponentError, CosimError
 from cosim.server import load_entry
-from rom_component.persistence import load
+from rom_component.static.load import load_rom
 
 PROJECTIONS = ("force", "displacement", "both")
 OWN = ("solid", "model", "project", "from_time", "rom_modes", "field")
@@ -41,7 +41,7 @@ class ProjectedSolid(Component):
         if not own.get("model"):
             raise ComponentError(self.name, "parameter 'model' (path of a trained ROM's .npz) is not set")
         try:
-            self.rom = load(own["model"], "reproducible")
+            self.rom = load_rom(own["model"], "reproducible")
             self.inner: Component = load_entry(own.get("solid", "kratos_solvers.solid:KratosSolid"))()
         except CosimError as exc:
             raise ComponentError(self.name, str(exc)) from None

@@ -38,9 +38,9 @@ from typing import Any
 import numpy as np
 from sklearn.linear_model import Ridge
 
-from rom_component.decoders import PodDecoder
-from rom_component.encoders import PodEncoder
 from rom_component.model_check import companion_radius
+from rom_component.reduction.decoders import PodDecoder
+from rom_component.reduction.encoders import PodEncoder
 
 FORCE_HISTORY = 2   # Newmark's weighted sum x+ + 2 x0 + x- spans the window and the two before it
 

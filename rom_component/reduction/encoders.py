@@ -6,7 +6,7 @@ import numpy as np
 
 from cosim.schema import Choice, Value
 from rom_component.parts import ENCODERS, Encoder
-from rom_component.pod import centred_pod
+from rom_component.reduction.pod import centred_pod
 
 SCALINGS = ("global", "standard", "minmax", "none")
 

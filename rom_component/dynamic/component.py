@@ -1,4 +1,4 @@
-"""A step-map ROM (``rom_component.step_map``) behind the component contract: a structure with inertia.
+"""A step-map ROM (``rom_component.dynamic.model``) behind the component contract: a structure with inertia.
 
 The component keeps its reduced history: the converged reduced displacements and forces of the last
 windows. A window's calls all start from that history (``repeats_steps``: a call with the same ``t``
@@ -21,10 +21,10 @@ import numpy as np
 from cosim.component import MESH_PREFIX, Component, Variable, check_inputs
 from cosim.errors import ComponentError, CosimError
 from cosim.schema import Choice, FilePath, Value
+from rom_component.dynamic.compiled import CompiledStepMap
+from rom_component.dynamic.online import OnlineStepMap
 from rom_component.envelope import trust
-from rom_component.persistence import load_arrays
-from rom_component.step_map_native import CompiledStepMap
-from rom_component.step_map_online import OnlineStepMap
+from rom_component.model_file import load_arrays
 
 ARITHMETIC = ("reproducible", "compiled", "fast")
 SCHEMA = {"model": FilePath(), "arithmetic": Choice("reproducible", ARITHMETIC),

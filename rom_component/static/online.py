@@ -22,7 +22,7 @@ import numpy as np
 
 from rom_component.envelope import trust
 from rom_component.model_check import REQUIRED
-from rom_component.portable_log import thin_plate_terms
+from rom_component.static.portable_log import thin_plate_terms
 
 TINY = 1e-300
 
@@ -31,20 +31,20 @@ ENVELOPE_KEYS = {"envelope_low", "envelope_high", "envelope_mean", "envelope_pre
 
 
 class OnlineRom:
-    """Evaluates a trained ROM from its arrays (see ``rom_component.persistence``).
+    """Evaluates a trained ROM from its arrays (see ``rom_component.model_file``).
 
     ``arithmetic="reproducible"`` (default) fixes the order of every floating-point
     operation so that the C code of the exported FMU gives bit-identical results:
     long dot products are numpy's pairwise row sums (mirrored in ``solid_rom.c``), short
     ones sequential sums, and the kernel uses the FMU's own logarithm
-    (``rom_component.portable_log``). Results then also depend neither on the BLAS build
+    (``rom_component.static.portable_log``). Results then also depend neither on the BLAS build
     and its threads nor on the platform's libm. ``arithmetic="fast"`` uses BLAS matrix-vector products instead.
     """
 
     def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any],
                  arithmetic: str = "reproducible"):
         missing = set(REQUIRED) - set(arrays)
-        if missing:      # (a model file's arrays were checked whole when it was read: persistence.load_arrays)
+        if missing:      # (a model file's arrays were checked whole when it was read: model_file.load_arrays)
             raise ValueError(f"ROM arrays lack {sorted(missing)}")
         if arithmetic not in ("reproducible", "fast"):
             raise ValueError(f"arithmetic {arithmetic!r} not in ('reproducible', 'fast')")

@@ -21,8 +21,8 @@ from scipy.spatial.distance import cdist
 from scipy.special import xlogy
 
 from cosim.schema import Choice, Value
-from rom_component.manifold import product_derivative, quadratic_index
 from rom_component.parts import REGRESSORS, Regressor
+from rom_component.reduction.manifold import product_derivative, quadratic_index
 
 POLY_METHODS = ("lasso-bic", "ridge")
 # ridge penalties tried, per snapshot, with the terms scaled as for the Lasso: from a mere conditioning of the
