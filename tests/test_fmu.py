@@ -319,7 +319,7 @@ def test_an_fmu_that_cannot_serialise_its_state_is_named_when_checkpointed(model
     assert component.can_checkpoint and component.describe()["can_checkpoint"]
     state = component.checkpoint()
     component.restore_checkpoint(state)              # the exported FMU serialises its state (magic, sizes checked)
-    assert state["fmu_state"][:8].tobytes() == b"CSROMST2"
+    assert state["fmu_state"][:8].tobytes() == b"CSROMST3"
     component.can_serialize = False                  # as an FMU whose modelDescription says it cannot
     assert not component.describe()["can_checkpoint"]
     with pytest.raises(ComponentError, match=r"FMU '.*rbf.fmu' cannot serialise its state \(canSerializeFMUstate"):
@@ -342,10 +342,10 @@ def test_a_serialised_state_of_another_model_or_not_finite_is_refused_and_set_st
     mine.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.1)
     state = mine.getFMUState()
     serialised = bytes(mine.serializeFMUstate(state))
-    assert serialised[:8] == b"CSROMST2"
+    assert serialised[:8] == b"CSROMST3"
     with pytest.raises(FMICallException):
         theirs.deSerializeFMUstate(serialised)                  # another model's state
-    header = 8 + 40 + 12
+    header = 8 + 40 + 16
     values = np.frombuffer(serialised[header:], dtype=np.float64).copy()
     values[3] = np.nan
     with pytest.raises(FMICallException):

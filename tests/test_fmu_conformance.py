@@ -8,6 +8,7 @@ import ctypes
 import re
 import shutil
 import subprocess
+import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
 
@@ -23,6 +24,7 @@ from fmpy.fmi2 import (
 )
 from fmpy.validation import validate_fmu
 
+from rom_component.fmu.build import SKELETON
 from rom_component.fmu.export import export_fmu
 from rom_component.static.compiled import SOURCE
 from rom_component.static.load import load_rom
@@ -153,7 +155,8 @@ def test_free_instance_frees_states_the_importer_did_not_free(rbf):
 
 
 def test_every_log_category_used_is_declared_and_logging_on_is_honoured(rbf):
-    used = set(re.findall(r'"(log[A-Z]\w+)"', SOURCE.read_text()))
+    used = {c for path in (SOURCE, *(SOURCE.with_name(n) for n in SKELETON))
+            for c in re.findall(r'"(log[A-Z]\w+)"', path.read_text())}
     declared = {c.name for c in read_model_description(str(rbf[1])).logCategories}
     assert used == declared == {"logEvents", "logStatusError"}
     quiet, verbose = Host(rbf[1], logging_on=False), Host(rbf[1], logging_on=True)
@@ -192,8 +195,10 @@ def rebuilt(fmu: Path, tmp_path: Path, how: str) -> Path:
         (tmp_path / "build").mkdir(parents=True)
         build_platform_binary(unzipped, tmp_path / "build")
     else:
+        description = ET.fromstring((unzipped / "modelDescription.xml").read_bytes())
+        listed = [f.get("name") for f in description.iterfind("CoSimulation/SourceFiles/File")]
         subprocess.run(["gcc", "-O3", "-march=native", "-shared", "-fPIC", f"-I{unzipped / 'sources'}",
-                        str(unzipped / "sources" / "solid_rom.c"), "-o", str(binary)], check=True)
+                        *(str(unzipped / "sources" / name) for name in listed), "-o", str(binary)], check=True)
     assert binary.is_file()
     undefined = subprocess.run(["nm", "-D", "--undefined-only", str(binary)], capture_output=True, text=True,
                                check=True).stdout.split()

@@ -54,16 +54,16 @@ def model_guid(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], co
 def bind(lib: ctypes.CDLL) -> ctypes.CDLL:
     """Argument and result types of the C functions outside FMI."""
     pointer = ctypes.c_void_p
-    lib.step_map_open.restype = pointer
-    lib.step_map_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
-    lib.step_map_last_error.restype = ctypes.c_char_p
+    lib.rom_open.restype = pointer
+    lib.rom_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
+    lib.rom_last_error.restype = ctypes.c_char_p
     lib.step_map_evaluate.restype = None
     lib.step_map_evaluate.argtypes = [pointer] * 6
     lib.step_map_commit.argtypes = [pointer]
     lib.step_map_history.argtypes = [pointer, pointer, pointer, ctypes.c_int]
     lib.step_map_take_over.restype = ctypes.c_int
     lib.step_map_take_over.argtypes = [pointer, ctypes.c_int32, pointer, pointer]
-    lib.step_map_close.argtypes = [pointer]
+    lib.rom_close.argtypes = [pointer]
     lib.step_map_bind.restype = None
     lib.step_map_bind.argtypes = [pointer] * 5 + [ctypes.c_double, pointer]
     lib.step_map_serve.restype = ctypes.c_int
@@ -86,9 +86,9 @@ class CompiledStepMap:
         self.folder = tempfile.TemporaryDirectory(prefix="cosim-step-map-")
         guid = model_guid(arrays, metadata, 1)
         Path(self.folder.name, "rom.bin").write_bytes(resource_bytes(arrays, metadata, guid, 1))
-        self.handle = self.lib.step_map_open(Path(self.folder.name).as_uri().encode(), guid.encode())
+        self.handle = self.lib.rom_open(Path(self.folder.name).as_uri().encode(), guid.encode())
         if not self.handle:
-            raise CosimError(f"the step-map ROM's C code refused the model: {self.lib.step_map_last_error().decode()}")
+            raise CosimError(f"the step-map ROM's C code refused the model: {self.lib.rom_last_error().decode()}")
         (r_f, _), (n_out, r_u) = arrays["E"].shape, arrays["A"].shape
         self.p = int(metadata["history"])
         self.u, self.probes = np.zeros(n_out), np.zeros(arrays["p0"].size)
@@ -135,7 +135,7 @@ class CompiledStepMap:
 
     def close(self) -> None:
         if self.handle:
-            self.lib.step_map_close(self.handle)
+            self.lib.rom_close(self.handle)
             self.handle = None
         self.folder.cleanup()
 

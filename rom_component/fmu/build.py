@@ -15,6 +15,8 @@ from pathlib import Path
 from cosim.errors import CosimError
 
 C_SOURCES = Path(__file__).parent      # the C sources of the exported FMUs
+SKELETON = ("rom_runtime.c", "fmi2_rom.c")               # compiled with every ROM's source
+OWN_HEADERS = ("rom_fmu.h", "rom_arithmetic.h")
 HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 NAME_BYTES = 32         # a variable's name in a resource's header
 
@@ -27,23 +29,30 @@ def fmi_headers() -> Path:
     return Path(fmpy.__file__).parent / "c-code"
 
 
+def source_files(source: Path) -> list[str]:
+    """The C files an FMU of the ROM in ``source`` compiles: the ROM's, then the skeleton's."""
+    return [source.name, *SKELETON]
+
+
 def write_sources(folder: Path, source: Path) -> None:
-    """The C ``source`` and the FMI 2.0 headers it includes, into ``folder``."""
-    shutil.copy(source, folder / source.name)
+    """The ROM's C ``source``, the skeleton's sources and headers, and the FMI 2.0 headers, into ``folder``."""
+    for name in (source.name, *SKELETON, *OWN_HEADERS):
+        shutil.copy(source.with_name(name), folder / name)
     for header in HEADERS:
         shutil.copy(fmi_headers() / header, folder / header)
 
 
 def compile_binary(sources: Path, target: Path, source: Path, defines: tuple[str, ...] = ()) -> None:
-    """Build the linux64 binary of ``source`` (in ``sources``): plain flags suffice, the source fixes its
-    floating-point contract.
+    """Build the linux64 binary of the ROM in ``source`` with the skeleton (in ``sources``): plain flags suffice, the
+    sources fix their floating-point contract.
 
     ``defines``: preprocessor names to set (``SOLID_ROM_SCALAR``: no vector types, same results)."""
     compiler = os.environ.get("CC", "cc")
     if shutil.which(compiler) is None:
         raise CosimError(f"export-fmu needs a C compiler; '{compiler}' was not found (set CC)")
     command = [compiler, "-std=c99", "-O3", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
-               *(f"-D{name}" for name in defines), str(sources / source.name), "-o", str(target)]
+               *(f"-D{name}" for name in defines), *(str(sources / name) for name in source_files(source)),
+               "-o", str(target)]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise CosimError(f"compiling the FMU binary failed:\n{done.stderr}")
@@ -57,7 +66,8 @@ def cache_dir() -> Path:
 def library_path(source: Path, defines: tuple[str, ...] = ()) -> Path:
     """The compiled library of ``source`` for its present text, the compiler and ``defines``, built if missing."""
     compiler = os.environ.get("CC", "cc")
-    digest = hashlib.sha256(source.read_bytes() + compiler.encode() + " ".join(defines).encode()).hexdigest()[:16]
+    text = b"".join(source.with_name(name).read_bytes() for name in (*source_files(source), *OWN_HEADERS))
+    digest = hashlib.sha256(text + compiler.encode() + " ".join(defines).encode()).hexdigest()[:16]
     target = cache_dir() / f"{source.stem}-{digest}.so"
     if target.is_file():
         return target

@@ -26,10 +26,14 @@ def scalar_names(name: str, size: int, components: int) -> list[str]:
     return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
 
 
+LOG_CATEGORIES = {"logEvents": "instantiation and termination (with loggingOn)",
+                  "logStatusError": "every call that returns fmi2Error, with the reason"}     # the skeleton's
+
+
 def description_root(identifier: str, guid: str, description: str, variable_step: bool,
-                     source: str) -> tuple[ET.Element, ET.Element]:
-    """The ``fmiModelDescription`` element of a Co-Simulation FMU that can get, set and serialise its state and
-    builds from one C ``source``, and its ``CoSimulation`` element."""
+                     sources: Sequence[str]) -> tuple[ET.Element, ET.Element]:
+    """The ``fmiModelDescription`` element of a Co-Simulation FMU that can get, set and serialise its state, builds
+    from the C files ``sources`` and logs in the skeleton's categories, and its ``CoSimulation`` element."""
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": identifier, "guid": guid, "description": description,
         "generationTool": "cosim export-fmu", "variableNamingConvention": "structured",
@@ -38,7 +42,12 @@ def description_root(identifier: str, guid: str, description: str, variable_step
         "modelIdentifier": identifier, "needsExecutionTool": "false",
         "canHandleVariableCommunicationStepSize": "true" if variable_step else "false", "canInterpolateInputs": "false",
         "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
-    ET.SubElement(ET.SubElement(cosimulation, "SourceFiles"), "File", {"name": source})
+    files = ET.SubElement(cosimulation, "SourceFiles")
+    for name in sources:
+        ET.SubElement(files, "File", {"name": name})
+    categories = ET.SubElement(root, "LogCategories")
+    for name, text in LOG_CATEGORIES.items():
+        ET.SubElement(categories, "Category", {"name": name, "description": text})
     return root, cosimulation
 
 

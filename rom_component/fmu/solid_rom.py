@@ -1,7 +1,7 @@
 """The quasi-static solid ROM as an FMI 2.0 Co-Simulation FMU.
 
 The FMU holds ``modelDescription.xml``, the compiled ``binaries/linux64/solid_rom.so``,
-its C sources (``sources/``: ``solid_rom.c`` and the FMI 2.0 headers) and the model's
+its C sources (``sources/``: ``solid_rom.c``, the skeleton's and the FMI 2.0 headers) and the model's
 arrays in ``resources/rom.bin`` (read at instantiate; format in ``solid_rom.c``).
 Scalar variables are named ``<input>[node]`` / ``<output>[node]`` (1-based nodes), with
 ``.x``, ``.y``, ``.z`` appended when a node carries several components.
@@ -19,14 +19,12 @@ from typing import Any
 import numpy as np
 
 from cosim.component import MESH_PREFIX
-from rom_component.fmu.build import compile_binary, write_sources
+from rom_component.fmu.build import compile_binary, source_files, write_sources
 from rom_component.fmu.package import description_root, pack, real_variables, scalar_names
 from rom_component.static.compiled import SOURCE, model_guid, resource_bytes
 from rom_component.static.online import OnlineRom
 
 MODEL_IDENTIFIER = "solid_rom"
-LOG_CATEGORIES = {"logEvents": "instantiation and termination (with loggingOn)",
-                  "logStatusError": "every call that returns fmi2Error, with the reason"}
 
 
 def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
@@ -36,10 +34,7 @@ def model_description(rom: OnlineRom, guid: str, components: int) -> bytes:
     outputs = scalar_names(meta.get("output_variable", "displacement"), rom.n_outputs, components)
     root, _ = description_root(MODEL_IDENTIFIER, guid,
                                f"solid ROM: r_f={rom.E.shape[0]}, r_u={rom.A.shape[1]}, {rom.regressor} regression, "
-                               f"{'quadratic' if rom.quadratic_decoder else 'linear'} decoder", True, SOURCE.name)
-    categories = ET.SubElement(root, "LogCategories")
-    for name, text in LOG_CATEGORIES.items():
-        ET.SubElement(categories, "Category", {"name": name, "description": text})
+                               f"{'quadratic' if rom.quadratic_decoder else 'linear'} decoder", True, source_files(SOURCE))
     real_variables(root, inputs, outputs)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"

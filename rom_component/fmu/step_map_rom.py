@@ -1,6 +1,6 @@
 """The ROM with memory (step map) as an FMI 2.0 Co-Simulation FMU: the history is the FMU's state.
 
-The FMU holds ``modelDescription.xml``, ``binaries/linux64/step_map_rom.so``, its C source (``sources/``) and the
+The FMU holds ``modelDescription.xml``, ``binaries/linux64/step_map_rom.so``, its C sources (``sources/``: ``step_map_rom.c``, the skeleton's and the FMI 2.0 headers) and the
 model's arrays in ``resources/rom.bin`` (``rom_component.dynamic.compiled.resource_bytes``).
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from rom_component.dynamic.compiled import SOURCE, model_guid, resource_bytes
-from rom_component.fmu.build import compile_binary, write_sources
+from rom_component.fmu.build import compile_binary, source_files, write_sources
 from rom_component.fmu.package import description_root, pack, real_variables, scalar_names
 
 MODEL_IDENTIFIER = "step_map_rom"
@@ -35,7 +35,7 @@ def model_description(arrays: Mapping[str, np.ndarray], metadata: Mapping[str, A
     root, _ = description_root(MODEL_IDENTIFIER, guid,
                                f"step-map ROM of a structure with inertia: r_f={r_f}, r_u={r_u}, history of "
                                f"{metadata['history']} windows, window {metadata['dt']:g} s; the history is the "
-                               "FMU's state", False, SOURCE.name)
+                               "FMU's state", False, source_files(SOURCE))
     ET.SubElement(root, "DefaultExperiment", {"stepSize": repr(float(metadata["dt"]))})
     real_variables(root, inputs, outputs, probes)
     ET.indent(root)

@@ -67,9 +67,9 @@ def model_guid(rom: OnlineRom, components: int) -> str:
 
 def _library(defines: tuple[str, ...] = ()) -> ctypes.CDLL:
     lib = ctypes.CDLL(str(library_path(SOURCE, defines)))
-    lib.solid_rom_open.restype = ctypes.c_void_p
-    lib.solid_rom_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
-    lib.solid_rom_last_error.restype = ctypes.c_char_p
+    lib.rom_open.restype = ctypes.c_void_p
+    lib.rom_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
+    lib.rom_last_error.restype = ctypes.c_char_p
     lib.solid_rom_evaluate.restype = None
     lib.solid_rom_evaluate.argtypes = [ctypes.c_void_p] * 5
     lib.solid_rom_evaluate_trust.restype = None
@@ -79,7 +79,7 @@ def _library(defines: tuple[str, ...] = ()) -> ctypes.CDLL:
     lib.solid_rom_serve.restype = ctypes.c_int
     lib.solid_rom_serve.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_char_p]
     lib.solid_rom_unbind.argtypes = [ctypes.c_void_p]
-    lib.solid_rom_close.argtypes = [ctypes.c_void_p]
+    lib.rom_close.argtypes = [ctypes.c_void_p]
     return lib
 
 
@@ -108,11 +108,11 @@ class CompiledRom(OnlineRom):
         guid = model_guid(self, 1)
         with tempfile.TemporaryDirectory() as tmp:   # the C code reads the whole file at open
             (Path(tmp) / "rom.bin").write_bytes(resource_bytes(self, guid, 1))
-            handle = self._lib.solid_rom_open(Path(tmp).as_uri().encode(), guid.encode())
+            handle = self._lib.rom_open(Path(tmp).as_uri().encode(), guid.encode())
         if not handle:
-            raise CosimError(f"the compiled ROM did not open: {self._lib.solid_rom_last_error().decode()}")
+            raise CosimError(f"the compiled ROM did not open: {self._lib.rom_last_error().decode()}")
         self._handle = handle
-        self._finalizer = weakref.finalize(self, self._lib.solid_rom_close, handle)
+        self._finalizer = weakref.finalize(self, self._lib.rom_close, handle)
         # fixed buffers, their addresses taken once; the C code writes the reduced forces where trust() reads
         self._f, self._u, self._reduced = np.empty(self.n_inputs), np.empty(self.n_outputs), np.empty(len(self.reduced))
         buffers = (handle, self._f.ctypes.data, self._u.ctypes.data, self._x_slot.ctypes.data, self._reduced.ctypes.data)
