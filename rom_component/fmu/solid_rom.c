@@ -311,7 +311,7 @@ int rom_load(Rom *rom, const char *file) {
 #ifdef VECTOR_SUMS
     fill_panels(m);
 #endif
-    rom_declare(rom, m->n_in, m->n_out, 0, m->components, 0);
+    rom_declare(rom, m->n_in, m->n_out, 0, 1, m->components, 0);
     return 1;
 }
 

@@ -138,7 +138,7 @@ int rom_load(Rom *rom, const char *file) {
         if (w == NULL) return 0;
         m->x = w; m->s = m->x + m->r_f; m->z = m->s + m->r_f; m->quad = m->z + m->r_u; m->d = m->quad + m->n_quad;
     }
-    rom_declare(rom, m->n_in, m->n_out, m->n_probe, m->components, (size_t)m->p * m->r_u + 2 * (size_t)m->r_f);
+    rom_declare(rom, m->n_in, m->n_out, m->n_probe, 2, m->components, (size_t)m->p * m->r_u + 2 * (size_t)m->r_f);   /* a probe: a point (x, y) */
     return 1;
 }
 
