@@ -65,11 +65,13 @@ def _export_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", help="model file (.npz) written by cosim train")
     parser.add_argument("--out", required=True, help="FMU to write")
     parser.add_argument("--components-per-node", type=int, help="values per interface node (default: 1)")
+    parser.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                        help="FMI version: 2 (scalar variables) or 3 (array variables); default 2")
 
 
 def _export_fmu(args: argparse.Namespace) -> int:
     from rom_component.fmu.export import export_fmu
-    print(f"wrote {export_fmu(args.model, args.out, args.components_per_node)}")
+    print(f"wrote {export_fmu(args.model, args.out, args.components_per_node, args.fmi)}")
     return 0
 
 
@@ -86,7 +88,8 @@ report = Command(
     "bound; writes report.json, report.txt and the PNGs.",
     "cosim report runs/rom_mu1=runs/fom_mu1 --out runs/report")
 export_fmu = Command(
-    "export a trained ROM as an FMI 2.0 Co-Simulation FMU", _export_arguments, _export_fmu,
-    "Compile the ROM's C code with the model's arrays into an FMI 2.0 Co-Simulation FMU (no Python inside); "
-    "the FMU backend then serves the solid bit for bit as the ROM backend's reproducible arithmetic.",
-    "cosim export-fmu runs/model.npz --out runs/solid_rom.fmu")
+    "export a trained ROM as an FMI 2.0 or 3.0 Co-Simulation FMU", _export_arguments, _export_fmu,
+    "Compile the ROM's C code with the model's arrays into an FMI 2.0 (default) or FMI 3.0 (--fmi 3, array "
+    "variables) Co-Simulation FMU (no Python inside); the FMU backend then serves the solid bit for bit as the ROM "
+    "backend's reproducible arithmetic.",
+    "cosim export-fmu runs/model.npz --out runs/solid_rom.fmu [--fmi 3]")

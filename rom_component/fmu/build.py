@@ -15,9 +15,10 @@ from pathlib import Path
 from cosim.errors import CosimError
 
 C_SOURCES = Path(__file__).parent      # the C sources of the exported FMUs
-SKELETON = ("rom_runtime.c", "fmi2_rom.c")               # compiled with every ROM's source
+SKELETON = {2: ("rom_runtime.c", "fmi2_rom.c"), 3: ("rom_runtime.c", "fmi3_rom.c")}   # compiled with a ROM's source
 OWN_HEADERS = ("rom_fmu.h", "rom_arithmetic.h")
-HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
+           3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
 NAME_BYTES = 32         # a variable's name in a resource's header
 
 
@@ -25,24 +26,24 @@ def fmi_headers() -> Path:
     try:
         import fmpy
     except ImportError:
-        raise CosimError("export-fmu needs fmpy for the FMI 2.0 headers (pip install '.[fmu]')") from None
+        raise CosimError("export-fmu needs fmpy for the FMI headers (pip install '.[fmu]')") from None
     return Path(fmpy.__file__).parent / "c-code"
 
 
-def source_files(source: Path) -> list[str]:
-    """The C files an FMU of the ROM in ``source`` compiles: the ROM's, then the skeleton's."""
-    return [source.name, *SKELETON]
+def source_files(source: Path, fmi: int = 2) -> list[str]:
+    """The C files an FMI ``fmi`` FMU of the ROM in ``source`` compiles: the ROM's, then the skeleton's."""
+    return [source.name, *SKELETON[fmi]]
 
 
-def write_sources(folder: Path, source: Path) -> None:
-    """The ROM's C ``source``, the skeleton's sources and headers, and the FMI 2.0 headers, into ``folder``."""
-    for name in (source.name, *SKELETON, *OWN_HEADERS):
+def write_sources(folder: Path, source: Path, fmi: int = 2) -> None:
+    """The ROM's C ``source``, the skeleton's sources and headers, and the FMI headers, into ``folder``."""
+    for name in (*source_files(source, fmi), *OWN_HEADERS):
         shutil.copy(source.with_name(name), folder / name)
-    for header in HEADERS:
+    for header in HEADERS[fmi]:
         shutil.copy(fmi_headers() / header, folder / header)
 
 
-def compile_binary(sources: Path, target: Path, source: Path, defines: tuple[str, ...] = ()) -> None:
+def compile_binary(sources: Path, target: Path, source: Path, defines: tuple[str, ...] = (), fmi: int = 2) -> None:
     """Build the linux64 binary of the ROM in ``source`` with the skeleton (in ``sources``): plain flags suffice, the
     sources fix their floating-point contract.
 
@@ -51,7 +52,7 @@ def compile_binary(sources: Path, target: Path, source: Path, defines: tuple[str
     if shutil.which(compiler) is None:
         raise CosimError(f"export-fmu needs a C compiler; '{compiler}' was not found (set CC)")
     command = [compiler, "-std=c99", "-O3", "-Wall", "-Wextra", "-shared", "-fPIC", f"-I{sources}",
-               *(f"-D{name}" for name in defines), *(str(sources / name) for name in source_files(source)),
+               *(f"-D{name}" for name in defines), *(str(sources / name) for name in source_files(source, fmi)),
                "-o", str(target)]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
