@@ -155,7 +155,7 @@ def test_free_instance_frees_states_the_importer_did_not_free(rbf):
 
 
 def test_every_log_category_used_is_declared_and_logging_on_is_honoured(rbf):
-    used = {c for path in (SOURCE, *(SOURCE.with_name(n) for n in SKELETON))
+    used = {c for path in (SOURCE, *(SOURCE.with_name(n) for n in SKELETON[2]))
             for c in re.findall(r'"(log[A-Z]\w+)"', path.read_text())}
     declared = {c.name for c in read_model_description(str(rbf[1])).logCategories}
     assert used == declared == {"logEvents", "logStatusError"}
