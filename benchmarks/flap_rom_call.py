@@ -53,6 +53,7 @@ from rom_component.static.estimator import SolidRom, resolve_parts
 from rom_component.static.load import load_rom
 from rom_component.static.online import OnlineRom
 from rom_component.static.train import load_config
+from solid_component.fmi2_instance import Fmi2Instance
 from solid_component.fmu import FmuSolid
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -156,8 +157,9 @@ def main(argv: list[str] | None = None) -> dict:
     fmu.instantiate({"path": str(fmu_path)})
     fmu.enter_initialization_mode(0.0, 1.0)
     fmu.exit_initialization_mode()
-    slave = fmu.slave
-    refs_in, refs_out = list(np.ravel(fmu.inputs["force"][0])), list(np.ravel(fmu.outputs["displacement"][0]))
+    assert isinstance(fmu.fmu, Fmi2Instance)      # an FMI 2.0 FMU: scalar value references
+    slave = fmu.fmu.slave
+    refs_in, refs_out = fmu.fmu.value_references("force"), fmu.fmu.value_references("displacement")
     compiled = load_rom(model_path, "compiled")
     scalar = CompiledRom(*model_file.load_arrays(model_path), defines=("SOLID_ROM_SCALAR",))
     component = RomSolid()

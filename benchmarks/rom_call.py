@@ -38,6 +38,7 @@ from rom_component.static.load import load_rom
 from rom_component.static.online import OnlineRom
 from rom_component.static.selection import holdout_table
 from rom_component.static.train import load_config
+from solid_component.fmi2_instance import Fmi2Instance
 from solid_component.fmu import FmuSolid
 from solid_component.tube import TubeSolid
 
@@ -94,7 +95,8 @@ def main(argv: list[str] | None = None) -> dict:
     fmu.instantiate({"path": str(fmu_path)})
     fmu.enter_initialization_mode(0.0, 1.0)
     fmu.exit_initialization_mode()
-    slave, refs_in, refs_out = fmu.slave, list(fmu.inputs["pressure"][0]), list(fmu.outputs["section"][0])
+    assert isinstance(fmu.fmu, Fmi2Instance)      # an FMI 2.0 FMU: scalar value references
+    slave, refs_in, refs_out = fmu.fmu.slave, fmu.fmu.value_references("pressure"), fmu.fmu.value_references("section")
 
     def fmpy_convenience() -> list:
         slave.setReal(refs_in, list(f))

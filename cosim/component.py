@@ -90,6 +90,10 @@ class Component:
     #: ``repeats_steps``, or ``stateless``
     stateless: bool = False
 
+    #: why the component cannot repeat a window, when it can do none of the three (an FMU that cannot get and set
+    #: its state, say): implicit coupling refuses it with this reason
+    state_note: str = ""
+
     #: how many of the last converged windows the component needs to be handed when it takes over from another
     #: backend during a run (a structure with inertia: its history); 0 for none
     history_windows: int = 0
@@ -121,6 +125,8 @@ class Component:
             "stateless": self.stateless,
             "history_windows": self.history_windows,
         }
+        if self.state_note:
+            description["state_note"] = self.state_note
         for name, nodes in self.meshes().items():
             description[MESH_PREFIX + name] = np.asarray(nodes, dtype=np.float64)
         for name, lines in self.lines().items():

@@ -62,6 +62,7 @@ class ComponentProxy:
         self.can_checkpoint = False
         self.repeats_steps = False
         self.stateless = False
+        self.state_note = ""
         self.step_saves_state = False   # its server takes save and free with a step (``send_step``)
         self.saved_state: int | None = None     # the handle the last saving step returned
         self.warnings: list[str] = []   # delivered with replies, taken by the coupler
@@ -197,6 +198,7 @@ class ComponentProxy:
         self.can_checkpoint = bool(result.get("can_checkpoint"))
         self.repeats_steps = bool(result.get("repeats_steps"))
         self.stateless = bool(result.get("stateless"))
+        self.state_note = str(result.get("state_note", ""))
         self.step_saves_state = bool(result.get("step_saves_state"))
         self.history_windows = int(result.get("history_windows", 0))
         return result

@@ -268,8 +268,10 @@ def check_described(scene: Scene, proxies: dict[str, Participant]) -> None:
         proxy = proxies[name]
         if not (proxy.can_get_and_set_state or proxy.repeats_steps or proxy.stateless):
             spec = scene["components"][name]
-            raise SceneError(f"{scene.source}: components.{name}: "
-                             + undeclared_state_message(name, spec["entry"] or spec["address"]))
+            note = getattr(proxy, "state_note", "")
+            raise SceneError(f"{scene.source}: components.{name}: " + (
+                f"coupled implicitly, which repeats each window until it converges, but {note}" if note
+                else undeclared_state_message(name, spec["entry"] or spec["address"])))
 
 
 def make_surrogate(coupling: dict) -> InterfaceSurrogate | None:

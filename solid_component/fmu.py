@@ -1,15 +1,21 @@
-"""Any FMI 2.0 Co-Simulation FMU as a solid component (loaded with fmpy).
+"""Any FMI 2.0 or FMI 3.0 Co-Simulation FMU as a solid component (loaded with fmpy), its version read from its
+model description.
 
-The FMU's scalar variables named ``name[node]`` or ``name[node].x|y|z`` are gathered
-into the array variables ``name`` (node-major). The hot path calls the FMU's raw
-``fmi2SetReal``/``fmi2DoStep``/``fmi2GetReal`` with preallocated ctypes arrays.
-By default the FMU is taken as stateless (its outputs depend on its inputs only, as a
-quasi-static solid's); ``stateful = true`` uses ``fmi2GetFMUstate``/``fmi2SetFMUstate``.
-An FMU whose ``resources/interface.json`` declares ``history_windows`` (a ROM with memory, from
-``cosim export-fmu`` of a step-map model) carries a history from window to window: the component
-repeats a window by rolling the FMU back to the window's start (``fmi2GetFMUstate`` at its first call,
-``fmi2SetFMUstate`` before each later one), and hands it a full-order run's last windows at a switch
-through the function the file names (``take_over``). Its ``local`` variables (probe points) are read as locals.
+FMI 2.0's scalar variables named ``name[node]`` or ``name[node].x|y|z`` are gathered into the array variables
+``name`` (node-major); FMI 3.0's ``Float64`` array variables are the component's variables as they are
+(``fmi2_instance``, ``fmi3_instance``). The archive is checked before anything of it is used (``fmu_archive``).
+
+How it repeats a window under implicit coupling (``state``):
+- ``auto`` (default): stateless if the FMU's ``resources/interface.json`` says so (a quasi-static ROM from
+  ``cosim export-fmu``), else rolled back to the window's start through the FMU state (get at a window's first
+  call, set before each later one) if the FMU can get and set it, else it cannot repeat a window: implicit
+  coupling refuses it, with the reason;
+- ``rollback``: through the FMU state (an FMU that cannot is refused);
+- ``stateless``: never rolled back (the user vouches that its outputs depend on its inputs alone).
+
+An FMU whose ``interface.json`` declares ``history_windows`` (a ROM with memory, from ``cosim export-fmu`` of a
+step-map model) is handed a full-order run's last windows at a switch through the function the file names
+(``take_over``). Its ``local`` variables (probe points) are read as locals.
 """
 
 from __future__ import annotations
@@ -17,12 +23,7 @@ from __future__ import annotations
 import atexit
 import ctypes
 import json
-import os
-import re
 import shutil
-import sys
-import tempfile
-import zipfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -31,50 +32,27 @@ import numpy as np
 
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
-from cosim.schema import FilePath
+from cosim.schema import Choice, FilePath
+from solid_component.fmi2_instance import Fmi2Instance
+from solid_component.fmi3_instance import Fmi3Instance
+from solid_component.fmi_instance import FmiError, FmiInstance
+from solid_component.fmu_archive import (
+    UNPACK_ROOT,
+    FmuArchiveError,
+    check_archive,
+    read_description,
+    unpack,
+    unpack_directory,
+)
 
-FMU_SCHEMA = {"path": FilePath(), "stateful": False}
-FMU_HELP = {"path": "any FMI 2.0 Co-Simulation FMU (for example from `cosim export-fmu`)",
-            "stateful": "true: roll the FMU back with fmi2GetFMUstate/fmi2SetFMUstate between iterations"}
-NAME = re.compile(r"^(?P<name>[A-Za-z_]\w*)\[(?P<node>\d+)\](?:\.(?P<axis>[xyz]))?$")
-WARNING = 1  # fmi2Warning: the worst status that is not an error
+__all__ = ["FmuSolid", "UNPACK_ROOT"]
 
-
-UNPACK_ROOT = "cosim-fmu"   # under the system's temporary folder: one folder per FMU instance, named by pid
-
-
-def unpack_directory() -> Path:
-    """A new folder to unpack an FMU into, named after this process; folders of processes that died
-    without removing theirs (killed by SIGKILL) are removed first."""
-    root = Path(tempfile.gettempdir()) / UNPACK_ROOT
-    root.mkdir(exist_ok=True)
-    for folder in root.iterdir():
-        pid = folder.name.partition("-")[0]
-        if pid.isdigit() and not Path(f"/proc/{pid}").exists():
-            shutil.rmtree(folder, ignore_errors=True)
-    return Path(tempfile.mkdtemp(prefix=f"{os.getpid()}-", dir=root))
-
-
-# fmpy's logger proxy keeps the last logger it was given in a global of its native library, for every FMU of the
-# process: the logger is one function that lives as long as the process, and hands each message to the messages
-# of the instance that wrote it
-_LISTENERS: dict[str, list[str]] = {}
-_LOGGER: Any = None
-
-
-def _process_logger() -> Any:
-    """The process's one FMI logger (made once, never freed)."""
-    global _LOGGER
-    if _LOGGER is None:
-        from fmpy.fmi2 import fmi2CallbackLoggerTYPE
-
-        def logger(environment, instance, status, category, message):
-            name = instance.decode(errors="replace") if instance else "?"
-            text = message.decode(errors="replace") if message else ""
-            _LISTENERS.get(name, []).append(text)
-            print(f"FMU {name} [status {status}]: {text}", file=sys.stderr)
-        _LOGGER = fmi2CallbackLoggerTYPE(logger)
-    return _LOGGER
+STATES = ("auto", "rollback", "stateless")
+FMU_SCHEMA = {"path": FilePath(), "state": Choice("auto", STATES)}
+FMU_HELP = {"path": "any FMI 2.0 or FMI 3.0 Co-Simulation FMU (for example from `cosim export-fmu`)",
+            "state": "how implicit coupling repeats a window: auto (the FMU's own declaration, else its state), "
+                     "rollback (through the FMU state), stateless (never rolled back)"}
+INSTANCES: dict[str, type[FmiInstance]] = {"2.0": Fmi2Instance, "3.0": Fmi3Instance}
 
 
 class FmuSolid(Component):
@@ -83,83 +61,94 @@ class FmuSolid(Component):
     name = "solid_fmu"
     parameter_schema = FMU_SCHEMA
     parameter_help = FMU_HELP
+    #: an FMU repeats a window by rolling back, unless ``instantiate`` finds it stateless or unable to (the coupler
+    #: checks what the instance describes)
+    repeats_steps = True
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         prm = self.validated(parameters)
         if not prm["path"]:
             raise ComponentError(self.name, "parameter 'path' (the FMU file) is not set")
-        path = Path(prm["path"])
-        if not path.is_file():
-            raise ComponentError(self.name, f"FMU '{path}' does not exist")
-        if not zipfile.is_zipfile(path):
-            raise ComponentError(self.name, f"FMU '{path}' is not a zip archive (corrupt or truncated)")
-        from fmpy import extract, read_model_description
-        from fmpy.fmi2 import FMU2Slave
+        path = self.path = Path(prm["path"])
         try:
-            md = read_model_description(str(path))
-        except Exception as exc:  # fmpy raises several types for a bad model description
-            raise ComponentError(self.name, f"FMU '{path}' has no valid modelDescription.xml: {exc}") from None
-        if md.fmiVersion != "2.0" or md.coSimulation is None:
-            raise ComponentError(self.name, f"FMU '{path}' is FMI {md.fmiVersion} "
-                                            f"{'without' if md.coSimulation is None else 'with'} Co-Simulation; "
-                                            "an FMI 2.0 Co-Simulation FMU is needed")
-        self.stateful = prm["stateful"]
-        self.stateless = not self.stateful      # a history FMU repeats its steps instead (interface.json)
-        self.path = path
-        self.can_serialize = bool(md.coSimulation.canSerializeFMUstate)
-        if self.stateful and not md.coSimulation.canGetAndSetFMUstate:
-            raise ComponentError(self.name, f"FMU '{path}' cannot get and set its state (stateful = true)")
-        self.inputs = self._group(md, "input")
-        self.outputs = self._group(md, "output")
-        self.locals = self._group(md, "local")
+            check_archive(path)
+            md = read_description(path)
+            self.fmu = INSTANCES[md.fmiVersion](md, "", self.name)
+        except (FmuArchiveError, FmiError) as exc:
+            raise ComponentError(self.name, f"FMU '{path}' {exc}" if isinstance(exc, FmuArchiveError)
+                                 else f"FMU '{path}': {exc}") from None
+        self.fmi_version = md.fmiVersion
+        self.can_serialize = self.fmu.can_serialize
+        if prm["state"] == "rollback" and not self.fmu.can_get_and_set_state:
+            raise ComponentError(self.name, f"FMU '{path}' cannot get and set its state (canGetAndSetFMUState is "
+                                            "false), so it cannot be rolled back (state = \"rollback\")")
+        kinds = {causality: {n: v for n, v in self.fmu.variables.items() if v.causality == causality}
+                 for causality in ("input", "output", "local")}
+        self.inputs, self.outputs, self.locals = kinds["input"], kinds["output"], kinds["local"]
         if not self.inputs or not self.outputs:
-            raise ComponentError(self.name, f"FMU '{path}' has no array-named inputs or outputs "
-                                            "(expected scalar names like 'force[1].x' or 'pressure[1]')")
-        self.unzipped = str(unpack_directory())
+            expected = ("scalar names like 'force[1].x' or 'pressure[1]'" if self.fmi_version == "2.0"
+                        else "Float64 inputs and outputs")
+            raise ComponentError(self.name, f"FMU '{path}' has no array inputs or outputs (expected {expected})")
+        self.unzipped = self.fmu.unzipped = str(unpack_directory())
         atexit.register(shutil.rmtree, self.unzipped, ignore_errors=True)
         try:
-            extract(str(path), self.unzipped)
+            unpack(path, Path(self.unzipped))
         except Exception as exc:
             shutil.rmtree(self.unzipped, ignore_errors=True)
             raise ComponentError(self.name, f"FMU '{path}' cannot be extracted: {exc}") from None
-        binary = Path(self.unzipped) / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+        binary = Path(self.unzipped) / "binaries" / self.fmu.platform / f"{md.coSimulation.modelIdentifier}.so"
         if not binary.is_file():
             shutil.rmtree(self.unzipped, ignore_errors=True)
-            raise ComponentError(self.name, f"FMU '{path}' has no linux64 binary ({binary.name})")
-        self.messages: list[str] = []
+            raise ComponentError(self.name, f"FMU '{path}' has no {self.fmu.platform} binary ({binary.name})")
+        self.messages = self.fmu.messages
         try:
-            self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.unzipped,
-                                   modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.name)
-            self.slave.instantiate(callbacks=self._callbacks())
+            self.fmu.instantiate()
         except Exception as exc:
             shutil.rmtree(self.unzipped, ignore_errors=True)
             raise ComponentError(self.name, f"FMU '{path}' failed to instantiate ({exc}): "
                                             f"{'; '.join(self.messages) or 'the FMU logged nothing'}") from None
-        self._bind_raw()
         self._read_interface(Path(self.unzipped) / "resources")
+        self._choose_state(prm["state"])
 
     def _read_interface(self, resources: Path) -> None:
         """Meshes and components per node of the variables, from resources/interface.json if present."""
-        self.placement = {name: ("", 1) for name in [*self.inputs, *self.outputs, *self.locals]}
+        self.placement = {name: ("", v.components) for name, v in self.fmu.variables.items()}
         self.mesh_nodes: dict[str, np.ndarray] = {}
+        self.declared_stateless = False
+        self.history_windows = 0
+        self._window: tuple[float, Any] | None = None     # the window in flight and the state it starts from
         described = resources / "interface.json"
-        self._window: tuple[float, Any] | None = None     # a history FMU: the window in flight and its start state
         if described.is_file():
             interface = json.loads(described.read_text())
             self.history_windows = int(interface.get("history_windows", 0))
+            self.declared_stateless = bool(interface.get("stateless", False))
             if self.history_windows:
-                self.repeats_steps = True
                 self._bind_take_over(str(interface.get("take_over", "")))
             for v in interface["variables"]:
                 if v["name"] in self.placement:
                     self.placement[v["name"]] = (v["mesh"], int(v["components"]))
             self.mesh_nodes = {k: np.array(v, dtype=np.float64) for k, v in interface["meshes"].items()}
 
+    def _choose_state(self, state: str) -> None:
+        """Stateless, rolled back through the FMU state (``repeats_steps``), or neither (with the reason)."""
+        self.rolls_back = self.repeats_steps = False
+        if state == "stateless" or (state == "auto" and self.declared_stateless and not self.history_windows):
+            self.stateless = True
+        elif state == "rollback" or self.history_windows or self.fmu.can_get_and_set_state:
+            if not self.fmu.can_get_and_set_state:
+                raise ComponentError(self.name, f"FMU '{self.path}' keeps a history but cannot get and set its state")
+            self.rolls_back = self.repeats_steps = True
+        else:
+            self.state_note = (f"FMU '{self.path}' cannot get and set its state (canGetAndSetFMUState is false), so "
+                               "it cannot be rolled back to a window's start for implicit coupling; set its "
+                               "state = \"stateless\" if its outputs depend on its inputs alone, or couple it "
+                               "explicitly")
+
     def meshes(self) -> dict[str, np.ndarray]:
         return self.mesh_nodes
 
     def _bind_take_over(self, symbol: str) -> None:
-        function = getattr(self.slave.dll, symbol, None) if symbol else None
+        function = getattr(self.fmu.dll, symbol, None) if symbol else None
         if function is None:
             raise ComponentError(self.name, f"FMU '{self.path}' declares a history but no take-over function "
                                             f"('{symbol}' is not in its binary)")
@@ -178,162 +167,101 @@ class FmuSolid(Component):
         n = len(forces)
         forces = np.ascontiguousarray(forces.reshape(n, -1), dtype=np.float64)
         displacements = np.ascontiguousarray(displacements.reshape(n, -1), dtype=np.float64)
-        if not self._take_over(self.slave.component, n, forces.ctypes.data, displacements.ctypes.data):
+        if not self._take_over(self.fmu.component, n, forces.ctypes.data, displacements.ctypes.data):
             raise ComponentError(self.name, "the FMU refused the history it was handed")
         self._release_window()
 
     def _release_window(self) -> None:
         if self._window is not None:
-            self.slave.freeFMUState(self._window[1])
+            self.fmu.free_state(self._window[1])
             self._window = None
 
     def _roll_back(self, t: float) -> None:
-        """A history FMU: keep the state a window starts from at its first call, go back to it at every later one."""
+        """Keep the state a window starts from at its first call, go back to it at every later one."""
         if self._window is not None and abs(t - self._window[0]) <= 1e-9 * max(1.0, abs(t)):
-            self.slave.setFMUState(self._window[1])
+            self.fmu.set_state(self._window[1])
             return
         self._release_window()
-        self._window = (t, self.slave.getFMUState())
+        self._window = (t, self.fmu.get_state())
 
-    def _callbacks(self):
-        """FMI callbacks whose logger keeps the FMU's messages (and writes them to the log)."""
-        from fmpy import calloc, free
-        from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions
-        _LISTENERS[self.name] = self.messages      # made before the instance, which may log as it starts
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = _process_logger()
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    def _call(self, function, *args) -> Any:
         try:
-            from fmpy.logging import addLoggerProxy
-            addLoggerProxy(ctypes.byref(callbacks))  # formats the FMU's printf-style arguments
-        except Exception:  # without the proxy, messages arrive unformatted
-            pass
-        self._callback_struct = callbacks  # must outlive the instance
-        return callbacks
-
-    @staticmethod
-    def _group(md, causality: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """Array name -> (value references in node-major order, values buffer)."""
-        found: dict[str, list[tuple[int, int, int]]] = {}
-        for v in md.modelVariables:
-            match = NAME.match(v.name)
-            if v.causality == causality and v.type == "Real" and match:
-                axis = "xyz".index(match["axis"]) if match["axis"] else 0
-                found.setdefault(match["name"], []).append((int(match["node"]), axis, v.valueReference))
-        groups = {}
-        for name, entries in found.items():
-            entries.sort()
-            refs = np.array([vr for _, _, vr in entries], dtype=np.uint32)
-            groups[name] = (refs, np.zeros(len(refs)))
-        return groups
-
-    def _bind_raw(self) -> None:
-        from fmpy.fmi2 import fmi2Component, fmi2Real, fmi2ValueReference
-        dll = self.slave.dll
-        pointer_vr, pointer_real = ctypes.POINTER(fmi2ValueReference), ctypes.POINTER(fmi2Real)
-        self._set = dll.fmi2SetReal
-        self._get = dll.fmi2GetReal
-        self._do_step = dll.fmi2DoStep
-        for function in (self._set, self._get):
-            function.argtypes = [fmi2Component, pointer_vr, ctypes.c_size_t, pointer_real]
-            function.restype = ctypes.c_int
-        self._do_step.argtypes = [fmi2Component, fmi2Real, fmi2Real, ctypes.c_int]
-        self._do_step.restype = ctypes.c_int
-        self._pointers = {name: (refs.ctypes.data_as(pointer_vr), ctypes.c_size_t(len(refs)),
-                                 values.ctypes.data_as(pointer_real))
-                          for name, (refs, values) in {**self.inputs, **self.outputs, **self.locals}.items()}
-
-    def _check(self, status: int, call: str) -> None:
-        if status > WARNING:
-            last = self.messages[-1] if self.messages else "no message"
-            raise ComponentError(self.name, f"{call} returned status {status}: {last}")
+            return function(*args)
+        except FmiError as exc:
+            raise ComponentError(self.name, str(exc)) from None
 
     # --- contract -----------------------------------------------------------
     def variables(self) -> list[Variable]:
-        return [Variable(n, causality, len(r), mesh=self.placement[n][0], components=self.placement[n][1])
-                for causality, group in (("input", self.inputs), ("output", self.outputs), ("local", self.locals))
-                for n, (r, _) in group.items()]
+        return [Variable(n, v.causality, v.size, mesh=self.placement[n][0], components=self.placement[n][1])
+                for group in (self.inputs, self.outputs, self.locals) for n, v in group.items()]
 
     def enter_initialization_mode(self, start: float, stop: float) -> None:
-        self.slave.setupExperiment(startTime=start)
-        self.slave.enterInitializationMode()
+        self.fmu.enter_initialization(start)
 
     def exit_initialization_mode(self) -> None:
-        self.slave.exitInitializationMode()
+        self.fmu.exit_initialization()
 
     def set_values(self, values: Mapping[str, np.ndarray]) -> None:
         if not hasattr(self, "_input_shapes"):   # the declared inputs do not change after instantiate
             self._input_shapes = {v.name: v.shape for v in self.variables() if v.causality == "input"}
         check_inputs(self, values, self._input_shapes)
         for name, value in values.items():
-            np.copyto(self.inputs[name][1], np.ravel(value))
-            refs, count, data = self._pointers[name]
-            self._check(self._set(self.slave.component, refs, count, data), "fmi2SetReal")
+            self._call(self.fmu.set, name, np.ravel(value))
 
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         out = {}
         for name in names:
-            refs, count, data = self._pointers[name]
-            self._check(self._get(self.slave.component, refs, count, data), "fmi2GetReal")
+            values = self._call(self.fmu.get, name)
             components = self.placement[name][1]
-            values = (self.outputs.get(name) or self.locals.get(name) or self.inputs[name])[1]
             out[name] = (values if components == 1 else values.reshape(-1, components)).copy()
         return out
 
     def do_step(self, t: float, dt: float) -> None:
-        self._check(self._do_step(self.slave.component, t, dt, 1), "fmi2DoStep")
+        self._call(self.fmu.do_step, t, dt)
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The hot path: set, step, get, with the names it returns worked out once."""
         if not hasattr(self, "_returned"):
             self._returned = self.output_names() + self.local_names()
-        if self.history_windows:
+        if self.rolls_back:
             self._roll_back(t)
         self.set_values(inputs)
         self.do_step(t, dt)
         return self.get_values(self._returned)
 
     @property
-    def can_get_and_set_state(self) -> bool:
-        return bool(getattr(self, "stateful", False))
-
-    def save_state(self) -> Any:
-        return self.slave.getFMUState()
-
-    def restore_state(self, state: Any) -> None:
-        self.slave.setFMUState(state)
-
-    @property
     def can_checkpoint(self) -> bool:
         return bool(getattr(self, "can_serialize", False))
 
     def checkpoint(self) -> Any:
-        """The FMU's own serialised state (``fmi2SerializeFMUstate``) and its time."""
+        """The FMU's own serialised state and its time."""
         if not self.can_serialize:
             raise ComponentError(self.name, f"FMU '{self.path}' cannot serialise its state (canSerializeFMUstate is "
                                             "false): a run with it cannot be checkpointed")
-        state = self.slave.getFMUState()
+        state = self.fmu.get_state()
         try:
-            serialized = self.slave.serializeFMUstate(state)
+            serialized = self.fmu.serialize(state)
         finally:
-            self.slave.freeFMUState(state)
-        return {"fmu_state": np.frombuffer(bytes(serialized), dtype=np.uint8).copy()}
+            self.fmu.free_state(state)
+        return {"fmu_state": np.frombuffer(serialized, dtype=np.uint8).copy()}
 
     def restore_checkpoint(self, state: Any) -> None:
         self._release_window()
         if not self.can_serialize:
             raise ComponentError(self.name, f"FMU '{self.path}' cannot serialise its state (canSerializeFMUstate is "
                                             "false)")
-        restored = self.slave.deSerializeFMUstate(state["fmu_state"].tobytes())
         try:
-            self.slave.setFMUState(restored)
+            restored = self.fmu.deserialize(state["fmu_state"].tobytes())
+        except Exception as exc:
+            raise ComponentError(self.name, f"FMU '{self.path}' refused the serialised state of the checkpoint "
+                                            f"({exc}): {self.messages[-1] if self.messages else 'no message'}") from None
+        try:
+            self.fmu.set_state(restored)
         finally:
-            self.slave.freeFMUState(restored)
+            self.fmu.free_state(restored)
 
     def terminate(self) -> dict[str, np.ndarray]:
         self._release_window()
-        self.slave.terminate()
-        self.slave.freeInstance()
+        self.fmu.terminate()
         shutil.rmtree(self.unzipped, ignore_errors=True)
         return {}

@@ -53,7 +53,7 @@ def one_line_error(capsys, argv: list[str]) -> str:
                                               r"compiled, fast"),
     ("components.solid.rom.range_margn=0.1", r"unknown key 'components.solid.rom.range_margn' .*did you mean "
                                              r"'components.solid.rom.range_margin'\?"),
-    ("components.solid.fmu.stateful=3", r"'components.solid.fmu.stateful' must be true or false, got int 3"),
+    ("components.solid.fmu.state=maybe", r"'components.solid.fmu.state' is 'maybe'; allowed: auto, rollback, stateless"),
 ])
 def test_bad_scene_values_are_one_line_errors(capsys, tmp_path, override, message):
     extra = ["--set", 'components.fluid.entry=""'] if override.startswith("components.fluid.address") else []

@@ -15,7 +15,7 @@ def test_the_scene_reference_page_is_the_generated_one():
     page = (ROOT / "docs/reference/scene.md").read_text()
     assert page == scene_reference.page(), \
         "docs/reference/scene.md is stale: python -m coupler.scene_reference > docs/reference/scene.md"
-    for key in ("time.dt", "coupling.predictor", "rom.keep_warm", "fmu.stateful", "`stale_step_ratio`"):
+    for key in ("time.dt", "coupling.predictor", "rom.keep_warm", "fmu.state", "`stale_step_ratio`"):
         assert key in page
 
 

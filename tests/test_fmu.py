@@ -103,17 +103,21 @@ def test_fmu_component_is_bit_identical_to_the_python_rom(models, name):
 
 
 def test_fmu_state_round_trip(models):
+    """The FMU's own state: a window repeated by rolling back (state = "rollback") gives the first call's bits,
+    and a state saved, then restored after another window, gives its outputs back."""
     _, fmu, F = models["rbf"]
     component = FmuSolid()
-    component.instantiate({"path": str(fmu), "stateful": True})
+    component.instantiate({"path": str(fmu), "state": "rollback"})
+    assert component.repeats_steps and not component.stateless
     component.enter_initialization_mode(0.0, 1.0)
     component.exit_initialization_mode()
     first = component.step(0.0, 0.1, {"pressure": F[0]})["section"]
-    handle = component.get_state()
+    assert component.step(0.0, 0.1, {"pressure": F[0]})["section"].tobytes() == first.tobytes()
+    handle = component.fmu.get_state()
     assert not np.array_equal(component.step(0.1, 0.1, {"pressure": F[1]})["section"], first)
-    component.set_state(handle)
+    component.fmu.set_state(handle)
     np.testing.assert_array_equal(component.get_values(["section"])["section"], first)
-    component.free_state(handle)
+    component.fmu.free_state(handle)
     component.terminate()
 
 
@@ -121,8 +125,8 @@ def test_c_code_checks_pointers_counts_and_references(models):
     _, fmu, _ = models["rbf"]
     component = FmuSolid()
     component.instantiate({"path": str(fmu)})
-    set_real, get_real = component._set, component._get
-    handle = component.slave.component
+    set_real, get_real = component.fmu._set, component.fmu._get
+    handle = component.fmu.component
     values = (ctypes.c_double * 3)()
     refs = (ctypes.c_uint * 3)(0, 1, 5000)
     output = (ctypes.c_uint * 1)(150)
@@ -131,12 +135,12 @@ def test_c_code_checks_pointers_counts_and_references(models):
                           (lambda: set_real(handle, output, 1, values),
                            "section[50] (value reference 150) is an output and cannot be set"),
                           (lambda: get_real(handle, refs, 10_000, values), "10000 values requested")):
-        component.slave.reset()                 # an error leaves the FMU in its error state
-        component.slave.enterInitializationMode()
+        component.fmu.slave.reset()             # an error leaves the FMU in its error state
+        component.fmu.slave.enterInitializationMode()
         assert call() == 3
         assert message in component.messages[-1]
     assert get_real(None, refs, 1, values) == 3  # a NULL instance is refused, not dereferenced
-    component.slave.freeInstance()
+    component.fmu.slave.freeInstance()
 
 
 def test_bad_fmus_get_clear_errors(models, tmp_path):

@@ -51,6 +51,6 @@ def export_solid_rom_fmu(arrays: Mapping[str, np.ndarray], metadata: Mapping[str
     interface = None
     if metadata.get("variables"):   # the meshes the solid declared, for the coupler's mappings
         meshes = {k[len(MESH_PREFIX):]: v.tolist() for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
-        interface = {"variables": metadata["variables"], "meshes": meshes}
+        interface = {"variables": metadata["variables"], "meshes": meshes, "stateless": True}
     return write_fmu(out, MODEL_IDENTIFIER, SOURCE, fmi, resource_bytes(rom, guid, components),
                      model_description(rom, guid, components, fmi), interface)
