@@ -5,6 +5,7 @@ unpacked into a folder of its own."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import stat
 import tempfile
@@ -55,6 +56,10 @@ def check_archive(path: Path) -> None:
     head = text[:4096].lower()
     if b"<!doctype" in head or b"<!entity" in text.lower():
         raise FmuArchiveError("has a modelDescription.xml with a DTD or entities (an FMI model description has none)")
+    version = re.search(rb"""fmiVersion\s*=\s*["']([^"']*)["']""", text)
+    if version is None or version[1].decode(errors="replace") not in FMI_VERSIONS:
+        found = version[1].decode(errors="replace") if version else "without an fmiVersion"
+        raise FmuArchiveError(f"is FMI {found}; FMI {' or '.join(FMI_VERSIONS)} is needed")
 
 
 def read_description(path: Path):
