@@ -328,3 +328,23 @@ def test_a_double_flap_run_resumes_from_kratos_s_own_restart_serialisation(tmp_p
             assert cut.fields()[name][:3].tobytes() == values[:3].tobytes()      # before the stop: the same run
             scale = np.abs(values).max()
             assert np.abs(cut.fields()[name] - values).max() <= 1e-9 * scale, name
+
+
+def test_the_roms_fmi3_fmu_serves_the_flaps_as_its_fmi2_fmu_does(three_windows, three_window_rom, tmp_path):
+    """The double flap's ROM (530 interface values a call, a quadratic decoder) exported as FMI 2.0 and FMI 3.0
+    (one array variable of 265 x 2 each way), each serving the third window after the Kratos solid: the two runs are
+    the same, every dataset of their results files bit for bit."""
+    from rom_component.fmu.export import export_fmu
+    from tests.test_rom_integration import datasets
+    model, _ = three_window_rom
+    runs = []
+    for fmi in (2, 3):
+        fmu = export_fmu(model, tmp_path / f"flap{fmi}.fmu", fmi=fmi)
+        run_scene(load_scene(SCENE, [f"time.end={3 * DT!r}", "components.solid.backend=fmu",
+                                     f"components.solid.fmu.path={fmu}",
+                                     f"components.solid.fmu.switch_time={2 * DT!r}"]), tmp_path / f"fmu{fmi}",
+                  progress=False)
+        runs.append(datasets(tmp_path / f"fmu{fmi}" / "results.h5"))
+    two, three = runs
+    assert len(two) > 10 and set(two) == set(three)
+    assert [k for k in two if two[k] != three[k]] == []

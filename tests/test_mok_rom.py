@@ -85,3 +85,26 @@ def test_a_rom_fom_run_stopped_after_the_switch_resumes_with_the_rom_s_history(t
         np.testing.assert_array_equal(b.windows.iterations, a.windows.iterations)
         pa, pb = (r.calls("structure", converged_only=True).outputs["point_a"] for r in (a, b))
         np.testing.assert_allclose(pb, pa, rtol=0, atol=1e-8 * np.abs(pa).max())
+
+
+@needs_gmsh
+@needs_kratos
+def test_the_roms_fmi3_fmu_takes_over_the_wall_as_its_fmi2_fmu_does(trained):
+    """The step map exported as FMI 2.0 and FMI 3.0, each taking over from the Kratos structure at the switch with
+    the history it is handed (through the FMU's take-over and its state): the two runs are the same, every dataset
+    of their results files bit for bit."""
+    from cosim.scene import load_scene
+    from coupler.run import run_scene
+    from rom_component.fmu.export import export_fmu
+    from tests.test_rom_integration import datasets
+    folder, _ = trained
+    runs = []
+    for fmi in (2, 3):
+        fmu = export_fmu(folder / "model.npz", folder / f"wall{fmi}.fmu", fmi=fmi)
+        settings = [*COARSE_SETTINGS, "output.checkpoint_every=0", "components.structure.backend=fmu",
+                    f"components.structure.fmu.path={fmu}", f"components.structure.fmu.switch_time={SWITCH}"]
+        run_scene(load_scene(SCENE, settings), folder / f"fmu{fmi}", progress=False)
+        runs.append(datasets(folder / f"fmu{fmi}" / "results.h5"))
+    two, three = runs
+    assert len(two) > 10 and set(two) == set(three)
+    assert [k for k in two if two[k] != three[k]] == []
