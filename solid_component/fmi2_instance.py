@@ -14,10 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from solid_component.fmi_instance import FmiError, FmiInstance, FmuVariable
+from solid_component.fmi_instance import FmiInstance, FmuVariable
 
 NAME = re.compile(r"^(?P<name>[A-Za-z_]\w*)\[(?P<node>\d+)\](?:\.(?P<axis>[xyz]))?$")
-WARNING = 1  # fmi2Warning: the worst status that is not an error
 
 # fmpy's logger proxy keeps the last logger it was given in a global of its native library, for every FMU of the
 # process: the logger is one function that lives as long as the process, and hands each message to the messages
@@ -103,21 +102,9 @@ class Fmi2Instance(FmiInstance):
             self._buffers[name] = (refs.ctypes.data_as(pointer_vr), ctypes.c_size_t(len(refs)),
                                    values.ctypes.data_as(pointer_real), values)
 
-    def _check(self, status: int, call: str) -> None:
-        if status > WARNING:
-            raise FmiError(f"{call} returned status {status}: {self.messages[-1] if self.messages else 'no message'}")
-
     def value_references(self, name: str) -> list[int]:
         """The scalars of array variable ``name``, node-major."""
         return [int(vr) for vr in self._refs[name]]
-
-    @property
-    def component(self) -> Any:
-        return self.slave.component
-
-    @property
-    def dll(self) -> Any:
-        return self.slave.dll
 
     def set(self, name: str, values: np.ndarray) -> None:
         refs, count, data, buffer = self._buffers[name]
@@ -136,24 +123,8 @@ class Fmi2Instance(FmiInstance):
         self.slave.setupExperiment(startTime=start)
         self.slave.enterInitializationMode()
 
-    def exit_initialization(self) -> None:
-        self.slave.exitInitializationMode()
-
-    def get_state(self) -> Any:
-        return self.slave.getFMUState()
-
-    def set_state(self, state: Any) -> None:
-        self.slave.setFMUState(state)
-
-    def free_state(self, state: Any) -> None:
-        self.slave.freeFMUState(state)
-
     def serialize(self, state: Any) -> bytes:
         return bytes(self.slave.serializeFMUstate(state))
 
     def deserialize(self, data: bytes) -> Any:
         return self.slave.deSerializeFMUstate(data)
-
-    def terminate(self) -> None:
-        self.slave.terminate()
-        self.slave.freeInstance()

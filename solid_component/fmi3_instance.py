@@ -16,7 +16,6 @@ import numpy as np
 
 from solid_component.fmi_instance import FmiError, FmiInstance, FmuVariable
 
-WARNING = 1  # fmi3Warning: the worst status that is not an error
 COUPLED = ("input", "output", "local")
 
 
@@ -84,18 +83,6 @@ class Fmi3Instance(FmiInstance):
             self._buffers[name] = (ref.ctypes.data_as(vr_pointer), values.ctypes.data_as(real_pointer),
                                    ctypes.c_size_t(values.size), values, ref)
 
-    def _check(self, status: int, call: str) -> None:
-        if status > WARNING:
-            raise FmiError(f"{call} returned status {status}: {self.messages[-1] if self.messages else 'no message'}")
-
-    @property
-    def component(self) -> Any:
-        return self.slave.component
-
-    @property
-    def dll(self) -> Any:
-        return self.slave.dll
-
     def set(self, name: str, values: np.ndarray) -> None:
         ref, data, count, buffer, _ = self._buffers[name]
         np.copyto(buffer, values)
@@ -116,24 +103,8 @@ class Fmi3Instance(FmiInstance):
     def enter_initialization(self, start: float) -> None:
         self.slave.enterInitializationMode(startTime=start)
 
-    def exit_initialization(self) -> None:
-        self.slave.exitInitializationMode()
-
-    def get_state(self) -> Any:
-        return self.slave.getFMUState()
-
-    def set_state(self, state: Any) -> None:
-        self.slave.setFMUState(state)
-
-    def free_state(self, state: Any) -> None:
-        self.slave.freeFMUState(state)
-
     def serialize(self, state: Any) -> bytes:
         return bytes(self.slave.serializeFMUState(state))
 
     def deserialize(self, data: bytes) -> Any:
         return self.slave.deserializeFMUState(data)
-
-    def terminate(self) -> None:
-        self.slave.terminate()
-        self.slave.freeInstance()

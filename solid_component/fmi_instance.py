@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+WARNING = 1  # fmi2Warning, fmi3Warning: the worst status that is not an error
+
 
 class FmiError(RuntimeError):
     """An FMU call that failed, with the FMU's last message."""
@@ -22,7 +24,8 @@ class FmuVariable:
 
 
 class FmiInstance:
-    """One instance of an FMU unpacked in ``unzipped``; ``messages`` collects what it logs."""
+    """One instance of an FMU unpacked in ``unzipped`` (fmpy's ``slave``, made by ``instantiate``); ``messages``
+    collects what it logs."""
 
     platform = ""                    # the binaries' folder
 
@@ -33,18 +36,25 @@ class FmiInstance:
         self.can_get_and_set_state = False
         self.can_serialize = False
 
+    slave: Any = None
+
     def instantiate(self) -> None:
         raise NotImplementedError
+
+    def _check(self, status: int, call: str) -> None:
+        """An error status (worse than a warning) raised with the FMU's last message."""
+        if status > WARNING:
+            raise FmiError(f"{call} returned status {status}: {self.messages[-1] if self.messages else 'no message'}")
 
     @property
     def component(self) -> Any:
         """The instance's handle, as the FMU's own functions take it."""
-        raise NotImplementedError
+        return self.slave.component
 
     @property
     def dll(self) -> Any:
         """The FMU's binary (ctypes)."""
-        raise NotImplementedError
+        return self.slave.dll
 
     def set(self, name: str, values: np.ndarray) -> None:
         raise NotImplementedError
@@ -60,16 +70,16 @@ class FmiInstance:
         raise NotImplementedError
 
     def exit_initialization(self) -> None:
-        raise NotImplementedError
+        self.slave.exitInitializationMode()
 
     def get_state(self) -> Any:
-        raise NotImplementedError
+        return self.slave.getFMUState()
 
     def set_state(self, state: Any) -> None:
-        raise NotImplementedError
+        self.slave.setFMUState(state)
 
     def free_state(self, state: Any) -> None:
-        raise NotImplementedError
+        self.slave.freeFMUState(state)
 
     def serialize(self, state: Any) -> bytes:
         raise NotImplementedError
@@ -78,4 +88,5 @@ class FmiInstance:
         raise NotImplementedError
 
     def terminate(self) -> None:
-        raise NotImplementedError
+        self.slave.terminate()
+        self.slave.freeInstance()

@@ -10,7 +10,6 @@ import sys
 import zipfile
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 from fmpy import read_model_description
@@ -141,14 +140,6 @@ def test_fmpy_saves_restores_and_serialises_the_fmi3_state_bit_for_bit(model, tm
 def run(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "cosim", "run", *args, "--quiet"], cwd=cwd, capture_output=True,
                           text=True, timeout=600, env={**os.environ, "OMP_NUM_THREADS": "1"})
-
-
-def datasets(path: Path) -> dict[str, bytes]:
-    found: dict[str, bytes] = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda name, item: found.__setitem__(name, item[()].tobytes())
-                     if isinstance(item, h5py.Dataset) and "seconds" not in name else None)
-    return found
 
 
 @pytest.fixture(scope="module")
