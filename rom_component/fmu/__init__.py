@@ -1,0 +1,1 @@
+"""A trained ROM as an FMI 2.0 or FMI 3.0 Co-Simulation FMU: the export and the C code (one skeleton, a source per ROM)."""

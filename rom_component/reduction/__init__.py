@@ -1,0 +1,1 @@
+"""The reduction both ROM families share: POD, encoders, decoders, the quadratic manifold."""

@@ -1,0 +1,1 @@
+"""``cosim report``: ROM-FOM runs against their FOM-FOM references."""
