@@ -184,12 +184,6 @@ class FmuSolid(Component):
         self._release_window()
         self._window = (t, self.fmu.get_state())
 
-    def _call(self, function, *args) -> Any:
-        try:
-            return function(*args)
-        except FmiError as exc:
-            raise ComponentError(self.name, str(exc)) from None
-
     # --- contract -----------------------------------------------------------
     def variables(self) -> list[Variable]:
         return [Variable(n, v.causality, v.size, mesh=self.placement[n][0], components=self.placement[n][1])
@@ -205,19 +199,27 @@ class FmuSolid(Component):
         if not hasattr(self, "_input_shapes"):   # the declared inputs do not change after instantiate
             self._input_shapes = {v.name: v.shape for v in self.variables() if v.causality == "input"}
         check_inputs(self, values, self._input_shapes)
-        for name, value in values.items():
-            self._call(self.fmu.set, name, np.ravel(value))
+        try:
+            for name, value in values.items():
+                self.fmu.set(name, np.ravel(value))
+        except FmiError as exc:
+            raise ComponentError(self.name, str(exc)) from None
 
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         out = {}
-        for name in names:
-            values = self._call(self.fmu.get, name)
-            components = self.placement[name][1]
-            out[name] = (values if components == 1 else values.reshape(-1, components)).copy()
+        try:
+            for name in names:
+                values, components = self.fmu.get(name), self.placement[name][1]
+                out[name] = (values if components == 1 else values.reshape(-1, components)).copy()
+        except FmiError as exc:
+            raise ComponentError(self.name, str(exc)) from None
         return out
 
     def do_step(self, t: float, dt: float) -> None:
-        self._call(self.fmu.do_step, t, dt)
+        try:
+            self.fmu.do_step(t, dt)
+        except FmiError as exc:
+            raise ComponentError(self.name, str(exc)) from None
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The hot path: set, step, get, with the names it returns worked out once."""
