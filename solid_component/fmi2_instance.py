@@ -45,8 +45,8 @@ class Fmi2Instance(FmiInstance):
 
     platform = "linux64"
 
-    def __init__(self, md, unzipped: str, name: str):
-        super().__init__(md, unzipped, name)
+    def __init__(self, md, name: str):
+        super().__init__(md, name)
         self.can_get_and_set_state = bool(md.coSimulation.canGetAndSetFMUstate)
         self.can_serialize = bool(md.coSimulation.canSerializeFMUstate)
         found: dict[tuple[str, str], list[tuple[int, int, int]]] = {}
@@ -63,9 +63,9 @@ class Fmi2Instance(FmiInstance):
             self.variables[variable] = FmuVariable(causality, len(entries))    # values per node: interface.json
             self._refs[variable] = np.array([vr for _, _, vr in entries], dtype=np.uint32)
 
-    def instantiate(self) -> None:
+    def instantiate(self, unzipped: str) -> None:
         from fmpy.fmi2 import FMU2Slave
-        self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipped,
+        self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=unzipped,
                                modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=self.name)
         self.slave.instantiate(callbacks=self._callbacks())
         self._bind_raw()

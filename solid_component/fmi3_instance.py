@@ -24,8 +24,8 @@ class Fmi3Instance(FmiInstance):
 
     platform = "x86_64-linux"
 
-    def __init__(self, md, unzipped: str, name: str):
-        super().__init__(md, unzipped, name)
+    def __init__(self, md, name: str):
+        super().__init__(md, name)
         self.can_get_and_set_state = bool(md.coSimulation.canGetAndSetFMUstate)   # fmpy names it as FMI 2.0 does
         self.can_serialize = bool(md.coSimulation.canSerializeFMUstate)
         self._refs: dict[str, int] = {}
@@ -49,9 +49,9 @@ class Fmi3Instance(FmiInstance):
             self.variables[v.name] = FmuVariable(v.causality, size, components)
             self._refs[v.name] = v.valueReference
 
-    def instantiate(self) -> None:
+    def instantiate(self, unzipped: str) -> None:
         from fmpy.fmi3 import FMU3Slave
-        self.slave = FMU3Slave(guid=self.md.guid, unzipDirectory=self.unzipped,
+        self.slave = FMU3Slave(guid=self.md.guid, unzipDirectory=unzipped,
                                modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=self.name)
         messages = self.messages
 
@@ -59,7 +59,6 @@ class Fmi3Instance(FmiInstance):
             text = message.decode(errors="replace") if isinstance(message, bytes) else str(message or "")
             messages.append(text)
             print(f"FMU {self.name} [status {status}]: {text}", file=sys.stderr)
-        self._log = log                     # fmpy wraps it in its callback type and keeps that
         self.slave.instantiate(logMessage=log)
         self._bind_raw()
 
@@ -95,7 +94,7 @@ class Fmi3Instance(FmiInstance):
 
     def do_step(self, t: float, dt: float) -> None:
         self._check(self._do_step(self.slave.component, t, dt, False, *self._step_refs), "fmi3DoStep")
-        event, terminate, early, last = self._step_out
+        _, terminate, early, last = self._step_out
         if terminate.value or early.value:
             raise FmiError(f"fmi3DoStep from t = {t:g} {'asked to terminate' if terminate.value else 'returned early'}"
                            f" at t = {last.value:g}: {self.messages[-1] if self.messages else 'no message'}")

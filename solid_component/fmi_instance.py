@@ -24,13 +24,13 @@ class FmuVariable:
 
 
 class FmiInstance:
-    """One instance of an FMU unpacked in ``unzipped`` (fmpy's ``slave``, made by ``instantiate``); ``messages``
-    collects what it logs."""
+    """One instance of an FMU, described by its model description ``md``: fmpy's ``slave``, made by ``instantiate``
+    from the folder the FMU is unpacked in; ``messages`` collects what it logs."""
 
     platform = ""                    # the binaries' folder
 
-    def __init__(self, md: Any, unzipped: str, name: str):
-        self.md, self.unzipped, self.name = md, unzipped, name
+    def __init__(self, md: Any, name: str):
+        self.md, self.name = md, name
         self.messages: list[str] = []
         self.variables: dict[str, FmuVariable] = {}
         self.can_get_and_set_state = False
@@ -38,7 +38,7 @@ class FmiInstance:
 
     slave: Any = None
 
-    def instantiate(self) -> None:
+    def instantiate(self, unzipped: str) -> None:
         raise NotImplementedError
 
     def _check(self, status: int, call: str) -> None:

@@ -73,7 +73,7 @@ class FmuSolid(Component):
         try:
             check_archive(path)
             md = read_description(path)
-            self.fmu = INSTANCES[md.fmiVersion](md, "", self.name)
+            self.fmu = INSTANCES[md.fmiVersion](md, self.name)
         except (FmuArchiveError, FmiError) as exc:
             raise ComponentError(self.name, f"FMU '{path}' {exc}" if isinstance(exc, FmuArchiveError)
                                  else f"FMU '{path}': {exc}") from None
@@ -89,26 +89,31 @@ class FmuSolid(Component):
             expected = ("scalar names like 'force[1].x' or 'pressure[1]'" if self.fmi_version == "2.0"
                         else "Float64 inputs and outputs")
             raise ComponentError(self.name, f"FMU '{path}' has no array inputs or outputs (expected {expected})")
-        self.unzipped = self.fmu.unzipped = str(unpack_directory())
+        self.unzipped = str(unpack_directory())
         atexit.register(shutil.rmtree, self.unzipped, ignore_errors=True)
+        try:
+            self._start(path, md.coSimulation.modelIdentifier)
+        except ComponentError:
+            shutil.rmtree(self.unzipped, ignore_errors=True)
+            raise
+        self._read_interface(Path(self.unzipped) / "resources")
+        self._choose_state(prm["state"])
+
+    def _start(self, path: Path, identifier: str) -> None:
+        """The checked archive unpacked, its binary found, the FMU instantiated."""
         try:
             unpack(path, Path(self.unzipped))
         except Exception as exc:
-            shutil.rmtree(self.unzipped, ignore_errors=True)
             raise ComponentError(self.name, f"FMU '{path}' cannot be extracted: {exc}") from None
-        binary = Path(self.unzipped) / "binaries" / self.fmu.platform / f"{md.coSimulation.modelIdentifier}.so"
+        binary = Path(self.unzipped) / "binaries" / self.fmu.platform / f"{identifier}.so"
         if not binary.is_file():
-            shutil.rmtree(self.unzipped, ignore_errors=True)
             raise ComponentError(self.name, f"FMU '{path}' has no {self.fmu.platform} binary ({binary.name})")
         self.messages = self.fmu.messages
         try:
-            self.fmu.instantiate()
+            self.fmu.instantiate(self.unzipped)
         except Exception as exc:
-            shutil.rmtree(self.unzipped, ignore_errors=True)
             raise ComponentError(self.name, f"FMU '{path}' failed to instantiate ({exc}): "
                                             f"{'; '.join(self.messages) or 'the FMU logged nothing'}") from None
-        self._read_interface(Path(self.unzipped) / "resources")
-        self._choose_state(prm["state"])
 
     def _read_interface(self, resources: Path) -> None:
         """Meshes and components per node of the variables, from resources/interface.json if present."""
@@ -131,13 +136,13 @@ class FmuSolid(Component):
 
     def _choose_state(self, state: str) -> None:
         """Stateless, rolled back through the FMU state (``repeats_steps``), or neither (with the reason)."""
-        self.rolls_back = self.repeats_steps = False
+        self.repeats_steps = False
         if state == "stateless" or (state == "auto" and self.declared_stateless and not self.history_windows):
             self.stateless = True
         elif state == "rollback" or self.history_windows or self.fmu.can_get_and_set_state:
             if not self.fmu.can_get_and_set_state:
                 raise ComponentError(self.name, f"FMU '{self.path}' keeps a history but cannot get and set its state")
-            self.rolls_back = self.repeats_steps = True
+            self.repeats_steps = True
         else:
             self.state_note = (f"FMU '{self.path}' cannot get and set its state (canGetAndSetFMUState is false), so "
                                "it cannot be rolled back to a window's start for implicit coupling; set its "
@@ -225,7 +230,7 @@ class FmuSolid(Component):
         """The hot path: set, step, get, with the names it returns worked out once."""
         if not hasattr(self, "_returned"):
             self._returned = self.output_names() + self.local_names()
-        if self.rolls_back:
+        if self.repeats_steps:        # rolled back to the window's start at each later call
             self._roll_back(t)
         self.set_values(inputs)
         self.do_step(t, dt)

@@ -335,7 +335,7 @@ def test_the_roms_fmi3_fmu_serves_the_flaps_as_its_fmi2_fmu_does(three_windows, 
     (one array variable of 265 x 2 each way), each serving the third window after the Kratos solid: the two runs are
     the same, every dataset of their results files bit for bit."""
     from rom_component.fmu.export import export_fmu
-    from tests.test_rom_integration import datasets
+    from scripts.same_bits import datasets
     model, _ = three_window_rom
     runs = []
     for fmi in (2, 3):

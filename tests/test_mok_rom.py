@@ -96,7 +96,7 @@ def test_the_roms_fmi3_fmu_takes_over_the_wall_as_its_fmi2_fmu_does(trained):
     from cosim.scene import load_scene
     from coupler.run import run_scene
     from rom_component.fmu.export import export_fmu
-    from tests.test_rom_integration import datasets
+    from scripts.same_bits import datasets
     folder, _ = trained
     runs = []
     for fmi in (2, 3):

@@ -19,6 +19,7 @@ from rom_component import model_file
 from rom_component.recorded import read_snapshots
 from rom_component.static.selection import holdout_table
 from rom_component.static.train import load_config
+from scripts.same_bits import datasets
 from tests.conftest import ROOT, TUBE_SCENE, children_of
 from tests.roms import solid_rom
 
@@ -288,15 +289,6 @@ def test_fmu_backend_reproduces_the_rom_backend(fom, model, tmp_path):
     assert len(two) > 10 and set(two) == set(three)
     assert [k for k in two if two[k] != three[k]] == []
 
-
-def datasets(path: Path) -> dict[str, bytes]:
-    """Every dataset's bytes but the timings'."""
-    import h5py
-    found: dict[str, bytes] = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda name, item: found.__setitem__(name, item[()].tobytes())
-                     if isinstance(item, h5py.Dataset) and "seconds" not in name else None)
-    return found
 
 
 def test_fmu_whose_sizes_do_not_fit_the_scene_is_refused(tmp_path):

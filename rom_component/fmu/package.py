@@ -20,14 +20,19 @@ from rom_component.fmu.build import compile_binary, source_files, write_sources
 AXES = "xyz"
 
 
-def scalar_names(name: str, size: int, components: int) -> list[str]:
-    """FMI structured names of an array variable's scalars, node-major: ``name[node]`` or ``name[node].x``."""
+def check_components(name: str, size: int, components: int) -> None:
+    """Refuse a variable whose size is no whole number of nodes of 1 to 3 components."""
     if components < 1 or size % components:
         raise CosimError(f"variable '{name}' of size {size} cannot hold {components} components per node")
-    if components == 1:
-        return [f"{name}[{node + 1}]" for node in range(size)]
     if components > len(AXES):
         raise CosimError(f"variable '{name}': at most {len(AXES)} components per node")
+
+
+def scalar_names(name: str, size: int, components: int) -> list[str]:
+    """FMI structured names of an array variable's scalars, node-major: ``name[node]`` or ``name[node].x``."""
+    check_components(name, size, components)
+    if components == 1:
+        return [f"{name}[{node + 1}]" for node in range(size)]
     return [f"{name}[{node + 1}].{AXES[c]}" for node in range(size // components) for c in range(components)]
 
 
@@ -48,7 +53,7 @@ class ArrayVariable(NamedTuple):
 
     def dimensions(self) -> list[int]:
         """FMI 3.0's dimensions: (nodes, components), or (size,) with one component."""
-        self.scalars()          # the same checks
+        check_components(self.name, self.size, self.components)
         return [self.size // self.components, self.components] if self.components > 1 else [self.size]
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from rom_component.fmu.build import source_files
-from rom_component.fmu.package import ArrayVariable, description_root, scalar_names, variables, write_fmu
+from rom_component.fmu.package import ArrayVariable, check_components, description_root, variables, write_fmu
 from rom_component.static.compiled import SOURCE, model_guid, resource_bytes
 from rom_component.static.online import OnlineRom
 
@@ -45,8 +45,8 @@ def export_solid_rom_fmu(arrays: Mapping[str, np.ndarray], metadata: Mapping[str
     declared = {v["name"]: v for v in metadata.get("variables", [])}
     input_components = declared.get(metadata.get("input_variable"), {}).get("components", 1)
     components = components_per_node or int(metadata.get("components_per_node", input_components))
-    scalar_names("input", rom.n_inputs, components)
-    scalar_names("output", rom.n_outputs, components)
+    check_components("input", rom.n_inputs, components)
+    check_components("output", rom.n_outputs, components)
     guid = model_guid(rom, components)
     interface = None
     if metadata.get("variables"):   # the meshes the solid declared, for the coupler's mappings
