@@ -6,7 +6,8 @@ on a FOM run to 18 s, with the first checkout), and 30 s each of IQN-IMVJ, Aitke
 fields, and linear extrapolation. With ``--all``: a second of Mok's wall and five windows of the double flap.
 
 Usage: python -m scripts.same_bits TREE_A TREE_B --out DIR   (e.g. a worktree of the commit before a change, and .; a
-rerun into DIR goes on with the runs it lacks)
+rerun into DIR goes on with the runs it lacks). Each tree runs with its own ``.venv`` where it has one (a layout
+change moves entry points, which only the tree's own installation names).
 """
 
 from __future__ import annotations
@@ -36,8 +37,14 @@ OTHER_SCENES = {      # the other cases, short: Mok's wall (its structure with i
 }
 
 
+def python_of(tree: Path) -> str:
+    """The checkout's own environment (``TREE/.venv``, so that each runs its own entry points), else this one."""
+    own = tree / ".venv" / "bin" / "python"
+    return str(own) if own.is_file() else sys.executable
+
+
 def cosim(tree: Path, *args: str) -> None:
-    subprocess.run([sys.executable, "-m", "cosim", *args], cwd=tree, check=True, capture_output=True)
+    subprocess.run([python_of(tree), "-m", "cosim", *args], cwd=tree, check=True, capture_output=True)
 
 
 def datasets(path: Path) -> dict[str, bytes]:
