@@ -7,6 +7,7 @@ import argparse
 import sys
 import textwrap
 from importlib.metadata import entry_points
+from pathlib import Path
 
 from cosim.command import GROUP, Command
 from cosim.errors import CosimError
@@ -22,11 +23,14 @@ def _serve_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--curve", metavar="DIR", help="CURVE on, with the server key of DIR (from `cosim keys DIR`); "
                         "only the clients whose public keys are in DIR/clients are answered; needed for a "
                         "non-loopback --bind")
+    parser.add_argument("--folder", action="append", default=[], type=Path, metavar="DIR",
+                        help="a folder whose modules come before the installed ones (a scene's folder; repeatable; "
+                        "the working directory comes after them)")
 
 
 def _serve(args: argparse.Namespace) -> int:
     from cosim.server import serve
-    return serve(args.entry, args.bind, args.name, args.parent_pid, args.curve)
+    return serve(args.entry, args.bind, args.name, args.parent_pid, args.curve, args.folder)
 
 
 def _keys_arguments(parser: argparse.ArgumentParser) -> None:

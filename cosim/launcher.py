@@ -78,17 +78,19 @@ class Launcher:
 
     def spawn(self, name: str, entry: str, environment: dict[str, str] | None = None,
               cores: Sequence[int] = (), import_paths: Sequence[str | Path] = ()) -> ComponentProcess:
-        """Start one component with extra ``environment`` variables, on ``cores`` if given, finding its module
-        in ``import_paths`` too (a scene's folder); returns before its handshake."""
+        """Start one component with extra ``environment`` variables, on ``cores`` if given, its module looked for in
+        ``import_paths`` (a scene's folder) before the installed packages; returns before its handshake."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log_path = self.log_dir / f"{name}.log"
         env = {**os.environ, **(environment or {})}
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", ""),
-                                                          *map(str, import_paths)]))
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
         token = secrets.token_hex(16)
         env[TOKEN_VARIABLE] = token
-        command = [sys.executable, "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",
-                   "--name", name, "--parent-pid", str(os.getpid())]
+        # -P: no working directory before our packages (a scene's `cosim.py` must not run as cosim); the scene's
+        # folders come first for its own modules, inside the server (--folder)
+        command = [sys.executable, "-P", "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",
+                   "--name", name, "--parent-pid", str(os.getpid()),
+                   *(f"--folder={folder}" for folder in import_paths)]
         with open(log_path, "wb") as log:
             popen = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log,
                                      env=env, start_new_session=True)

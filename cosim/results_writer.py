@@ -62,7 +62,7 @@ class ResultsWriter:
         try:
             with open(self.log, "ab") as stderr:
                 self.process = subprocess.Popen(
-                    [sys.executable, "-m", "cosim.results_writer", str(self.path), "--bell", str(bell)],
+                    [sys.executable, "-P", "-m", "cosim.results_writer", str(self.path), "--bell", str(bell)],
                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, env=environment,
                     pass_fds=(bell,) if lock is None else (bell, lock),
                     start_new_session=True)   # Ctrl-C reaches the coupler only

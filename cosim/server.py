@@ -40,59 +40,71 @@ class EntryImportError(CosimError):
     """An entry's module cannot be imported (here: its own process may still find it)."""
 
 
-def _module_in(name: str, folders: Sequence[Path]) -> ModuleType | None:
-    """The module ``name`` loaded from the first of ``folders`` that has its file, or None."""
+SCENE_MODULES = "cosim_scene_modules"    # where a scene's module goes when its name is taken in this process
+
+
+def _scene_module_file(name: str, folders: Sequence[Path]) -> Path | None:
+    """The file of module ``name`` in the first of ``folders`` that has it (``a/b.py`` or ``a/b/__init__.py``)."""
     for folder in folders:
-        path = Path(folder, *name.split(".")).with_suffix(".py")
-        if path.is_file():
-            spec = importlib.util.spec_from_file_location(name, path)
-            if spec is None or spec.loader is None:
-                return None
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[name] = module            # as an import would (dataclasses look their module up there)
-            try:
-                spec.loader.exec_module(module)
-            except ImportError:                   # it imports what only its own process finds
-                del sys.modules[name]
-                return None
-            return module
+        path = Path(folder, *name.split("."))
+        for candidate in (path.with_suffix(".py"), path / "__init__.py"):
+            if candidate.is_file():
+                return candidate.resolve()
     return None
 
 
+def _file_of(module: ModuleType) -> Path | None:
+    file = getattr(module, "__file__", None)
+    return Path(file).resolve() if file else None
+
+
+def _load_scene_module(name: str, path: Path) -> ModuleType | None:
+    """The module ``name`` loaded from ``path``: under its own name, or, where this process has loaded another
+    module of that name already (one of ours, or a library), under ``cosim_scene_modules.<name>``, so that the
+    scene's module is the one loaded and shadows nothing. None if it imports what only its own process finds."""
+    for key in (name, f"{SCENE_MODULES}.{name}"):
+        loaded = sys.modules.get(key)
+        if loaded is not None and _file_of(loaded) == path:
+            return loaded
+    taken = name in sys.modules or name.split(".")[0] in sys.modules
+    key = f"{SCENE_MODULES}.{name}" if taken else name
+    spec = importlib.util.spec_from_file_location(key, path)
+    if spec is None or spec.loader is None:
+        return None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[key] = module            # as an import would (dataclasses look their module up there)
+    try:
+        spec.loader.exec_module(module)
+    except ImportError:                   # it imports what only its own process finds
+        del sys.modules[key]
+        return None
+    return module
+
+
 def load_entry(entry: str, folders: Sequence[Path] = ()) -> type:
-    """The class named by ``"package.module:Class"``; a module that is not importable is looked for as a file in
-    ``folders`` (a module next to the scene), which is then loaded from there, not from the path."""
+    """The class named by ``"package.module:Class"``. A module with its file in one of ``folders`` (beside the
+    scene) is loaded from there first, whatever is installed under its name; any other is imported."""
     module_name, sep, class_name = entry.partition(":")
     if not sep or not module_name or not class_name:
         raise CosimError(f"entry '{entry}' is not of the form 'package.module:Class'")
-    module: ModuleType | None
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        module = _module_in(module_name, folders)
-        moved = moved_modules().get(module_name)
-        if module is None and moved:
-            raise CosimError(f"entry '{entry}': module '{module_name}' moved to '{moved}'; write "
-                                   f"'{moved}:{class_name}'") from None
-        if module is None:
+    module: ModuleType | None = None
+    path = _scene_module_file(module_name, folders)
+    if path is not None:
+        module = _load_scene_module(module_name, path)
+    if module is None:
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError as exc:
             raise EntryImportError(f"entry '{entry}': cannot import module '{module_name}': {exc} (a module of your "
                                    "own goes next to the scene file, or on PYTHONPATH)") from None
     cls = getattr(module, class_name, None)
-    moved = moved_modules().get(module_name) if cls is None else None
-    if moved:           # the name is a package now
-        raise CosimError(f"entry '{entry}': module '{module_name}' moved to '{moved}'; write '{moved}:{class_name}'")
     if cls is None:
-        raise CosimError(f"entry '{entry}': module '{module_name}' has no '{class_name}'")
+        where = f" ({path})" if path is not None and _file_of(module) == path else ""
+        raise CosimError(f"entry '{entry}': module '{module_name}'{where} has no '{class_name}'")
     if not (isinstance(cls, type) and issubclass(cls, Component)):
         raise CosimError(f"entry '{entry}': '{class_name}' is not a component class (a subclass of "
                          "cosim.component.Component)")
     return cls
-
-
-def moved_modules() -> dict[str, str]:
-    """The modules our packages moved, old name to new (the ``cosim.moved_modules`` entry points)."""
-    from importlib.metadata import entry_points
-    return {e.name: e.value for e in entry_points(group="cosim.moved_modules")}
 
 
 TRANSPORTS = ("tcp", "ipc")
@@ -275,12 +287,13 @@ def run_idle(component: Component) -> None:
 
 
 def serve(entry: str, bind: str, name: str | None = None, parent_pid: int | None = None,
-          curve: str | None = None) -> int:
-    """Serve ``entry`` on ``bind`` until shutdown (with ``curve``, a key directory: CURVE on); returns the exit
+          curve: str | None = None, folders: Sequence[Path] = ()) -> int:
+    """Serve ``entry`` on ``bind`` until shutdown (with ``curve``, a key directory: CURVE on); the modules of
+    ``folders`` (a scene's folder), then of the working directory, come before the installed ones. Returns the exit
     code."""
     check_bind_address(bind, curve=bool(curve))
     with stop.handling_stops():   # SIGTERM (the launcher's stop) ends the loop: atexit and finally blocks run
-        return _serve(entry, bind, name, parent_pid, curve)
+        return _serve(entry, bind, name, parent_pid, curve, [*folders, Path.cwd()])
 
 
 def _exit_with_parent(parent_pid: int, name: str) -> None:
@@ -294,8 +307,10 @@ def _exit_with_parent(parent_pid: int, name: str) -> None:
     os._exit(1)
 
 
-def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curve: str | None) -> int:
-    component = load_entry(entry, [Path.cwd()])()      # a module in the working directory is found, as a scene's
+def _serve(entry: str, bind: str, name: str | None, parent_pid: int | None, curve: str | None,
+           folders: Sequence[Path]) -> int:
+    sys.path[:0] = [str(folder) for folder in folders]   # what the scene's module imports beside it comes first too
+    component = load_entry(entry, folders)()
     if name:
         component.name = name
     server = ComponentServer(component, os.environ.pop(TOKEN_VARIABLE, ""))

@@ -197,29 +197,3 @@ def test_the_rom_families_import_neither_each_other_nor_the_exports():
              or (rom_part(module) in ROM_SHARED and rom_part(target) in (*ROM_FAMILIES, "fmu", "report"))]
     assert wrong == []
     assert {rom_part(m) for m in graph} >= {*ROM_FAMILIES, "reduction", "fmu", "report"}
-
-
-def test_an_entry_naming_a_moved_module_is_told_the_new_one(tmp_path, capsys):
-    """Every module a move left behind has its new name registered, which imports; a scene naming the old module in
-    an entry gets one line naming the new entry."""
-    import importlib
-
-    from cosim.cli import main
-    from cosim.errors import CosimError
-    from cosim.server import load_entry, moved_modules
-    moved = moved_modules()
-    assert "rom_component.step_map_component" in moved and len(moved) >= 20
-    for old, new in moved.items():
-        importlib.import_module(new)
-        try:
-            left = importlib.import_module(old)
-        except ImportError:
-            continue
-        assert hasattr(left, "__path__"), old          # only a package of the same name (rom_component.report)
-    with pytest.raises(CosimError, match="moved to 'rom_component.report.compare'"):
-        load_entry("rom_component.report:Run")
-    code = main(["check", str(ROOT / "scenes" / "mok.toml"), "--set", "components.structure.backend=rom", "--set",
-                 "components.structure.rom.entry=rom_component.step_map_component:StepMapRomSolid"])
-    err = capsys.readouterr().err.strip()
-    assert code == 2 and len(err.splitlines()) == 1
-    assert "write 'rom_component.dynamic.component:StepMapRomSolid'" in err
