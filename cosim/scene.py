@@ -25,7 +25,6 @@ from cosim.schema import (
     Choice,
     FilePath,
     OpenTable,
-    PluginChoice,
     Positive,
     Required,
     Value,
@@ -58,9 +57,6 @@ COMPONENT = {
     "fmu": OpenTable(BACKEND),
 }
 BACKENDS = "cosim.backends"     # entry points: a backend kind's component class, registered by its package
-EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "mapping": PluginChoice("identity"),
-            "waveform_degree": Value(0, low=0, high=3), "substeps": False, "scale": 1.0,
-            "at_window_end": False}
 MAX_WINDOWS = 10_000_000
 MAX_FILE_BYTES = 16 << 20
 SCHEMA: dict[str, Any] = {
@@ -68,29 +64,12 @@ SCHEMA: dict[str, Any] = {
     "case": "",
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
     "components": AnyTable(),
-    "coupling": {
-        "scheme": "serial-implicit",
-        "participants": Required(list),
-        "max_iterations": Positive(50),
-        "on_max_iterations": Choice("fail", ("fail", "accept")),
-        "divergence_factor": Value(1e3, low=1.0, low_open=True),  # residual growth in a window that is divergence
-        "extrapolation_order": Value(0, low=0, high=2),
-        # the first iterate of a window: "none" (the last window's values, extrapolated by extrapolation_order)
-        # or "acceleration" (the acceleration's update from the last window's converged iteration)
-        "predictor": Choice("none", ("none", "acceleration", "surrogate")),
-        "acceleration": PluginChoice("none"),
-        # the online interface surrogate (checked by the coupler against its own settings)
-        "surrogate": AnyTable(),
-    },
-    # the stability matrix of `cosim stability` (its grid, methods, windows and settings of every run)
-    "stability": {"grid": [], "methods": [], "windows": Value(20, low=1), "settings": []},
     "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
                "plots": [],   # a scene's own run plots: names of cosim.run_plots entry points
                "watch_points": [],   # a component's data at a point, window by window (cosim.watch_points)
                "checkpoint_every": Value(0, low=0)},
 }
-LISTS = {"exchange": EXCHANGE}
-EXPLICIT = ("serial-explicit", "parallel-explicit")    # schemes of one iteration a window
+SCENE_RULES = "cosim.scene_rules"   # entry points: the tables a package above owns (the coupler's coupling)
 # what each key means, for the scene reference (docs/reference/scene.md, written by the scene reference generator;
 # tests/test_docs.py fails when a key of the schema has no meaning here or the page is not the generated one)
 MEANINGS = {
@@ -104,27 +83,6 @@ MEANINGS = {
     "time.end": "the end of the last time window [s]; end - start must be a multiple of dt",
     "time.dt": "the time window (coupling time step) [s]",
     "components": "one table per component, `[components.<name>]`: the keys below",
-    "coupling.scheme": "the coupling scheme: a registered scheme's name (below)",
-    "coupling.participants": "the two components the scheme couples, in its order (serial: the first goes first)",
-    "coupling.max_iterations": "the coupling iterations a window may take",
-    "coupling.on_max_iterations": "a window that reaches max_iterations: stop the run ('fail') or take the last "
-                                  "iterate with a warning ('accept')",
-    "coupling.divergence_factor": "a window whose coupling residual grows by this factor has diverged: the run stops",
-    "coupling.extrapolation_order": "the first iterate of a window from the last windows' values: 0 repeats the last "
-                                    "value, 1 linear, 2 quadratic",
-    "coupling.predictor": "'acceleration': a window starts from the acceleration's update of the last window's "
-                          "converged iteration instead (extrapolation_order must be 0); 'surrogate': from the "
-                          "fixed point of the online surrogate (coupling.surrogate, below)",
-    "coupling.surrogate": "the online interface surrogate: a table with start_window turns it on (its keys below)",
-    "coupling.acceleration": "the acceleration: a registered acceleration's name or table (below), with `data`, "
-                             "the exchanged data it accelerates",
-    "coupling.convergence": "`[[coupling.convergence]]`: one convergence measure per table (below); a window has "
-                            "converged when all of them are met",
-    "stability.grid": "`cosim stability`: the swept parameters, \"key=v1,v2,...\" each (one or two)",
-    "stability.methods": "`cosim stability`: the accelerations crossed with the grid (default: all)",
-    "stability.windows": "`cosim stability`: windows per run",
-    "stability.settings": "`cosim stability`: \"key=value\" overrides of every run of the matrix (a criterion and "
-                          "an iteration limit fit for it, say)",
     "output.plot_field": "the exchanged data drawn in run.png (default: the first)",
     "output.plot_index": "the value of that field drawn",
     "output.plot_label": "its label in run.png",
@@ -134,18 +92,6 @@ MEANINGS = {
                            "DIR/precice-<component>-watchpoint-<name>.log (preCICE's watch points)",
     "output.plots": "the scene's own run plots: names of `cosim.run_plots` entry points (the double flap: "
                     "\"double_flap\")",
-    "exchange.data": "the exchanged variable's name (an output of `from`, an input of `to`)",
-    "exchange.from": "the component that sends it",
-    "exchange.to": "the component that receives it",
-    "exchange.at_window_end": "the receiver gets the window's last values when the window converges "
-                              "(Component.end_window), as Kratos's coupler writes data after the last solve",
-    "exchange.scale": "a factor on the mapped values (-1: the sign swapped, as a reaction becomes a load)",
-    "exchange.mapping": "how values go from the sender's mesh to the receiver's: a registered mapping (below)",
-    "exchange.waveform_degree": "the receiver's interpolation in time across the window (docs/time.md): 0, the "
-                                "window-end value at every step; 1, linear through the window's start, the sender's "
-                                "substeps and its end; 2 or 3, the B-spline of that degree through them",
-    "exchange.substeps": "the sender's values at each of its steps inside the window are sent, not only the "
-                         "window's end (a participant that subcycles); the acceleration works on all of them",
     "component.entry": "the component's class, \"package.module:Class\", started as a local process (a module next "
                        "to the scene is found)",
     "component.address": "or the address of a component started by hand with `cosim serve`",
@@ -446,11 +392,12 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
     for name, spec in components.items():
         for kind in ("rom", "fmu"):
             spec[kind]["entry"] = spec[kind]["entry"] or backend_entry(kind, f"components.{name}.{kind}.entry", source)
-        _string_list(spec["sections"], f"components.{name}.sections", source)
+        string_list(spec["sections"], f"components.{name}.sections", source)
         _cores(spec["cores"], f"components.{name}.cores", source)
     # in the order the components name them: the resolved scene (and results.h5) is the same on every run
     sections = list(dict.fromkeys(s for spec in components.values() for s in spec["sections"]))
-    known = set(SCHEMA) | set(LISTS) | set(sections)
+    rules = scene_rules()
+    known = set(SCHEMA) | {table for owner in rules for table in owner.tables} | set(sections)
     for key in raw:
         if key not in known:
             raise SceneError(unknown_key_message(key, "", sorted(known), source))
@@ -477,33 +424,25 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
             if section not in raw:
                 raise SceneError(f"{source}: components.{name}.sections names '{section}', "
                                  f"but the scene has no [{section}] table")
-    coupling_given = raw.get("coupling", {})
-    if not isinstance(coupling_given, dict):
-        raise SceneError(f"{source}: 'coupling' must be a table, got {coupling_given!r}")
-    convergence = coupling_given.get("convergence", [])
-    coupling_raw = {k: v for k, v in coupling_given.items() if k != "convergence"}
-    data = validate({k: v for k, v in raw.items() if k in SCHEMA and k != "coupling"},
-                    {k: v for k, v in SCHEMA.items() if k != "coupling"}, "", source)
-    data["coupling"] = validate(coupling_raw, SCHEMA["coupling"], "coupling.", source)
-    data["coupling"]["convergence"] = [dict(m) for m in _table_list(convergence, "coupling.convergence", source)]
+    data = validate({k: v for k, v in raw.items() if k in SCHEMA}, SCHEMA, "", source)
     data["components"] = components
-    data["exchange"] = [validate(e, EXCHANGE, f"exchange.{i}.", source)
-                        for i, e in enumerate(_table_list(raw.get("exchange", []), "exchange", source))]
+    _check_time(data["time"], source)
+    for owner in rules:
+        owner.validate(raw, data, source)
     for section in sections:
         data.setdefault(section, raw[section])   # "time" may be handed to components too (validated)
-    _check_consistency(data, source)
     from cosim.watch_points import check as check_watch_points
     check_watch_points(data["output"]["watch_points"], data["components"], source)
     return data
 
 
-def _table_list(value: Any, where: str, source: str) -> list[dict]:
+def table_list(value: Any, where: str, source: str) -> list[dict]:
     if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
         raise SceneError(f"{source}: '{where}' must be a list of tables ([[{where}]])")
     return value
 
 
-def _string_list(value: list, where: str, source: str) -> None:
+def string_list(value: list, where: str, source: str) -> None:
     for i, item in enumerate(value):
         if not isinstance(item, str):
             raise SceneError(f"{source}: '{where}.{i}' must be a string, got {item!r}")
@@ -522,70 +461,17 @@ def _cores(value: list, where: str, source: str) -> None:
                              f"{', '.join(map(str, allowed))}")
 
 
-def _check_consistency(data: dict[str, Any], source: str) -> None:
-    time, coupling = data["time"], data["coupling"]
+def _check_time(time: dict[str, Any], source: str) -> None:
     if time["end"] <= time["start"]:
         raise SceneError(f"{source}: 'time.end' ({time['end']}) must exceed 'time.start' ({time['start']})")
     windows = (time["end"] - time["start"]) / time["dt"]
     if windows > MAX_WINDOWS:
         raise SceneError(f"{source}: 'time.dt' = {time['dt']:g} makes {windows:.3g} windows on "
                          f"[{time['start']:g}, {time['end']:g}]; at most {MAX_WINDOWS:,} are allowed")
-    names = set(data["components"])
-    if coupling["predictor"] == "acceleration" and coupling["extrapolation_order"] > 0:
-        raise SceneError(f"{source}: 'coupling.predictor' = \"acceleration\" replaces extrapolation; "
-                         f"'coupling.extrapolation_order' must be 0, got {coupling['extrapolation_order']}")
-    acceleration = coupling["acceleration"]
-    accelerated = acceleration.get("data", []) if isinstance(acceleration, dict) else []
-    if not isinstance(accelerated, list):
-        raise SceneError(f"{source}: 'coupling.acceleration.data' must be a list, got {accelerated!r}")
-    participants = coupling["participants"]
-    _string_list(participants, "coupling.participants", source)
-    if len(participants) != 2 or len(set(participants)) != 2:
-        raise SceneError(f"{source}: 'coupling.participants' must name two different components, got {participants}")
-    for i, name in enumerate(participants):
-        if name not in names:
-            raise SceneError(f"{source}: 'coupling.participants.{i}' is '{name}', not a component "
-                             f"(components: {', '.join(sorted(names))})")
-    exchanged = set()
-    for i, exchange in enumerate(data["exchange"]):
-        for end in ("from", "to"):
-            if exchange[end] not in participants:
-                raise SceneError(f"{source}: 'exchange.{i}.{end}' is '{exchange[end]}', not a participant "
-                                 f"({', '.join(participants)})")
-        if exchange["from"] == exchange["to"]:
-            raise SceneError(f"{source}: 'exchange.{i}' goes from '{exchange['from']}' to itself")
-        exchanged.add(exchange["data"])
-    if not exchanged:
-        raise SceneError(f"{source}: the scene exchanges no data (add [[exchange]] tables)")
-    for i, measure in enumerate(coupling["convergence"]):
-        if "data" in measure and measure["data"] not in exchanged:
-            raise SceneError(f"{source}: 'coupling.convergence.{i}.data' is {measure['data']!r}, "
-                             f"not exchanged data ({', '.join(sorted(exchanged))})")
-    second = participants[1]
-    fed_back = sorted(e["data"] for e in data["exchange"] if e["from"] == second)
-    for i, name in enumerate(accelerated):
-        where = f"coupling.acceleration.data.{i}"
-        if not isinstance(name, str) or name not in exchanged:
-            raise SceneError(f"{source}: '{where}' is {name!r}, not exchanged data ({', '.join(sorted(exchanged))})")
-        if accelerated.index(name) != i:
-            raise SceneError(f"{source}: '{where}' repeats '{name}'")
-        if coupling["scheme"] == "serial-implicit" and name not in fed_back:
-            raise SceneError(f"{source}: '{where}' is '{name}', but serial-implicit accelerates the data the second "
-                             f"participant '{second}' sends: {', '.join(fed_back) or 'none'}")
-    kind = acceleration.get("type", "none") if isinstance(acceleration, dict) else acceleration
-    iterated = fed_back if coupling["scheme"] == "serial-implicit" else sorted(exchanged)
-    for i, exchange in enumerate(data["exchange"]):
-        if exchange["substeps"] and coupling["scheme"] not in EXPLICIT and kind != "none" and accelerated \
-                and exchange["data"] in iterated and exchange["data"] not in accelerated:
-            raise SceneError(f"{source}: 'exchange.{i}.substeps' is on for '{exchange['data']}', which the "
-                             f"acceleration does not hold (coupling.acceleration.data: {', '.join(accelerated)}): "
-                             "add it there, or exchange the window's end alone")
-    if coupling["scheme"] in EXPLICIT and (kind != "none" or coupling["predictor"] != "none"):
-        key = "coupling.acceleration" if kind != "none" else "coupling.predictor"
-        raise SceneError(f"{source}: '{key}' is set, but {coupling['scheme']} takes one iteration a window and "
-                         "accelerates nothing; use serial-implicit or parallel-implicit, or remove it")
-    if coupling["scheme"] not in EXPLICIT and not coupling["convergence"]:
-        raise SceneError(f"{source}: an implicit scheme needs at least one [[coupling.convergence]] measure")
-    plot = data["output"]["plot_field"]
-    if plot and plot not in exchanged:
-        raise SceneError(f"{source}: 'output.plot_field' is '{plot}', not exchanged data")
+
+
+def scene_rules() -> list[Any]:
+    """The installed owners of a scene's other tables (``cosim.scene_rules`` entry points, by name): each has
+    ``tables`` (the top-level keys it owns) and ``validate(raw, data, source)``, which fills ``data`` in."""
+    from importlib.metadata import entry_points
+    return [point.load() for point in sorted(entry_points(group=SCENE_RULES), key=lambda point: point.name)]

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cosim.component import declares_state, undeclared_state_message
 from cosim.errors import CosimError, SceneError
-from cosim.scene import BACKEND, EXPLICIT, Scene
+from cosim.scene import BACKEND, Scene
 from cosim.schema import file_paths, unknown_key_message, validate
 from cosim.server import EntryImportError, load_entry
+from coupler.scene_rules import check_state_declared
 
 
 def check_parameters(scene: Scene) -> None:
@@ -35,25 +35,6 @@ def check_parameters(scene: Scene) -> None:
             _check(scene, name, schema)
     check_backends(scene)
     check_state_declared(scene)
-
-
-def check_state_declared(scene: Scene) -> None:
-    """Implicit coupling repeats windows: every participant class importable here must say how (state methods,
-    ``repeats_steps`` or ``stateless``); the others are checked once described."""
-    if scene["coupling"]["scheme"] in EXPLICIT:
-        return
-    for name in scene["coupling"]["participants"]:
-        spec = scene["components"][name]
-        entries = [spec["entry"]] if spec["entry"] else []
-        if spec["backend"] != "fom":
-            entries.append(spec[spec["backend"]]["entry"])
-        for entry in entries:
-            try:
-                cls = load_entry(entry, [scene.folder])
-            except CosimError:
-                continue        # reported where the entry is checked, or by its own process
-            if not declares_state(cls):
-                raise SceneError(f"{scene.source}: components.{name}: {undeclared_state_message(name, entry)}")
 
 
 def _schema_of(scene: Scene, entry: str, where: str) -> dict | None:

@@ -3,7 +3,7 @@
 The static checks (``coupler.run.prepare``) know a component's parameters, not its variables: those exist once
 the component is instantiated. The probe starts every local component in its own process (logs in a scratch
 folder), reaches every component served by hand with a short deadline, instantiates each with the scene's
-parameters, checks what the scene asks of them (``coupler.run.check_described``: the exchanged variables, how
+parameters, checks what the scene asks of them (``coupler.scene_rules.check_described``: the exchanged variables, how
 an implicitly coupled participant repeats a window) and stops them. A component served by hand is pinged only:
 it serves the first client that drives it, and stops when that client is done, so the probe leaves it to the
 run.
@@ -23,7 +23,8 @@ ADDRESS_DEADLINE = 5.0      # seconds a component served by hand has to answer c
 def probe(scene: Scene, windows: int) -> list[str]:
     """Start, instantiate and initialise every component of ``scene`` (over its ``windows``) and check them, then
     stop them; returns a line per backend."""
-    from coupler.run import check_described, participants_of, plan_backends, shutdown_proxies, start_backends
+    from coupler.run import participants_of, plan_backends, shutdown_proxies, start_backends
+    from coupler.scene_rules import check_described
     backends = plan_backends(scene)
     programs = [b for b in backends if b.command]       # a participant's program runs the case: left to the run
     backends = [b for b in backends if not b.command]

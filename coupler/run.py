@@ -24,23 +24,22 @@ import numpy as np
 
 from cosim import stop
 from cosim.checkpoint import CheckpointError
-from cosim.component import undeclared_state_message
 from cosim.errors import ComponentError, ComponentTimeout, CosimError, DiskFullError, SceneError
 from cosim.launcher import Launcher
 from cosim.participant import ParticipantHub, ParticipantProxy
 from cosim.proxy import ComponentProxy
 from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
-from cosim.scene import BACKEND, EXPLICIT, Scene
+from cosim.scene import BACKEND, Scene
 from coupler.acceleration import ACCELERATIONS, IQNILS, make_acceleration
 from coupler.convergence import make_measure
 from coupler.linalg import load as load_linalg
 from coupler.mapping import MAPPINGS, ScaledMapping, make_mapping
-from coupler.plugins import resolve_plugins
 from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identity, write_checkpoint
 from coupler.run_log import RunLog
+from coupler.scene_rules import check_described, check_precision, resolve_plugins
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant, WindowResult
 from coupler.surrogate import InterfaceSurrogate, load_model_class
@@ -245,35 +244,6 @@ def build_scheme(scene: Scene, proxies: dict[str, Participant],
     return scheme
 
 
-def check_described(scene: Scene, proxies: dict[str, Participant]) -> None:
-    """What the scene asks of its described components (``proxies``, all or some of them): each exchanged variable
-    an output of its sender and an input of its receiver, and, under implicit coupling, a participant that says
-    how it repeats a window."""
-    for i, spec in enumerate(scene["exchange"]):
-        if spec["from"] not in proxies or spec["to"] not in proxies:
-            continue          # cosim check: a component served by hand is not described before its run
-        source, target = proxies[spec["from"]], proxies[spec["to"]]
-        data = spec["data"]
-        out_var, in_var = source.variables.get(data), target.variables.get(data)
-        if out_var is None or out_var.causality != "output":
-            raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['from']}' has "
-                             f"no output '{data}' (outputs: {', '.join(source.output_names()) or 'none'})")
-        if in_var is None or in_var.causality != "input":
-            inputs = [v.name for v in target.variables.values() if v.causality == "input"]
-            raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['to']}' has "
-                             f"no input '{data}' (inputs: {', '.join(inputs) or 'none'})")
-    if scene["coupling"]["scheme"] in EXPLICIT:
-        return
-    for name in (n for n in scene["coupling"]["participants"] if n in proxies):
-        proxy = proxies[name]
-        if not (proxy.can_get_and_set_state or proxy.repeats_steps or proxy.stateless):
-            spec = scene["components"][name]
-            note = getattr(proxy, "state_note", "")
-            raise SceneError(f"{scene.source}: components.{name}: " + (
-                f"coupled implicitly, which repeats each window until it converges, but {note}" if note
-                else undeclared_state_message(name, spec["entry"] or spec["address"])))
-
-
 def make_surrogate(coupling: dict) -> InterfaceSurrogate | None:
     """The online interface surrogate of a resolved ``coupling`` table, or None without one."""
     settings = coupling["surrogate"]
@@ -294,23 +264,6 @@ def surrogate_attributes(scheme: CouplingScheme) -> dict[str, float | int]:
             "surrogate_fallback_windows": getattr(acceleration, "fallback_windows", 0),
             "surrogate_rejected_steps": getattr(acceleration, "rejected_steps", 0),
             "surrogate_secant_error_median": float(np.median(errors)) if errors else float("nan")}
-
-
-def check_precision(measures: list[dict], precision: dict[str, float]) -> None:
-    """Flag, at start, relative limits tighter than the precision the producer declares for the data."""
-    def relative_limits(measure: dict, where: str):
-        if measure["type"] == "relative":
-            yield measure["limit"], where
-        for i, member in enumerate(measure.get("measures", [])):
-            if measure["type"] == "all-of" or len(measure["measures"]) == 1:
-                yield from relative_limits(member, f"{where}.measures.{i}")
-    for i, measure in enumerate(measures):
-        carried = precision.get(measure["data"], 0.0)
-        for limit, where in relative_limits(measure, f"coupling.convergence.{i}"):
-            if 0.0 < limit < carried:
-                print(f"warning: '{where}' asks for a relative change below {limit:g}, but '{measure['data']}' is "
-                      f"computed to {carried:g} only: the window may stall; a residual-relative measure suits "
-                      "such data", file=sys.stderr)
 
 
 def prepare(scene: Scene) -> int:

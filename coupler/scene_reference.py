@@ -11,12 +11,17 @@ from __future__ import annotations
 from typing import Any
 
 from cosim.reference import plugins, table
-from cosim.scene import BACKENDS, COMPONENT, EXCHANGE, MEANINGS, SCHEMA
+from cosim.scene import BACKENDS, COMPONENT, SCHEMA
+from cosim.scene import MEANINGS as SCENE_MEANINGS
 from coupler import mvqn, plain_accelerations  # noqa: F401  (registered in modules of their own)
 from coupler.acceleration import ACCELERATIONS
 from coupler.convergence import MEASURES
 from coupler.mapping import MAPPINGS
+from coupler.scene_rules import COUPLING, EXCHANGE
+from coupler.scene_rules import MEANINGS as COUPLING_MEANINGS
 from coupler.schemes import SCHEMES
+from coupler.stability_matrix import MEANINGS as STABILITY_MEANINGS
+from coupler.stability_matrix import STABILITY
 from coupler.surrogate import HELP as SURROGATE_HELP
 from coupler.surrogate import SETTINGS as SURROGATE_SETTINGS
 
@@ -36,8 +41,13 @@ flap's `[flow]`) are each component's own parameters: the component class's `par
 """
 
 
+def _meanings() -> dict[str, str]:
+    """Every scene key's meaning, from the table's owner: the scene layer, the coupler, the stability matrix."""
+    return {**SCENE_MEANINGS, **COUPLING_MEANINGS, **STABILITY_MEANINGS}
+
+
 def _table(schema: dict[str, Any], prefix: str, meaning_prefix: str = "") -> list[str]:
-    return table(schema, MEANINGS, prefix, meaning_prefix, "cosim.scene.MEANINGS")
+    return table(schema, _meanings(), prefix, meaning_prefix, "the MEANINGS of the table's owner")
 
 
 def _backends() -> list[str]:
@@ -65,12 +75,13 @@ def _backends() -> list[str]:
 
 def page() -> str:
     """The reference page's Markdown."""
-    top = {k: v for k, v in SCHEMA.items() if k != "components"}
+    top = {**{k: v for k, v in SCHEMA.items() if k not in ("components", "output")}, "coupling": COUPLING,
+           "stability": STABILITY, "output": SCHEMA["output"]}
     lines = [HEADER, "## Top-level keys", "", *_table(top, ""),
-             f"| `components` | tables | | | {MEANINGS['components']} |", "",
+             f"| `components` | tables | | | {SCENE_MEANINGS['components']} |", "",
              "## `[components.<name>]`", "", *_table(COMPONENT, "", "component."), "",
              "## `[[exchange]]`", "", "One table per exchanged variable.", "", *_table(EXCHANGE, "", "exchange."), "",
-             "## `[[coupling.convergence]]`", "", MEANINGS["coupling.convergence"], "",
+             "## `[[coupling.convergence]]`", "", COUPLING_MEANINGS["coupling.convergence"], "",
              *plugins(MEASURES, "Convergence measures", "coupling.convergence.N"),
              "## `coupling.surrogate`", "", "The online interface surrogate (docs: ROM-accelerated coupling). A table "
              "with `start_window` turns it on in any serial-implicit scene.", "",

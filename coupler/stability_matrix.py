@@ -21,6 +21,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from cosim.errors import SceneError
+from cosim.schema import Value, validate
 
 # each method's acceleration table, without its data (the scene's accelerated data are added)
 METHODS: dict[str, dict[str, Any]] = {
@@ -38,6 +39,27 @@ ACCELERATION = "coupling.acceleration"
 FAILURE_LETTERS = {"diverged": "D", "stalled": "S", "max-iterations": "M", "non-finite": "N",
                    "component-error": "C", "error": "E"}
 THEORY = "cosim.stability_theory"
+# a scene's [stability] table (the cosim.scene_rules entry point "stability")
+STABILITY: dict[str, Any] = {"grid": [], "methods": [], "windows": Value(20, low=1), "settings": []}
+MEANINGS = {
+    "stability.grid": "`cosim stability`: the swept parameters, \"key=v1,v2,...\" each (one or two)",
+    "stability.methods": "`cosim stability`: the accelerations crossed with the grid (default: all)",
+    "stability.windows": "`cosim stability`: windows per run",
+    "stability.settings": "`cosim stability`: \"key=value\" overrides of every run of the matrix (a criterion and "
+                          "an iteration limit fit for it, say)",
+}
+
+
+class StabilityTable:
+    """A scene's ``[stability]`` table: the grid, methods, windows and settings of ``cosim stability``."""
+
+    tables = ("stability",)
+
+    def validate(self, raw: dict[str, Any], data: dict[str, Any], source: str) -> None:
+        data["stability"] = validate(raw.get("stability", {}), STABILITY, "stability.", source)
+
+
+RULES = StabilityTable()
 
 
 class Theory(Protocol):

@@ -143,8 +143,8 @@ def check_scheduler(address: str | None, insecure: bool = False) -> None:
 def check_runs(scene_path: str, runs: list[SweepRun]) -> None:
     """Every variant must load and name known plug-ins before anything runs (errors name the run)."""
     from cosim.scene import load_scene
-    from coupler.plugins import resolve_plugins
     from coupler.preflight import check_parameters
+    from coupler.scene_rules import resolve_plugins
     if not runs:
         raise SceneError("the sweep has no runs")
     names = [run.name for run in runs]

@@ -13,7 +13,7 @@ import pytest
 
 from cosim.cli import main
 from coupler.acceleration import ACCELERATIONS
-from coupler.plugins import resolve_plugins  # noqa: F401  (registers every acceleration)
+from coupler.scene_rules import resolve_plugins  # noqa: F401  (registers every acceleration)
 from tests.conftest import needs_kratos
 
 needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None,

@@ -2,7 +2,7 @@ import pytest
 
 from cosim.errors import SceneError
 from cosim.scene import load_scene as load_only
-from coupler.plugins import resolve_plugins
+from coupler.scene_rules import resolve_plugins
 
 
 def load_scene(path, overrides=()):

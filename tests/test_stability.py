@@ -9,7 +9,7 @@ import pytest
 from cases.tube.stability import tube_critical_stiffness, tube_eigenvalue
 from cosim.cli import main
 from cosim.scene import load_scene
-from coupler.plugins import resolve_plugins
+from coupler.scene_rules import resolve_plugins
 from coupler.stability import gauss_seidel_spectrum
 from tests.conftest import TUBE_SCENE
 

@@ -45,7 +45,7 @@ def spectral_table(scene_path: str, factors: list[float], dts: list[float], wall
                    common: Sequence[str] = ()) -> list[dict[str, float]]:
     """Computed and theoretical Gauss-Seidel spectral radius at every (stiffness factor, dt)."""
     from cosim.scene import load_scene
-    from coupler.plugins import resolve_plugins
+    from coupler.scene_rules import resolve_plugins
     rows = []
     for factor in factors:
         for dt in dts:
