@@ -3,7 +3,8 @@ every dataset of their results files compared but the timings.
 
 The runs: the tube's FOM-FOM, the paper's mu1 inlet table, ROM-FOM and FMU-FOM from the start (a ROM trained once,
 on a FOM run to 18 s, with the first checkout), and 30 s each of IQN-IMVJ, Aitken, Jacobi with IQN-ILS on both
-fields, and linear extrapolation. With ``--all``: a second of Mok's wall and five windows of the double flap.
+fields, and linear extrapolation. With ``--all``: a second of Mok's wall, five windows of the double flap, the tube
+as a preCICE case, and a Kratos CoSimulation case (``cases.kratos_wall.write``, written once by the first checkout).
 
 Usage: python -m scripts.same_bits TREE_A TREE_B --out DIR   (e.g. a worktree of the commit before a change, and .; a
 rerun into DIR goes on with the runs it lacks). Each tree runs with its own ``.venv`` where it has one (a layout
@@ -34,6 +35,8 @@ RUNS = {
 OTHER_SCENES = {      # the other cases, short: Mok's wall (its structure with inertia) and the double flap (Kratos)
     "mok": ("scenes/mok.toml", ["time.end=1.0", "mesh.wall_cells=[2,40]"]),
     "double_flap": ("scenes/double_flap.toml", ["time.end=0.04"]),
+    "precice_tube": ("examples/precice_tube/case.toml", []),         # two preCICE participants
+    "kratos_case": ("{kratos}/case.toml", []),     # a Kratos CoSimulation case (Mok's wall, written once)
 }
 
 
@@ -74,11 +77,15 @@ def main(argv: list[str] | None = None) -> int:
     runs = {name: (SCENE, overrides) for name, overrides in RUNS.items()}
     if args.all:
         runs.update(OTHER_SCENES)
+        if not (out / "kratos" / "case.toml").is_file():
+            subprocess.run([python_of(trees[0]), "-m", "cases.kratos_wall.write", str(out / "kratos"), "--kind",
+                            "dynamic"], cwd=trees[0], check=True, capture_output=True)
     for name, (scene, overrides) in runs.items():
         sets = [f"--set={item.replace('{model}', str(model)).replace('{fmu}', str(fmu))}" for item in overrides]
         for i, tree in enumerate(trees):
             if not (out / f"{name}-{i}" / "status.json").is_file():
-                cosim(tree, "run", scene, "--out", str(out / f"{name}-{i}"), "--quiet", *sets)
+                cosim(tree, "run", scene.replace("{kratos}", str(out / "kratos")), "--out", str(out / f"{name}-{i}"),
+                      "--quiet", *sets)
         a, b = (datasets(out / f"{name}-{i}" / "results.h5") for i in (0, 1))
         moved = sorted(key for key in set(a) | set(b) if a.get(key) != b.get(key))
         different += bool(moved)
