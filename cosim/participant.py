@@ -143,6 +143,8 @@ class ParticipantProxy:
     curve = ""
     saved_state: int | None = None
     reads_waveforms = True         # its reads inside a window evaluate the waveform the step carries
+    state_note = ""
+    backend_changed = False        # it serves itself throughout
 
     def __init__(self, name: str, hub: ParticipantHub, process: ComponentProcess | None = None,
                  timeout: float = 120.0, startup_timeout: float = 60.0):
@@ -356,6 +358,13 @@ class ParticipantProxy:
 
     def end_window(self, values: Mapping[str, np.ndarray]) -> None:
         """A participant keeps its data to itself (refused for it at set-up: ``exchange.at_window_end``)."""
+
+    def coupling_state(self) -> None:
+        """Nothing: the program keeps its own state."""
+        return None
+
+    def restore_coupling_state(self, state: Mapping[str, Any]) -> None:
+        """Nothing to restore (``coupling_state`` is None)."""
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
              save: bool = False, free: int | None = None,

@@ -65,6 +65,8 @@ class ComponentProxy:
         self.state_note = ""
         self.step_saves_state = False   # its server takes save and free with a step (``send_step``)
         self.saved_state: int | None = None     # the handle the last saving step returned
+        self.history_windows = 0        # the converged windows it takes over from a backend before it
+        self.backend_changed = False    # one process serves it throughout
         self.warnings: list[str] = []   # delivered with replies, taken by the coupler
         self.pid: int | None = process.pid if process else None
         self.compute_seconds: list[float] = []     # per step: wall time inside the component
@@ -312,6 +314,13 @@ class ComponentProxy:
 
     def terminate(self) -> dict[str, np.ndarray]:
         return {k: np.array(v) for k, v in self.call("terminate")[1].items()}
+
+    def coupling_state(self) -> None:
+        """Nothing beside the component's own checkpoint (a schedule of backends keeps more)."""
+        return None
+
+    def restore_coupling_state(self, state: Mapping[str, Any]) -> None:
+        """Nothing to restore (``coupling_state`` is None)."""
 
     def shutdown(self, timeout: float = 2.0) -> None:
         """Stop the component."""

@@ -33,6 +33,7 @@ from cosim.rundir import RunDirectory
 from cosim.scene import BACKEND, Scene
 from coupler.acceleration import ACCELERATIONS, IQNILS, make_acceleration
 from coupler.convergence import make_measure
+from coupler.coupled import Coupled
 from coupler.linalg import load as load_linalg
 from coupler.mapping import MAPPINGS, ScaledMapping, make_mapping
 from coupler.preflight import check_parameters
@@ -41,7 +42,7 @@ from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identit
 from coupler.run_log import RunLog
 from coupler.scene_rules import check_described, check_precision, resolve_plugins
 from coupler.schedule import BackendSchedule
-from coupler.schemes import SCHEMES, CouplingScheme, Exchange, Participant, WindowResult
+from coupler.schemes import SCHEMES, CouplingScheme, Exchange, WindowResult
 from coupler.surrogate import InterfaceSurrogate, load_model_class
 
 
@@ -183,12 +184,12 @@ def component_environment(spec: dict) -> dict[str, str]:
     return environment
 
 
-def participants_of(backends: list[Backend]) -> dict[str, Participant]:
+def participants_of(backends: list[Backend]) -> dict[str, Coupled]:
     """Each scene component as the scheme sees it: a proxy, or a schedule of backends."""
     grouped: dict[str, list[Backend]] = {}
     for backend in backends:
         grouped.setdefault(backend.participant, []).append(backend)
-    participants: dict[str, Participant] = {}
+    participants: dict[str, Coupled] = {}
     for name, group in grouped.items():
         if len(group) == 1:
             participants[name] = group[0].client
@@ -204,7 +205,7 @@ def participants_of(backends: list[Backend]) -> dict[str, Participant]:
     return participants
 
 
-def build_scheme(scene: Scene, proxies: dict[str, Participant],
+def build_scheme(scene: Scene, proxies: dict[str, Coupled],
                  recorders: dict[str, CallRecorder]) -> CouplingScheme:
     """The scene's coupling scheme over described components; checks every exchanged variable."""
     coupling = scene["coupling"]
@@ -540,7 +541,7 @@ def _import_while_components_start(scene: Scene | None = None) -> None:
 
 
 def _final_attributes(store: ResultsWriter, scheme: CouplingScheme | None,
-                      participants: dict[str, Participant] | None, wall: float, unconverged: int, warned: int) -> None:
+                      participants: dict[str, Coupled] | None, wall: float, unconverged: int, warned: int) -> None:
     """The run's closing attributes: its wall time, the windows accepted unconverged, the warnings, the ROM's
     fallback windows, the surrogate's counts."""
     fallback = sum(len(p.fallback_windows) for p in (participants or {}).values() if isinstance(p, BackendSchedule))

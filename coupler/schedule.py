@@ -20,10 +20,20 @@ import numpy as np
 
 from cosim.errors import SceneError
 from cosim.proxy import ComponentProxy
+from coupler.coupled import Call, Samples
 
 
 class BackendSchedule:
-    """Looks like one component proxy to the coupling scheme; picks the backend by window time."""
+    """One scene component served by several backends in turn, driven as any other (``coupler.coupled.Coupled``):
+    picks the backend by window time."""
+
+    can_get_and_set_state = False     # only stateless backends are switched
+    step_saves_state = False
+    saved_state: int | None = None
+    state_note = ""
+    reads_waveforms = False           # its backends read the window's end
+    substeps: Samples | None = None   # and take one step a window
+    substep_calls: list[Call] = []
 
     def __init__(self, name: str, stages: Sequence[tuple[float, ComponentProxy]],
                  fallback: ComponentProxy | None = None):
@@ -53,26 +63,25 @@ class BackendSchedule:
                                  "only stateless backends can be switched during a run")
         self.variables = first.variables
         self.meshes = first.meshes
-        self.can_get_and_set_state = False
         self.repeats_steps = any(proxy.repeats_steps for _, proxy in self.stages)
         self.stateless = all(proxy.stateless for _, proxy in self.stages)
         self._sent: ComponentProxy | None = None
         self._served: ComponentProxy | None = None   # the backend whose outputs the last call returned
         self.backend_changed = False
         # what a backend with a history takes over: the last windows' converged calls, and the call in flight
-        keep = max((getattr(proxy, "history_windows", 0) for _, proxy in self.stages), default=0)
+        keep = max((proxy.history_windows for _, proxy in self.stages), default=0)
         self._converged: deque[tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = deque(maxlen=keep)
         self._last_call: tuple[float, dict[str, np.ndarray], dict[str, np.ndarray]] | None = None
         self._taken_over: set[str] = set()
 
-    def checkpoint_state(self) -> dict[str, Any]:
+    def coupling_state(self) -> dict[str, Any]:
         """What the schedule carries between windows: the windows that fell back, and the backend that served
         the last call (a change of backend at the next call tells the acceleration its map changed)."""
         return {"fallback_windows": set(self.fallback_windows),
                 "served": None if self._served is None else self._served.name,
                 "converged": list(self._converged), "last_call": self._last_call, "taken_over": set(self._taken_over)}
 
-    def restore_checkpoint_state(self, state: Mapping[str, Any]) -> None:
+    def restore_coupling_state(self, state: Mapping[str, Any]) -> None:
         backends = {proxy.name: proxy for _, proxy in self.stages}
         if self.fallback is not None:
             backends[self.fallback.name] = self.fallback
@@ -110,7 +119,10 @@ class BackendSchedule:
     def get_values(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         return self.stages[0][1].get_values(names)
 
-    def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> None:
+    def send_step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
+                  save: bool = False, free: int | None = None,
+                  waveforms: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
+        """To the backend that serves ``t`` (no state to save, no waveforms: a schedule has neither)."""
         # once a window has fallen back, the full-order backend serves the rest of it (one map per window)
         self._sent = self.fallback if self.fallback is not None and t in self.fallback_windows else self.active(t)
         self._sent_inputs = (t, dt, inputs)
@@ -124,7 +136,7 @@ class BackendSchedule:
         if self._last_call is not None and self._last_call[0] != t:
             self._converged.append(self._last_call[1:])
             self._last_call = None
-        if getattr(backend, "history_windows", 0) and backend.name not in self._taken_over \
+        if backend.history_windows and backend.name not in self._taken_over \
                 and self._served is not None and self._served is not backend and self._converged:
             inputs = {name: np.stack([call[0][name] for call in self._converged]) for name in self._converged[0][0]}
             outputs = {name: np.stack([call[1][name] for call in self._converged]) for name in self._converged[0][1]}
@@ -151,6 +163,8 @@ class BackendSchedule:
                                {k: np.array(v) for k, v in outputs.items() if k in exchanged})
         return outputs
 
-    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None) -> dict[str, np.ndarray]:
+    def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray], restore: int | None = None,
+             save: bool = False, free: int | None = None,
+             waveforms: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None) -> dict[str, np.ndarray]:
         self.send_step(t, dt, inputs, restore)
         return self.receive_step()

@@ -32,21 +32,15 @@ from cosim.errors import (
     DivergenceError,
     StalledError,
 )
-from cosim.participant import ParticipantProxy
-from cosim.proxy import ComponentProxy
 from cosim.registry import Registry
 from coupler.acceleration import Acceleration
 from coupler.convergence import ConvergenceMeasure
+from coupler.coupled import Coupled, SavesState
 from coupler.extrapolation import Extrapolation
 from coupler.linalg import norm
 from coupler.mapping import Mapping as InterfaceMapping
 from coupler.recording import CallRecorder
-from coupler.schedule import BackendSchedule
 from coupler.waveform import coefficients, resampling
-
-# a scene component as a scheme sees it: one process, a program that calls the coupler (a preCICE participant), or a
-# schedule of backends (full order, then a ROM)
-Participant = ComponentProxy | ParticipantProxy | BackendSchedule
 
 SCHEMES: Registry[CouplingScheme] = Registry("coupling scheme")
 
@@ -64,8 +58,8 @@ class Exchange:
     """One data item sent from ``source`` to ``target`` through ``mapping``."""
 
     data: str
-    source: Participant
-    target: Participant
+    source: Coupled
+    target: Coupled
     mapping: InterfaceMapping
     degree: int = 0           # the reader's interpolant in time across the window (coupler.waveform)
     substeps: bool = False    # the producer's samples inside the window are sent
@@ -92,7 +86,7 @@ class CouplingScheme:
 
     implicit = True
 
-    def __init__(self, participants: Sequence[Participant], exchanges: Sequence[Exchange],
+    def __init__(self, participants: Sequence[Coupled], exchanges: Sequence[Exchange],
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
                  accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
                  extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None,
@@ -137,8 +131,8 @@ class CouplingScheme:
                 "acceleration": object_state(self.acceleration, skip=("surrogate",)),
                 "surrogate": self.surrogate.checkpoint_state() if self.surrogate is not None else None,
                 "measures": [object_state(m) for m in self.measures],
-                "schedules": {p.name: p.checkpoint_state() for p in (self.first, self.second)
-                              if isinstance(p, BackendSchedule)}}
+                "schedules": {p.name: kept for p in (self.first, self.second)
+                              if (kept := p.coupling_state()) is not None}}
 
     def restore_checkpoint_state(self, state: Mapping[str, Any]) -> None:
         """Go on from ``checkpoint_state`` of an earlier run of the same scene (after ``initialize``)."""
@@ -155,8 +149,8 @@ class CouplingScheme:
         for measure, measure_state in zip(self.measures, state["measures"]):
             restore_object(measure, measure_state)
         for p in (self.first, self.second):
-            if isinstance(p, BackendSchedule):
-                p.restore_checkpoint_state(state["schedules"][p.name])
+            if p.coupling_state() is not None:
+                p.restore_coupling_state(state["schedules"][p.name])
 
     def defer(self, work: Callable[[], None]) -> None:
         """Work for once the next window's first request is out, while a component computes (the run's log rows
@@ -212,22 +206,22 @@ class CouplingScheme:
             self._next_start = self._next_iterate(self.accelerated)[0]
 
     @staticmethod
-    def _stateful(proxy: Participant) -> TypeGuard[ComponentProxy]:
-        """A process whose state the scheme saves and restores (a schedule of backends never is one)."""
-        return isinstance(proxy, ComponentProxy) and proxy.can_get_and_set_state
+    def _stateful(proxy: Coupled) -> TypeGuard[SavesState]:
+        """A component whose state the scheme saves and restores (a schedule of backends never is one)."""
+        return proxy.can_get_and_set_state
 
     # --- helpers ------------------------------------------------------------
-    def inputs_for(self, target: Participant, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def inputs_for(self, target: Coupled, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         return {e.data: e.mapping(values[e.data]) for e in self.exchanges if e.target is target}
 
     def block_sizes(self, names: Sequence[str]) -> list[int]:
         return [self.values[n].size * (1 + len(self._grid.get(n, ()))) for n in names]
 
-    def waveforms_for(self, target: Participant, values: Mapping[str, np.ndarray],
+    def waveforms_for(self, target: Coupled, values: Mapping[str, np.ndarray],
                       series: Series) -> dict[str, Any]:
         """``{"waveforms": {data: (knots, coefficients)}}`` for a target that reads in time (a participant), for its
         data of degree >= 1: the B-spline through the window's start, the samples and the end, on its mesh."""
-        if not getattr(target, "reads_waveforms", False):
+        if not target.reads_waveforms:
             return {}
         waveforms = {}
         for e in self.exchanges:
@@ -242,9 +236,9 @@ class CouplingScheme:
             waveforms[e.data] = coefficients(times, mapped, e.degree)
         return {"waveforms": waveforms} if waveforms else {}
 
-    def _take_series(self, proxy: Participant, series: Series) -> None:
+    def _take_series(self, proxy: Coupled, series: Series) -> None:
         """The substep samples ``proxy``'s last step sent, into ``series`` (its data without samples leave it)."""
-        sent = getattr(proxy, "substeps", None)
+        sent = proxy.substeps
         for name in self.sent_by(proxy):
             series.pop(name, None)
         if sent:
@@ -333,12 +327,12 @@ class CouplingScheme:
             start += size
         return out
 
-    def _record(self, proxy: Participant, iteration: int, inputs: Mapping[str, np.ndarray],
+    def _record(self, proxy: Coupled, iteration: int, inputs: Mapping[str, np.ndarray],
                 outputs: Mapping[str, np.ndarray]) -> None:
         recorder = self.recorders.get(proxy.name)
         if recorder is None:
             return
-        steps = getattr(proxy, "substep_calls", None)
+        steps = proxy.substep_calls
         if steps:        # a component or a participant that subcycles: each of its steps is a call
             for step_inputs, step_outputs in steps:
                 recorder.record(self.window, iteration, step_inputs, step_outputs)
@@ -370,7 +364,7 @@ class CouplingScheme:
             if handle is not None and self._stateful(proxy):
                 proxy.free_state(handle)
 
-    def _step_options(self, proxy: Participant, iteration: int) -> dict[str, Any]:
+    def _step_options(self, proxy: Coupled, iteration: int) -> dict[str, Any]:
         """The state handling a step of ``iteration`` carries: the window's state restored from the second
         iteration on; at the first, the state saved and the previous window's freed (a server that takes them)."""
         if not self._stateful(proxy):
@@ -381,7 +375,7 @@ class CouplingScheme:
             return {"save": True, "free": self._to_free.pop(proxy.name, None)}
         return {}
 
-    def _stepped(self, proxy: Participant, iteration: int) -> None:
+    def _stepped(self, proxy: Coupled, iteration: int) -> None:
         """After a step's reply: the window's saved state, from the first iteration's step."""
         if iteration == 1 and self._stateful(proxy) and proxy.step_saves_state:
             self._state[proxy.name] = proxy.saved_state    # type: ignore[assignment]
@@ -403,7 +397,7 @@ class CouplingScheme:
         changed (ROM and solid FOM) changed the map."""
         self._residuals.append(norm(x_tilde - x))
         self._measure_history.append([m.value for m in self.measures])
-        if any(getattr(proxy, "backend_changed", False) for proxy in (self.first, self.second)):
+        if any(proxy.backend_changed for proxy in (self.first, self.second)):
             self.acceleration.map_changed()
         self.acceleration.observe(x, x_tilde)
 
@@ -470,7 +464,7 @@ class CouplingScheme:
         if self.accelerated:
             self._extrapolation.store(self._stack(self.values, self.accelerated))
         return WindowResult(t, iterations, converged, {m.data: m.value for m in self.measures}, message,
-                            list(self._residuals), list(getattr(self, "_measure_history", [])))
+                            list(self._residuals), list(self._measure_history))
 
     def advance(self, t: float, dt: float) -> WindowResult:
         """One time window; a component that fails on inputs of a growing coupling residual is divergence."""

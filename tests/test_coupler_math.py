@@ -285,7 +285,9 @@ def test_a_scheme_with_the_acceleration_predictor_starts_from_the_next_update():
     """predictor = "acceleration": a window's first iterate is the update the acceleration proposes after convergence."""
     from coupler.acceleration import ConstantRelaxation
     from coupler.schemes import CouplingScheme
-    scheme = CouplingScheme([None, None], [], accelerated=["f"], predictor="acceleration")
+    class Served:                  # a participant that no backend change reaches (the scheme's arithmetic alone)
+        backend_changed = False
+    scheme = CouplingScheme([Served(), Served()], [], accelerated=["f"], predictor="acceleration")
     scheme.values = {"f": np.array([1.0, 1.0])}
     scheme._extrapolation.store(scheme.values["f"])
     scheme.acceleration = ConstantRelaxation(0.5)

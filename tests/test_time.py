@@ -108,6 +108,11 @@ class Program:
     can_get_and_set_state = False
     step_saves_state = False
     repeats_steps = True
+    backend_changed = False
+    substep_calls: list = []
+
+    def coupling_state(self):
+        return None
 
     def __init__(self, name, writes, reads, law, initial=0.0):
         self.name, self.law, self.writes = name, law, writes
