@@ -13,7 +13,6 @@ import json
 import math
 import os
 import socket
-import sys
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -40,9 +39,10 @@ from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identity, write_checkpoint
 from coupler.run_log import RunLog
+from coupler.run_observers import CouplerLogs, ProgressBar, ResultsWindows, RunObserver, StatusFile
 from coupler.scene_rules import check_described, check_precision, resolve_plugins
 from coupler.schedule import BackendSchedule
-from coupler.schemes import SCHEMES, CouplingScheme, Exchange, WindowResult
+from coupler.schemes import SCHEMES, CouplingScheme, Exchange
 from coupler.surrogate import InterfaceSurrogate, load_model_class
 
 
@@ -294,7 +294,7 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
     n_windows = prepare(scene)
     start, dt = scene["time"]["start"], scene["time"]["dt"]
     with directory:     # the plots are drawn under the lock: no other run may take the directory over meanwhile
-        return _run(scene, directory, start, dt, n_windows, progress, resume)
+        return Run(scene, directory, start, dt, n_windows, progress, resume).execute()
 
 
 def check_plot(output: dict, values: dict) -> None:
@@ -327,201 +327,227 @@ def run_plot_hooks(scene: Scene) -> list:
     return hooks
 
 
-def _run(scene: Scene, directory: RunDirectory, start: float, dt: float, n_windows: int,
-         progress: bool, resume: bool = False) -> RunSummary:
-    out_dir = directory.path
-    saved: tuple[dict, dict] | None = None
-    identity = run_identity(scene, n_windows)
-    backends = plan_backends(scene)
-    if resume:
-        saved = read_checkpoint_for(scene, out_dir, n_windows, [b.name for b in backends])
-    # the results file's own process starts first: it is ready by the time the components are
-    store = ResultsWriter(out_dir / "results.h5", out_dir / "logs" / "results.log", scene.text,
-                          (saved[0]["results"], saved[0]["windows"]) if saved is not None else None,
-                          lock=directory.lock)
-    if saved is None:
-        store.set_attributes(scene_resolved=json.dumps(scene.data))
-    wall_start = time.perf_counter()
-    windows = iterations = unconverged = warned = 0
-    if saved is not None:
-        counts = saved[0]
-        windows, iterations, unconverged, warned = (counts["windows"], counts["iterations"], counts["unconverged"],
-                                                     counts["warned"])
-    every = scene["output"]["checkpoint_every"]
-    state = "failed"
-    directory.status("starting", force=True, windows_total=n_windows, windows_completed=windows)
-    started, windows_at_start = time.time(), windows       # for the rate and the time left (cosim status)
-    scheme = None
-    participants = None
-    hub: ParticipantHub | None = None
-    phase = "start-up"   # where an error that is not inside a window happened
-    log = RunLog(out_dir / "logs", windows if saved is not None else None)
-    log.event(f"{'resumed after window ' + str(windows) if saved is not None else 'started'}: scene "
-              f"{scene.source} ({identity['scene_sha256'][:12]}), {n_windows} windows of {dt:g} s from t = {start:g}")
-    try:
-        with log, Launcher(out_dir / "logs") as launcher:
-            try:
-                components_started = time.perf_counter()
-                hub = start_backends(scene, backends, launcher, while_starting=lambda: _import_while_components_start(scene))
-                store.ready()
-                for b in backends:      # the components build their models at the same time (Kratos reads meshes)
-                    if isinstance(b.client, ComponentProxy):
-                        b.client.send_instantiate(b.parameters)
-                for b in backends:
-                    log.event(f"component '{b.name}': {b.entry or b.address or b.command}, pid {b.client.pid}, at "
-                              f"{b.client.endpoint}" + (f", log logs/{b.name}.log" if b.entry or b.command else ""))
-                    host = b.address or socket.gethostname()
-                    store.add_component(b.name, b.client.pid, host, b.entry or b.address or b.command,
-                                        b.client.endpoint,
-                                        participant=b.participant, kind=b.kind, start_time=b.start_time,
-                                        curve=bool(b.client.curve), **placement(b))
-                    if isinstance(b.client, ComponentProxy):
-                        b.client.receive_instantiate()
-                    else:
-                        b.client.instantiate(b.parameters)
-                    if saved is None:
-                        store.write_description(b.name, [asdict(v) for v in b.client.variables.values()],
-                                                b.client.meshes)
-                    b.client.enter_initialization_mode(start, start + n_windows * dt)
-                    b.client.exit_initialization_mode()
-                if every:
-                    refusing = [b for b in backends if not b.client.can_checkpoint]
-                    if refusing:
-                        raise SceneError(f"{scene.source}: 'output.checkpoint_every' is {every}, but component "
-                                         f"'{refusing[0].name}' ({refusing[0].entry or refusing[0].address or refusing[0].command}) cannot "
-                                         "checkpoint its state")
-                recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
-                             for n, s in scene["components"].items() if s["record"]}
-                participants = participants_of(backends)
-                for backend in backends:        # a recorded component that subcycles sends each step's inputs
-                    if isinstance(backend.client, ComponentProxy):
-                        backend.client.records_steps = scene["components"][backend.participant]["record"]
-                # the scheme knows a participant by its proxy's name (a ROM serving alone: '<name>_rom'); the
-                # results file by the scene's
-                scheme = build_scheme(scene, participants, {participants[n].name: r for n, r in recorders.items()})
-                store.set_attributes(components_startup_seconds=time.perf_counter() - components_started,
-                                     first_window_started=time.time())
-                check_plot(scene["output"], scheme.values)
-                log.open_tables(scheme.measures)
-                measure_names = [m.label() for m in scheme.measures]
-                if saved is None:
-                    store.write_initial(scheme.values)
-                else:
-                    restore_checkpoint(saved, backends, scheme)
-                bar = _progress(n_windows, progress)
-                if bar is not None and windows:
-                    bar.update(windows)
-                phase = ""
+class Run:
+    """One run of a prepared scene into its directory, step by step: ``start`` (the results file's process, the
+    components, the scheme), ``window``, ``checkpoint``, ``stop`` (the components terminated, the results file
+    closed) and ``close`` (whatever an error left open). Its observers (``coupler.run_observers``: the results
+    file's windows, the logs, the status file, the progress bar) are told of each step."""
+
+    def __init__(self, scene: Scene, directory: RunDirectory, start: float, dt: float, n_windows: int,
+                 progress: bool, resume: bool = False):
+        self.scene, self.directory, self.out_dir = scene, directory, directory.path
+        self.start, self.dt, self.n_windows = start, dt, n_windows
+        self.identity = run_identity(scene, n_windows)
+        self.backends = plan_backends(scene)
+        self.saved = read_checkpoint_for(scene, self.out_dir, n_windows, [b.name for b in self.backends]) \
+            if resume else None
+        # the results file's own process starts first: it is ready by the time the components are
+        self.store = ResultsWriter(self.out_dir / "results.h5", self.out_dir / "logs" / "results.log", scene.text,
+                                   (self.saved[0]["results"], self.saved[0]["windows"]) if self.saved else None,
+                                   lock=directory.lock)
+        if self.saved is None:
+            self.store.set_attributes(scene_resolved=json.dumps(scene.data))
+        self.wall_start = time.perf_counter()
+        self.wall = 0.0
+        self.windows = self.iterations = self.unconverged = self.warned = 0
+        if self.saved is not None:
+            counts = self.saved[0]
+            self.windows, self.iterations, self.unconverged, self.warned = (
+                counts["windows"], counts["iterations"], counts["unconverged"], counts["warned"])
+        self.every = scene["output"]["checkpoint_every"]
+        self.scheme: CouplingScheme | None = None
+        self.participants: dict[str, Coupled] | None = None
+        self.recorders: dict[str, CallRecorder] = {}
+        self.hub: ParticipantHub | None = None
+        self.phase = "start-up"   # where an error that is not inside a window happened
+        self.log = RunLog(self.out_dir / "logs", self.windows if self.saved is not None else None)
+        self.observers: list[RunObserver] = [ResultsWindows(self.store), CouplerLogs(self.log),
+                                             StatusFile(directory, n_windows), ProgressBar(progress)]
+        self._tell("starting", self)
+
+    def _tell(self, step: str, *args: object) -> None:
+        for observer in self.observers:
+            getattr(observer, step)(*args)
+
+    def execute(self) -> RunSummary:
+        """The whole run: start, every window, stop; on any exit, what was computed is kept."""
+        finished = False
+        try:
+            with self.log, Launcher(self.out_dir / "logs") as launcher:
                 try:
-                    for window in range(windows, n_windows):
-                        t = start + window * dt
-                        window_start = time.perf_counter()
-                        result = scheme.advance(t, dt)
-                        store.append_window(
-                            result.time, result.iterations, result.converged, time.perf_counter() - window_start,
-                            scheme.values, {b.name: _take_timings(b.client) for b in backends},
-                            {n: r.take() for n, r in recorders.items()}, result.residuals)
-                        windows += 1
-                        iterations += result.iterations
-
-                        def bookkeeping(windows: int = windows, result: WindowResult = result,
-                                        iterations: int = iterations) -> None:
-                            """The window's log rows, the status file and the progress bar: done while the next
-                            window's first component computes."""
-                            log.window(windows, result, iterations)
-                            directory.status("running", windows_total=n_windows, windows_completed=windows,
-                                             time=result.time, iterations_total=iterations, started=started,
-                                             windows_at_start=windows_at_start, last_iterations=result.iterations,
-                                             measures=dict(zip(measure_names, result.measure_history[-1]))
-                                             if result.measure_history else {})
-                            if bar is not None:
-                                bar.update(1)
-                                bar.set_postfix_str(_status(result, iterations / windows), refresh=False)
-
-                        scheme.defer(bookkeeping)
-                        for b in backends:
-                            warned += len(b.client.warnings)
-                            for message, count in Counter(b.client.warnings).items():
-                                calls = f" ({count} calls)" if count > 1 else ""
-                                _warn(f"warning: component '{b.name}' in window {windows} (t = {result.time - dt:g} "
-                                      f"to {result.time:g}): {message}{calls}", bar, log)
-                            b.client.warnings.clear()
-                        if not result.converged and result.message:
-                            unconverged += 1
-                            _warn(f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")", bar,
-                                  log)
-                        # a checkpoint every `every` windows, and when a stop is asked for (even without `every`, if
-                        # every component can give one): the stopped run can go on with --resume
-                        stopping = stop.pending() and all(b.client.can_checkpoint for b in backends)
-                        if ((every and windows % every == 0) or stopping) and windows < n_windows:
-                            with stop.deferred():    # a stop waits for the checkpoint it asked for
-                                try:
-                                    path = write_checkpoint(out_dir, scheme, backends, store,
-                                                            {"windows": windows, "iterations": iterations,
-                                                             "unconverged": unconverged, "warned": warned,
-                                                             "time": result.time}, identity)
-                                    log.event(f"checkpoint after window {windows}: {path.name}, "
-                                              f"{path.stat().st_size:,} bytes")
-                                except CheckpointError as exc:
-                                    raise CheckpointError(f"{exc}; the {windows} windows before it are kept in "
-                                                          f"'{out_dir / 'results.h5'}'") from None
-                        if stop.pending():
-                            scheme.run_deferred()
-                        stop.check()       # Ctrl-C or SIGTERM: stop here, between two windows
+                    self.start_components(launcher)
+                    self.phase = ""
+                    try:
+                        for window in range(self.windows, self.n_windows):
+                            self.window(window)
+                    finally:
+                        assert self.scheme is not None
+                        self.scheme.run_deferred()
+                        self._tell("windows_done", self)
+                    self.stop()
+                    finished = True
+                    self._tell("stopped", self)
+                except CosimError as exc:
+                    if not exc.where and not isinstance(exc, DiskFullError):
+                        exc.where = self.phase or (self.scheme.position() if self.scheme is not None else "")
+                    self.windows = min(self.windows, self.store.windows)   # a window the file refused is not done
+                    self._tell("failed", self, exc)
+                    raise
+                except (KeyboardInterrupt, SystemExit):
+                    self._tell("interrupted", self)
+                    raise
                 finally:
-                    scheme.run_deferred()
-                    if bar is not None:
-                        bar.close()
-                store.set_attributes(last_window_ended=time.time())
-                phase = "terminate"
-                scheme.release_states()
-                for b in backends:
-                    final = b.client.terminate()
-                    if final:
-                        store.write_final(b.name, final)
-                phase = "results"
-                wall = time.perf_counter() - wall_start      # the run's, before its plots are drawn
-                _final_attributes(store, scheme, participants, wall, unconverged, warned)
-                # the writer closes the file and draws the plots while the components stop
-                store.close(plots={"png": str(out_dir / "run.png"), "output": scene["output"],
-                                   "folder": str(out_dir), "hooks": list(scene["output"]["plots"])}, wait=False)
-                shutdown_proxies([b.proxy for b in backends if b.proxy is not None])
-                store.wait_closed()
-                state = "finished"
-                log.event(f"finished: {windows} windows, {iterations} coupling iterations "
-                          f"(mean {iterations / max(windows, 1):.3f} per window)")
-            except CosimError as exc:
-                if not exc.where and not isinstance(exc, DiskFullError):
-                    exc.where = phase or (scheme.position() if scheme is not None else "")
-                windows = min(windows, store.windows)        # a window the results file refused is not done
-                directory.status("failed", force=True, windows_total=n_windows, windows_completed=windows,
-                                 error=str(exc))
-                log.event(f"failed after {windows} windows: {exc}")
-                raise
-            except (KeyboardInterrupt, SystemExit):
-                directory.status("interrupted", force=True, windows_total=n_windows, windows_completed=windows)
-                log.event(f"interrupted after {windows} windows")
-                raise
-            finally:
-                shutdown_proxies([b.proxy for b in backends if b.proxy is not None])
-                if hub is not None:
-                    hub.close()
-                if scheme is not None and scheme.surrogate is not None:
-                    scheme.surrogate.close()
-    finally:
-        if state != "finished":      # what a stopped run knows is kept; an error under way is the one reported
-            wall = time.perf_counter() - wall_start
-            try:
-                _final_attributes(store, scheme, participants, wall, unconverged, warned)
-                store.close()
-            except CosimError:
-                store.abandon()
+                    self.release()
+        finally:
+            if not finished:
+                self.close()
+        self._tell("finished", self)
+        return RunSummary(self.out_dir, self.windows, self.iterations, self.wall, self.unconverged)
+
+    def start_components(self, launcher: Launcher) -> None:
+        """Start, instantiate and initialise every backend, build the scheme, and write or restore the start."""
+        scene, store, backends = self.scene, self.store, self.backends
+        components_started = time.perf_counter()
+        self.hub = start_backends(scene, backends, launcher,
+                                  while_starting=lambda: _import_while_components_start(scene))
+        store.ready()
+        for b in backends:      # the components build their models at the same time (Kratos reads meshes)
+            if isinstance(b.client, ComponentProxy):
+                b.client.send_instantiate(b.parameters)
+        for b in backends:
+            self._tell("event", f"component '{b.name}': {b.entry or b.address or b.command}, pid {b.client.pid}, "
+                                f"at {b.client.endpoint}" + (f", log logs/{b.name}.log" if b.entry or b.command else ""))
+            host = b.address or socket.gethostname()
+            store.add_component(b.name, b.client.pid, host, b.entry or b.address or b.command, b.client.endpoint,
+                                participant=b.participant, kind=b.kind, start_time=b.start_time,
+                                curve=bool(b.client.curve), **placement(b))
+            if isinstance(b.client, ComponentProxy):
+                b.client.receive_instantiate()
+            else:
+                b.client.instantiate(b.parameters)
+            if self.saved is None:
+                store.write_description(b.name, [asdict(v) for v in b.client.variables.values()], b.client.meshes)
+            b.client.enter_initialization_mode(self.start, self.start + self.n_windows * self.dt)
+            b.client.exit_initialization_mode()
+        if self.every:
+            refusing = [b for b in backends if not b.client.can_checkpoint]
+            if refusing:
+                raise SceneError(f"{scene.source}: 'output.checkpoint_every' is {self.every}, but component "
+                                 f"'{refusing[0].name}' ({refusing[0].entry or refusing[0].address or refusing[0].command}) "
+                                 "cannot checkpoint its state")
+        self.recorders = {n: CallRecorder(recorded_shapes([b for b in backends if b.participant == n]))
+                          for n, s in scene["components"].items() if s["record"]}
+        self.participants = participants_of(backends)
+        for backend in backends:        # a recorded component that subcycles sends each step's inputs
+            if isinstance(backend.client, ComponentProxy):
+                backend.client.records_steps = scene["components"][backend.participant]["record"]
+        # the scheme knows a participant by its proxy's name (a ROM serving alone: '<name>_rom'); the results file
+        # by the scene's
+        self.scheme = build_scheme(scene, self.participants,
+                                   {self.participants[n].name: r for n, r in self.recorders.items()})
+        store.set_attributes(components_startup_seconds=time.perf_counter() - components_started,
+                             first_window_started=time.time())
+        check_plot(scene["output"], self.scheme.values)
+        if self.saved is None:
+            store.write_initial(self.scheme.values)
         else:
-            directory.status(state, force=True, windows_total=n_windows, windows_completed=windows,
-                             windows_unconverged=unconverged, wall_seconds=wall, iterations_total=iterations,
-                             started=started, windows_at_start=windows_at_start,
-                             time=start + windows * dt)
-    return RunSummary(out_dir, windows, iterations, wall, unconverged)
+            restore_checkpoint(self.saved, backends, self.scheme)
+        self._tell("first_window", self)
+
+    def window(self, window: int) -> None:
+        """Window ``window`` (from 0): computed, stored, its bookkeeping deferred into the next one, its warnings
+        told, a checkpoint if one is due; a stop asked for ends the run here."""
+        scheme = self.scheme
+        assert scheme is not None
+        t = self.start + window * self.dt
+        window_start = time.perf_counter()
+        result = scheme.advance(t, self.dt)
+        self._tell("window_computed", self, result, time.perf_counter() - window_start)
+        self.windows += 1
+        self.iterations += result.iterations
+        done, iterations = self.windows, self.iterations
+        scheme.defer(lambda: self._tell("window_reported", self, done, result, iterations))
+        for b in self.backends:
+            self.warned += len(b.client.warnings)
+            for message, count in Counter(b.client.warnings).items():
+                calls = f" ({count} calls)" if count > 1 else ""
+                self._tell("warning", f"warning: component '{b.name}' in window {done} (t = {result.time - self.dt:g} "
+                                      f"to {result.time:g}): {message}{calls}")
+            b.client.warnings.clear()
+        if not result.converged and result.message:
+            self.unconverged += 1
+            self._tell("warning", f"warning: {result.message}; accepted (coupling.on_max_iterations = \"accept\")")
+        # a checkpoint every `every` windows, and when a stop is asked for (even without `every`, if every
+        # component can give one): the stopped run can go on with --resume
+        stopping = stop.pending() and all(b.client.can_checkpoint for b in self.backends)
+        if ((self.every and done % self.every == 0) or stopping) and done < self.n_windows:
+            self.checkpoint(result.time)
+        if stop.pending():
+            scheme.run_deferred()
+        stop.check()       # Ctrl-C or SIGTERM: stop here, between two windows
+
+    def checkpoint(self, time_reached: float) -> None:
+        """The run's checkpoint after the last window (a stop waits for it)."""
+        assert self.scheme is not None
+        with stop.deferred():    # a stop waits for the checkpoint it asked for
+            try:
+                path = write_checkpoint(self.out_dir, self.scheme, self.backends, self.store,
+                                        {"windows": self.windows, "iterations": self.iterations,
+                                         "unconverged": self.unconverged, "warned": self.warned,
+                                         "time": time_reached}, self.identity)
+                self._tell("event", f"checkpoint after window {self.windows}: {path.name}, "
+                                    f"{path.stat().st_size:,} bytes")
+            except CheckpointError as exc:
+                raise CheckpointError(f"{exc}; the {self.windows} windows before it are kept in "
+                                      f"'{self.out_dir / 'results.h5'}'") from None
+
+    def stop(self) -> None:
+        """Every window done: the components terminated (their final outputs stored), the results file closed
+        and its plots drawn while the components stop."""
+        assert self.scheme is not None
+        store = self.store
+        store.set_attributes(last_window_ended=time.time())
+        self.phase = "terminate"
+        self.scheme.release_states()
+        for b in self.backends:
+            final = b.client.terminate()
+            if final:
+                store.write_final(b.name, final)
+        self.phase = "results"
+        self.wall = time.perf_counter() - self.wall_start      # the run's, before its plots are drawn
+        self._final_attributes()
+        output = self.scene["output"]
+        store.close(plots={"png": str(self.out_dir / "run.png"), "output": output, "folder": str(self.out_dir),
+                           "hooks": list(output["plots"])}, wait=False)
+        shutdown_proxies([b.proxy for b in self.backends if b.proxy is not None])
+        store.wait_closed()
+
+    def release(self) -> None:
+        """On every exit: the components asked to stop, the participants' hub and the surrogate's thread closed."""
+        shutdown_proxies([b.proxy for b in self.backends if b.proxy is not None])
+        if self.hub is not None:
+            self.hub.close()
+        if self.scheme is not None and self.scheme.surrogate is not None:
+            self.scheme.surrogate.close()
+
+    def close(self) -> None:
+        """A run that did not finish: what it knows is kept (an error under way is the one reported)."""
+        self.wall = time.perf_counter() - self.wall_start
+        try:
+            self._final_attributes()
+            self.store.close()
+        except CosimError:
+            self.store.abandon()
+
+    def _final_attributes(self) -> None:
+        """The run's closing attributes: its wall time, the windows accepted unconverged, the warnings, the ROM's
+        fallback windows, the surrogate's counts."""
+        schedules = [p for p in (self.participants or {}).values() if isinstance(p, BackendSchedule)]
+        self.store.set_attributes(wall_seconds=self.wall, windows_unconverged=self.unconverged,
+                                  component_warnings=self.warned,
+                                  rom_fallback_windows=sum(len(p.fallback_windows) for p in schedules))
+        if self.scheme is not None and self.scheme.surrogate is not None:
+            self.store.set_attributes(**surrogate_attributes(self.scheme))
 
 
 def _import_while_components_start(scene: Scene | None = None) -> None:
@@ -540,32 +566,6 @@ def _import_while_components_start(scene: Scene | None = None) -> None:
         import scipy.interpolate  # noqa: F401
 
 
-def _final_attributes(store: ResultsWriter, scheme: CouplingScheme | None,
-                      participants: dict[str, Coupled] | None, wall: float, unconverged: int, warned: int) -> None:
-    """The run's closing attributes: its wall time, the windows accepted unconverged, the warnings, the ROM's
-    fallback windows, the surrogate's counts."""
-    fallback = sum(len(p.fallback_windows) for p in (participants or {}).values() if isinstance(p, BackendSchedule))
-    store.set_attributes(wall_seconds=wall, windows_unconverged=unconverged, component_warnings=warned,
-                         rom_fallback_windows=fallback)
-    if scheme is not None and scheme.surrogate is not None:
-        store.set_attributes(**surrogate_attributes(scheme))
-
-
-def _warn(message: str, bar, log: RunLog | None = None) -> None:
-    if log is not None:
-        log.event(message)
-    if bar is not None:
-        bar.write(message, file=sys.stderr)
-    else:
-        print(message, file=sys.stderr)
-
-
-def _take_timings(proxy: ComponentProxy | ParticipantProxy) -> tuple[list[float], list[float], list[float]]:
-    compute, roundtrip, cpu = proxy.compute_seconds, proxy.roundtrip_seconds, proxy.cpu_seconds
-    proxy.compute_seconds, proxy.roundtrip_seconds, proxy.cpu_seconds = [], [], []
-    return compute, roundtrip, cpu
-
-
 def shutdown_proxies(proxies: list[ComponentProxy | ParticipantProxy]) -> None:
     """Ask each live component to stop (the launcher kills the rest); a proxy closed already is left alone."""
     for proxy in proxies:
@@ -579,13 +579,3 @@ def shutdown_proxies(proxies: list[ComponentProxy | ParticipantProxy]) -> None:
         proxy.close()
 
 
-def _progress(total: int, enabled: bool):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-    return tqdm(total=total, unit="win", dynamic_ncols=True, mininterval=0.25)
-
-
-def _status(result, mean_iterations: float) -> str:
-    measures = " ".join(f"{k}={v:.1e}" for k, v in result.measures.items())
-    return f"t={result.time:.2f} it={result.iterations} mean={mean_iterations:.2f} {measures}"
