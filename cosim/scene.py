@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import tomllib
 from dataclasses import dataclass, field
@@ -127,6 +128,30 @@ MEANINGS = {
 }
 
 
+@dataclass(frozen=True)
+class TimeGrid:
+    """A validated scene's time: its windows of ``dt`` from ``start`` to ``end``."""
+
+    start: float
+    end: float
+    dt: float
+
+    @property
+    def windows(self) -> int:
+        """How many windows the grid has (``end - start`` a multiple of ``dt``: ``check``)."""
+        return int(math.floor((self.end - self.start) / self.dt + 0.5))
+
+    def check(self, source: str) -> None:
+        """Refuse an end that is not a whole number of windows after the start."""
+        if abs(self.start + self.windows * self.dt - self.end) > 1e-9 * max(1.0, abs(self.end)):
+            raise SceneError(f"{source}: time.end - time.start = {self.end - self.start:g} is not a multiple of "
+                             f"time.dt = {self.dt:g}")
+
+    def window_start(self, window: int) -> float:
+        """The time window ``window`` (from 0) starts at."""
+        return self.start + window * self.dt
+
+
 @dataclass
 class Scene:
     """A validated scene: ``data`` holds every key with defaults filled in."""
@@ -141,6 +166,12 @@ class Scene:
 
     def __getitem__(self, key: str) -> Any:
         return self.data[key]
+
+    @property
+    def time(self) -> TimeGrid:
+        """The scene's time grid, typed."""
+        time = self.data["time"]
+        return TimeGrid(time["start"], time["end"], time["dt"])
 
     @property
     def folder(self) -> Path:

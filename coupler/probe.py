@@ -32,10 +32,9 @@ def probe(scene: Scene, windows: int) -> list[str]:
         local = [b for b in backends if b.entry]
         try:
             start_backends(scene, backends, launcher, address_deadline=ADDRESS_DEADLINE)
-            start, dt = scene["time"]["start"], scene["time"]["dt"]
             for backend in local:
                 backend.client.instantiate(backend.parameters)
-                backend.client.enter_initialization_mode(start, start + windows * dt)
+                backend.client.enter_initialization_mode(scene.time.start, scene.time.window_start(windows))
                 backend.client.exit_initialization_mode()
             by_hand = {b.participant for b in backends if not b.entry}
             check_described(scene, participants_of([b for b in local if b.participant not in by_hand]))

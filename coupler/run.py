@@ -10,7 +10,6 @@ before an error stays readable.
 from __future__ import annotations
 
 import json
-import math
 import os
 import socket
 import time
@@ -85,7 +84,7 @@ class Backend:
 
 def plan_backends(scene: Scene) -> list[Backend]:
     """The processes the scene's schedule needs: the ROM alone if it serves from the start."""
-    start = scene["time"]["start"]
+    start = scene.time.start
     backends = []
     for name, spec in scene["components"].items():
         fom = Backend(name, name, "fom", spec["entry"], spec["address"], scene.component_parameters(name), start,
@@ -273,11 +272,8 @@ def prepare(scene: Scene) -> int:
     resolve_plugins(scene)
     check_parameters(scene)
     run_plot_hooks(scene)   # unknown plot names fail before anything starts
-    start, end, dt = scene["time"]["start"], scene["time"]["end"], scene["time"]["dt"]
-    n_windows = int(math.floor((end - start) / dt + 0.5))
-    if abs(start + n_windows * dt - end) > 1e-9 * max(1.0, abs(end)):
-        raise SceneError(f"{scene.source}: time.end - time.start = {end - start:g} is not a multiple of time.dt = {dt:g}")
-    return n_windows
+    scene.time.check(scene.source)
+    return scene.time.windows
 
 
 def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrite: bool = False,
@@ -291,10 +287,9 @@ def run_scene(scene: Scene, out_dir: str | Path, progress: bool = True, overwrit
                          f"{', '.join(programs)} {'is one' if len(programs) == 1 else 'are'}; run the case again "
                          "(--overwrite)")
     out_dir = directory.path
-    n_windows = prepare(scene)
-    start, dt = scene["time"]["start"], scene["time"]["dt"]
+    prepare(scene)
     with directory:     # the plots are drawn under the lock: no other run may take the directory over meanwhile
-        return Run(scene, directory, start, dt, n_windows, progress, resume).execute()
+        return Run(scene, directory, progress, resume).execute()
 
 
 def check_plot(output: dict, values: dict) -> None:
@@ -333,10 +328,10 @@ class Run:
     closed) and ``close`` (whatever an error left open). Its observers (``coupler.run_observers``: the results
     file's windows, the logs, the status file, the progress bar) are told of each step."""
 
-    def __init__(self, scene: Scene, directory: RunDirectory, start: float, dt: float, n_windows: int,
-                 progress: bool, resume: bool = False):
+    def __init__(self, scene: Scene, directory: RunDirectory, progress: bool, resume: bool = False):
         self.scene, self.directory, self.out_dir = scene, directory, directory.path
-        self.start, self.dt, self.n_windows = start, dt, n_windows
+        self.time = scene.time
+        n_windows = self.n_windows = self.time.windows
         self.identity = run_identity(scene, n_windows)
         self.backends = plan_backends(scene)
         self.saved = read_checkpoint_for(scene, self.out_dir, n_windows, [b.name for b in self.backends]) \
@@ -427,7 +422,7 @@ class Run:
                 b.client.instantiate(b.parameters)
             if self.saved is None:
                 store.write_description(b.name, [asdict(v) for v in b.client.variables.values()], b.client.meshes)
-            b.client.enter_initialization_mode(self.start, self.start + self.n_windows * self.dt)
+            b.client.enter_initialization_mode(self.time.start, self.time.window_start(self.n_windows))
             b.client.exit_initialization_mode()
         if self.every:
             refusing = [b for b in backends if not b.client.can_checkpoint]
@@ -459,9 +454,8 @@ class Run:
         told, a checkpoint if one is due; a stop asked for ends the run here."""
         scheme = self.scheme
         assert scheme is not None
-        t = self.start + window * self.dt
         window_start = time.perf_counter()
-        result = scheme.advance(t, self.dt)
+        result = scheme.advance(self.time.window_start(window), self.time.dt)
         self._tell("window_computed", self, result, time.perf_counter() - window_start)
         self.windows += 1
         self.iterations += result.iterations
@@ -471,7 +465,7 @@ class Run:
             self.warned += len(b.client.warnings)
             for message, count in Counter(b.client.warnings).items():
                 calls = f" ({count} calls)" if count > 1 else ""
-                self._tell("warning", f"warning: component '{b.name}' in window {done} (t = {result.time - self.dt:g} "
+                self._tell("warning", f"warning: component '{b.name}' in window {done} (t = {result.time - self.time.dt:g} "
                                       f"to {result.time:g}): {message}{calls}")
             b.client.warnings.clear()
         if not result.converged and result.message:

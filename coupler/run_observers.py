@@ -73,10 +73,9 @@ class CouplerLogs(RunObserver):
         self.log = log
 
     def starting(self, run: Run) -> None:
-        scene, dt = run.scene, run.dt
         self.log.event(f"{'resumed after window ' + str(run.windows) if run.saved is not None else 'started'}: "
-                       f"scene {scene.source} ({run.identity['scene_sha256'][:12]}), {run.n_windows} windows of "
-                       f"{dt:g} s from t = {run.start:g}")
+                       f"scene {run.scene.source} ({run.identity['scene_sha256'][:12]}), {run.n_windows} windows of "
+                       f"{run.time.dt:g} s from t = {run.time.start:g}")
 
     def event(self, message: str) -> None:
         self.log.event(message)
@@ -129,7 +128,7 @@ class StatusFile(RunObserver):
         self.directory.status("finished", force=True, windows_total=self.n_windows, windows_completed=run.windows,
                               windows_unconverged=run.unconverged, wall_seconds=run.wall, iterations_total=run.iterations,
                               started=self.started, windows_at_start=self.windows_at_start,
-                              time=run.start + run.windows * run.dt)
+                              time=run.time.window_start(run.windows))
 
     def failed(self, run: Run, error: Exception) -> None:
         self.directory.status("failed", force=True, windows_total=self.n_windows, windows_completed=run.windows,
