@@ -6,8 +6,7 @@ from __future__ import annotations
 from cosim.errors import SceneError
 from cosim.scene import Scene
 from cosim.schema import validate
-from coupler import mvqn, plain_accelerations  # noqa: F401  (accelerations registered in modules of their own)
-from coupler.acceleration import resolve_acceleration
+from coupler.accelerations import resolve_acceleration
 from coupler.convergence import resolve_measure
 from coupler.mapping import MAPPINGS
 from coupler.schemes import SCHEMES

@@ -12,8 +12,7 @@ from typing import Any
 
 from cosim.reference import plugins, table
 from cosim.scene import BACKENDS, COMPONENT, EXCHANGE, MEANINGS, SCHEMA
-from coupler import mvqn, plain_accelerations  # noqa: F401  (registered in modules of their own)
-from coupler.acceleration import ACCELERATIONS
+from coupler.accelerations import ACCELERATIONS
 from coupler.convergence import MEASURES
 from coupler.mapping import MAPPINGS
 from coupler.schemes import SCHEMES

@@ -35,7 +35,7 @@ from cosim.errors import (
 from cosim.participant import ParticipantProxy
 from cosim.proxy import ComponentProxy
 from cosim.registry import Registry
-from coupler.acceleration import Acceleration
+from coupler.accelerations import Acceleration
 from coupler.convergence import ConvergenceMeasure
 from coupler.extrapolation import Extrapolation
 from coupler.linalg import norm
