@@ -19,7 +19,8 @@ import numpy as np
 
 from benchmarks.common import ROOT, Timing, fresh_directory, machine
 from cosim.scene import load_scene
-from coupler import acceleration
+from coupler.accelerations import make_acceleration
+from coupler.accelerations.quasi_newton import IQNILS
 from coupler.run import run_scene
 
 SCENE = ROOT / "scenes" / "tube_fom.toml"
@@ -30,8 +31,8 @@ def record(end: float) -> tuple[list[tuple[str, Any]], dict, list[int], list[flo
     calls: list[tuple[str, Any]] = []
     seen: dict[str, Any] = {}
     timed: list[float] = []
-    observe, update, start, end_window = (acceleration.IQNILS.observe, acceleration.IQNILS.next_iterate,
-                                          acceleration.IQNILS.start_window, acceleration.IQNILS.end_window)
+    observe, update, start, end_window = (IQNILS.observe, IQNILS.next_iterate,
+                                          IQNILS.start_window, IQNILS.end_window)
 
     def recording_observe(self, x, x_tilde):
         calls.append(("observe", (x.copy(), x_tilde.copy())))
@@ -57,19 +58,19 @@ def record(end: float) -> tuple[list[tuple[str, Any]], dict, list[int], list[flo
                "end_window": recording_end}
     try:
         for name, method in patched.items():
-            setattr(acceleration.IQNILS, name, method)
+            setattr(IQNILS, name, method)
         scene = load_scene(SCENE, [f"time.end={end:g}"])
         run_scene(scene, fresh_directory("acceleration_update") / "run", progress=False)
     finally:
         for name, method in zip(patched, (observe, update, start, end_window)):
-            setattr(acceleration.IQNILS, name, method)
+            setattr(IQNILS, name, method)
     return calls, dict(scene["coupling"]["acceleration"]), seen.get("block_sizes") or [], timed
 
 
 def replay(calls: list[tuple[str, Any]], settings: dict, block_sizes: list[int], flush: np.ndarray | None
            ) -> tuple[list[float], bool]:
     """Each update's time on a fresh acceleration fed the same calls, and whether it gave the run's bits."""
-    accel = acceleration.make_acceleration(settings, block_sizes)
+    accel = make_acceleration(settings, block_sizes)
     times, same = [], True
     for kind, value in calls:
         if kind == "observe":

@@ -36,7 +36,8 @@ import numpy as np
 from benchmarks.common import fresh_directory, machine
 from cosim.results import RunResults
 from cosim.scene import load_scene
-from coupler.acceleration import ACCELERATIONS, IQNILS
+from coupler.accelerations import ACCELERATIONS
+from coupler.accelerations.quasi_newton import IQNILS
 from coupler.run import run_scene
 from coupler.schemes import CouplingScheme
 

@@ -46,6 +46,10 @@ def plugins(registry: Registry[Any], title: str, where: str, level: int = 2) -> 
             raise MissingMeaning(f"the {registry.kind} '{name}' ({cls.__name__}) has no docstring")
         doc = inspect.cleandoc(cls.__doc__).split("\n\n")[0].replace("\n", " ")
         lines += [f"{'#' * (level + 1)} `{name}`", "", doc, ""]
+        aliases = registry.aliases_of(name)
+        if aliases:
+            lines += [f"Also chosen by its former name{'s' if len(aliases) > 1 else ''} "
+                      f"{', '.join(f'`{alias}`' for alias in aliases)}.", ""]
         settings = getattr(cls, "SETTINGS", {})
         if not settings:
             lines += ["No settings.", ""]

@@ -2,7 +2,8 @@
 
 A plug-in class declares ``SETTINGS``, a schema in the form ``cosim.schema.validate``
 reads (defaults, ranges, required keys). A scene names a plug-in by a table with a
-``type`` key and the plug-in's settings, or by its name alone; ``Registry.settings``
+``type`` key and the plug-in's settings, or by its name alone (or by one of the class's aliases, a former name
+that keeps working); ``Registry.settings``
 checks that table against the class's own schema, so a setting that does not belong to
 the chosen plug-in is an error naming the key, and ``Registry.create`` builds the plug-in
 from the validated settings.
@@ -10,7 +11,7 @@ from the validated settings.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Generic, TypeVar
 
 from cosim.errors import SceneError
@@ -25,12 +26,16 @@ class Registry(Generic[P]):
     def __init__(self, kind: str):
         self.kind = kind
         self.classes: dict[str, type[P]] = {}
+        self.aliases: dict[str, str] = {}      # another name a class is chosen by -> its name
 
-    def register(self, name: str) -> Callable[[type[P]], type[P]]:
+    def register(self, name: str, aliases: Sequence[str] = ()) -> Callable[[type[P]], type[P]]:
+        """Register a class under ``name``; each of ``aliases`` (a former name, say) chooses it too."""
         def decorate(cls: type[P]) -> type[P]:
-            if name in self.classes:
-                raise ValueError(f"{self.kind} '{name}' is registered twice")
+            for key in (name, *aliases):
+                if key in self.classes or key in self.aliases:
+                    raise ValueError(f"{self.kind} '{key}' is registered twice")
             self.classes[name] = cls
+            self.aliases.update(dict.fromkeys(aliases, name))
             setattr(cls, "type_name", name)     # noqa: B010 (the name the class is chosen by)
             return cls
         return decorate
@@ -38,10 +43,18 @@ class Registry(Generic[P]):
     def names(self) -> list[str]:
         return list(self.classes)
 
+    def aliases_of(self, name: str) -> list[str]:
+        """The other names that choose the class registered as ``name``."""
+        return [alias for alias, target in self.aliases.items() if target == name]
+
+    def get(self, name: str) -> type[P]:
+        """The class registered under ``name`` or under one of its aliases (KeyError if none)."""
+        return self.classes[self.aliases.get(name, name)]
+
     def lookup(self, name: Any, where: str, source: str = "") -> type[P]:
-        if name not in self.classes:
+        if name not in self.classes and name not in self.aliases:
             raise SceneError(f"{_at(source)}'{where}' is {name!r}; known {self.kind}s: {', '.join(self.classes)}")
-        return self.classes[name]
+        return self.get(name)
 
     def settings(self, table: Any, where: str, source: str = "", common: Mapping[str, Any] | None = None,
                  context: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -67,9 +80,9 @@ class Registry(Generic[P]):
         return {"type": name, **settings}
 
     def create(self, settings: Mapping[str, Any], **context: Any) -> P:
-        """An instance from settings returned by ``settings`` (``type`` picks the class)."""
+        """An instance from settings returned by ``settings`` (``type`` picks the class, by its name or an alias)."""
         options = {k: v for k, v in settings.items() if k != "type"}
-        return self.classes[settings["type"]](**options, **context)
+        return self.get(settings["type"])(**options, **context)
 
 
 def _at(source: str) -> str:

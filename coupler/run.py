@@ -29,7 +29,8 @@ from cosim.proxy import ComponentProxy
 from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
 from cosim.scene import BACKEND, Scene
-from coupler.acceleration import ACCELERATIONS, IQNILS, make_acceleration
+from coupler.accelerations import ACCELERATIONS, make_acceleration
+from coupler.accelerations.quasi_newton import IQNILS
 from coupler.convergence import make_measure
 from coupler.coupled import Coupled
 from coupler.linalg import load as load_linalg
@@ -550,7 +551,7 @@ def _import_while_components_start(scene: Scene | None = None) -> None:
     the window's rows of the results file (h5py), SciPy's KD-tree and sparse matrices where a mapping is built on
     meshes (their import would otherwise wait until the components are up), and the waveforms' B-splines where a
     scene interpolates in time."""
-    if scene is None or issubclass(ACCELERATIONS.classes[scene["coupling"]["acceleration"]["type"]], IQNILS):
+    if scene is None or issubclass(ACCELERATIONS.get(scene["coupling"]["acceleration"]["type"]), IQNILS):
         load_linalg()
     import cosim.results  # noqa: F401
     if scene is not None and any(MAPPINGS.classes[e["mapping"]["type"]].needs_meshes for e in scene["exchange"]):

@@ -5,15 +5,32 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
+from cosim.scene import Scene, TimeGrid
+from coupler.recording import CallRecorder
 from coupler.run_log import RunLog
-from coupler.schemes import WindowResult
+from coupler.schemes import CouplingScheme, WindowResult
 
-if TYPE_CHECKING:
-    from coupler.run import Run
+
+class Run(Protocol):
+    """What an observer reads of the run it watches (``coupler.run.Run``)."""
+
+    scene: Scene
+    time: TimeGrid
+    n_windows: int
+    identity: dict[str, Any]
+    saved: Any                  # the checkpoint it resumed from, or None
+    scheme: CouplingScheme | None
+    backends: Sequence[Any]
+    recorders: dict[str, CallRecorder]
+    windows: int
+    iterations: int
+    unconverged: int
+    wall: float
 
 
 class RunObserver:

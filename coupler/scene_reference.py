@@ -11,17 +11,14 @@ from __future__ import annotations
 from typing import Any
 
 from cosim.reference import plugins, table
-from cosim.scene import BACKENDS, COMPONENT, SCHEMA
+from cosim.scene import BACKENDS, COMPONENT, SCHEMA, scene_rules
 from cosim.scene import MEANINGS as SCENE_MEANINGS
-from coupler import mvqn, plain_accelerations  # noqa: F401  (registered in modules of their own)
-from coupler.acceleration import ACCELERATIONS
+from coupler.accelerations import ACCELERATIONS
 from coupler.convergence import MEASURES
 from coupler.mapping import MAPPINGS
-from coupler.scene_rules import COUPLING, EXCHANGE
+from coupler.scene_rules import EXCHANGE
 from coupler.scene_rules import MEANINGS as COUPLING_MEANINGS
 from coupler.schemes import SCHEMES
-from coupler.stability_matrix import MEANINGS as STABILITY_MEANINGS
-from coupler.stability_matrix import STABILITY
 from coupler.surrogate import HELP as SURROGATE_HELP
 from coupler.surrogate import SETTINGS as SURROGATE_SETTINGS
 
@@ -42,8 +39,12 @@ flap's `[flow]`) are each component's own parameters: the component class's `par
 
 
 def _meanings() -> dict[str, str]:
-    """Every scene key's meaning, from the table's owner: the scene layer, the coupler, the stability matrix."""
-    return {**SCENE_MEANINGS, **COUPLING_MEANINGS, **STABILITY_MEANINGS}
+    """Every scene key's meaning, from the table's owner: the scene layer, or the installed owner of the table
+    (``cosim.scene_rules``: the coupler's coupling, the studies' stability matrix)."""
+    meanings = dict(SCENE_MEANINGS)
+    for owner in scene_rules():
+        meanings.update(owner.meanings)
+    return meanings
 
 
 def _table(schema: dict[str, Any], prefix: str, meaning_prefix: str = "") -> list[str]:
@@ -75,8 +76,8 @@ def _backends() -> list[str]:
 
 def page() -> str:
     """The reference page's Markdown."""
-    top = {**{k: v for k, v in SCHEMA.items() if k not in ("components", "output")}, "coupling": COUPLING,
-           "stability": STABILITY, "output": SCHEMA["output"]}
+    owned = {table: schema for owner in scene_rules() for table, schema in owner.schemas.items()}
+    top = {**{k: v for k, v in SCHEMA.items() if k not in ("components", "output")}, **owned, "output": SCHEMA["output"]}
     lines = [HEADER, "## Top-level keys", "", *_table(top, ""),
              f"| `components` | tables | | | {SCENE_MEANINGS['components']} |", "",
              "## `[components.<name>]`", "", *_table(COMPONENT, "", "component."), "",

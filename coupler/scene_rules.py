@@ -16,8 +16,7 @@ from cosim.errors import CosimError, SceneError
 from cosim.scene import Scene, string_list, table_list
 from cosim.schema import AnyTable, Choice, PluginChoice, Positive, Required, Value, validate
 from cosim.server import load_entry
-from coupler import mvqn, plain_accelerations  # noqa: F401  (accelerations registered in modules of their own)
-from coupler.acceleration import resolve_acceleration
+from coupler.accelerations import resolve_acceleration
 from coupler.convergence import resolve_measure
 from coupler.mapping import MAPPINGS
 from coupler.schemes import SCHEMES
@@ -81,6 +80,8 @@ class CouplingRules:
     """The ``coupling`` table and the ``[[exchange]]`` list of a scene (the ``cosim.scene_rules`` entry point)."""
 
     tables = ("coupling", "exchange")
+    schemas = {"coupling": COUPLING}      # the plain tables, for the reference page ([[exchange]] has its own)
+    meanings = MEANINGS
 
     def validate(self, raw: dict[str, Any], data: dict[str, Any], source: str) -> None:
         """Both tables of ``raw`` validated into ``data`` (defaults filled in), then the rules across them."""

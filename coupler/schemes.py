@@ -33,7 +33,7 @@ from cosim.errors import (
     StalledError,
 )
 from cosim.registry import Registry
-from coupler.acceleration import Acceleration
+from coupler.accelerations import Acceleration
 from coupler.convergence import ConvergenceMeasure
 from coupler.coupled import Coupled, SavesState
 from coupler.extrapolation import Extrapolation

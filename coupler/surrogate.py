@@ -15,7 +15,7 @@ fluid, whose output also depends on its history). The surrogate pairs
   in time.
 
 It gives the Jacobian of H (the static block's exact derivative times the dynamic block's secant
-model, in either order), which an acceleration takes as its prior (``coupler.acceleration``), and
+model, in either order), which an acceleration takes as its prior (``coupler.accelerations.surrogate``), and
 a window's first iterate: the fixed point of the surrogate coupled map, solved by Newton's method.
 The full-order participants still answer every call: the surrogate changes where iterations start
 and which steps they take, never what a window converges to.

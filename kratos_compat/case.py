@@ -20,8 +20,8 @@ What each CoSimulation setting becomes (``docs/kratos.md``):
   fills; ``copy``: the identity; ``kratos_mapping`` ``nearest_neighbor``: nearest-neighbour, consistent, or
   conservative with ``use_transpose``; ``nearest_element``: nearest-element, the same way; ``swap_sign``: the
   exchange's scale -1.
-- Accelerators: ``constant_relaxation``: constant, ``aitken``: aitken-bounded, ``iqnils``: iqn-ils-plain,
-  ``mvqn``: mvqn (the same updates, tested against Kratos's own classes).
+- Accelerators: ``constant_relaxation``: constant, ``aitken``: kratos-aitken, ``iqnils``: kratos-iqn-ils,
+  ``mvqn``: kratos-mvqn (the same updates, tested against Kratos's own classes).
 - Criteria: ``relative_norm_previous_residual``: any of absolute-rms and relative; ``relative_norm_initial_residual``:
   any of absolute-rms and residual-relative; all criteria must hold.
 - Predictors: ``linear`` on the accelerated data: extrapolation order 0, as it acts in Kratos (it reads a
@@ -203,14 +203,14 @@ def _acceleration(params: CoSimParameters, accelerated: tuple[list[str], dict[st
                              "relaxation takes")
         table = {"type": "constant", "relaxation": s["alpha"]}
     elif role.type == "aitken":
-        table = {"type": "aitken-bounded", "initial_relaxation": s["init_alpha"],
+        table = {"type": "kratos-aitken", "initial_relaxation": s["init_alpha"],
                  "initial_relaxation_max": s["init_alpha_max"], "relaxation_min": s["alpha_min"],
                  "relaxation_max": s["alpha_max"]}
     elif role.type == "iqnils":
-        table = {"type": "iqn-ils-plain", "initial_relaxation": s["alpha"],
+        table = {"type": "kratos-iqn-ils", "initial_relaxation": s["alpha"],
                  "iteration_horizon": s["iteration_horizon"], "timestep_horizon": s["timestep_horizon"]}
     else:
-        table = {"type": "mvqn", "initial_relaxation": s["alpha"], "horizon": s["horizon"]}
+        table = {"type": "kratos-mvqn", "initial_relaxation": s["alpha"], "horizon": s["horizon"]}
     return {**table, "data": names}
 
 

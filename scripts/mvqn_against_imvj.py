@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from coupler.acceleration import IQNIMVJ
+from coupler.accelerations.quasi_newton import IQNIMVJ
 
 UNKNOWNS, WINDOWS, TOLERANCE = 6, 5, 1e-12
 

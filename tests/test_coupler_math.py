@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from cosim.errors import SceneError
-from coupler.acceleration import IQNILS, Acceleration, Aitken, ConstantRelaxation
+from coupler.accelerations import Acceleration
+from coupler.accelerations.quasi_newton import IQNILS
+from coupler.accelerations.relaxation import Aitken, ConstantRelaxation
 from coupler.convergence import make_measure, resolve_measure
 from coupler.extrapolation import Extrapolation
 from coupler.mapping import make_mapping
@@ -217,15 +219,40 @@ def test_combinators_any_of_and_all_of():
 
 def test_a_setting_that_does_not_belong_to_the_plugin_is_an_error():
     from cosim.errors import SceneError
-    from coupler.acceleration import resolve_acceleration
+    from coupler.accelerations import resolve_acceleration
     with pytest.raises(SceneError, match="unknown key 'coupling.acceleration.filter'"):
         resolve_acceleration({"type": "aitken", "filter": "qr2"})
     with pytest.raises(SceneError, match="known accelerations: none, constant, aitken, iqn-ils"):
         resolve_acceleration({"type": "newton"})
     assert resolve_acceleration("aitken") == {"type": "aitken", "data": [], "initial_relaxation": 0.5}
+    with pytest.raises(SceneError, match="known accelerations: .*, kratos-aitken, kratos-iqn-ils, kratos-mvqn$"):
+        resolve_acceleration("iqn-ils-bounded")
     with pytest.raises(SceneError, match="'m.measures.1.limit' is -1.0"):
         resolve_measure({"data": "x", "type": "any-of", "measures": [{"type": "relative", "limit": 1e-3},
                                                                     {"type": "relative", "limit": -1}]}, "m")
+
+
+@pytest.mark.parametrize("former, name", [("aitken-bounded", "kratos-aitken"), ("iqn-ils-plain", "kratos-iqn-ils"),
+                                          ("mvqn", "kratos-mvqn")])
+def test_a_former_acceleration_name_is_an_alias_of_the_same_class_and_settings(former, name):
+    """A scene naming a Kratos variant by its former name gets the same class and settings; its resolved table keeps
+    the name it gave (what a run records stays as it was)."""
+    from coupler.accelerations import ACCELERATIONS, make_acceleration, resolve_acceleration
+    assert ACCELERATIONS.get(former) is ACCELERATIONS.get(name) is ACCELERATIONS.lookup(former, "a")
+    assert ACCELERATIONS.aliases_of(name) == [former] and former not in ACCELERATIONS.names()
+    old, new = resolve_acceleration(former), resolve_acceleration(name)
+    assert old == {**new, "type": former}
+    assert type(make_acceleration(old, [3])) is ACCELERATIONS.get(name)
+
+
+def test_a_registry_refuses_an_alias_that_is_already_a_name():
+    from cosim.registry import Registry
+    registry: Registry[object] = Registry("thing")
+    registry.register("a", aliases=("b",))(type("A", (), {}))
+    for name, aliases in (("b", ()), ("c", ("a",)), ("c", ("b",))):
+        with pytest.raises(ValueError, match="is registered twice"):
+            registry.register(name, aliases)(type("C", (), {}))
+    assert registry.names() == ["a"] and registry.get("b").__name__ == "A"
 
 
 def test_extrapolation_is_exact_for_polynomials_of_its_order():
@@ -263,7 +290,7 @@ def test_nearest_neighbour_mappings():
 
 def test_iqn_imvj_learns_the_jacobian_of_a_linear_problem_across_windows():
     """x = A x + b with b changing per window: after one window IMVJ has A's inverse Jacobian, IQN-ILS (reuse 0) not."""
-    from coupler.acceleration import IQNILS, IQNIMVJ
+    from coupler.accelerations.quasi_newton import IQNILS, IQNIMVJ
     rng = np.random.default_rng(0)
     n = 20
     A = rng.standard_normal((n, n))
@@ -283,7 +310,7 @@ def test_iqn_imvj_learns_the_jacobian_of_a_linear_problem_across_windows():
 
 def test_a_scheme_with_the_acceleration_predictor_starts_from_the_next_update():
     """predictor = "acceleration": a window's first iterate is the update the acceleration proposes after convergence."""
-    from coupler.acceleration import ConstantRelaxation
+    from coupler.accelerations.relaxation import ConstantRelaxation
     from coupler.schemes import CouplingScheme
     class Served:                  # a participant that no backend change reaches (the scheme's arithmetic alone)
         backend_changed = False
@@ -336,7 +363,7 @@ def test_a_changed_map_starts_the_quasi_newton_afresh(kind):
     """The difference spanning a change of map (a ROM's window the solid FOM finishes) mixes the two maps'
     outputs: kept, it stalls the quasi-Newton on the new map; dropped, the old map's columns still help
     (the maps are near); with every column dropped it has its n + 1 property on the new map."""
-    from coupler.acceleration import IQNIMVJ
+    from coupler.accelerations.quasi_newton import IQNIMVJ
     rng = np.random.default_rng(11)
     n = 10
     Q = np.linalg.qr(rng.standard_normal((n, n)))[0]

@@ -7,7 +7,8 @@ import pytest
 from cosim.reference import MissingMeaning
 from cosim.scene import MEANINGS
 from coupler import scene_reference
-from coupler.acceleration import ACCELERATIONS, IQNILS
+from coupler.accelerations import ACCELERATIONS
+from coupler.accelerations.quasi_newton import IQNILS
 from tests.conftest import ROOT
 
 

@@ -11,7 +11,7 @@ import pytest
 from cosim.errors import ComponentError
 from cosim.results import RunResults
 from cosim.scene import load_scene
-from coupler.acceleration import IQNILS
+from coupler.accelerations.quasi_newton import IQNILS
 from coupler.mapping import make_mapping
 from coupler.run import run_scene
 from tests.conftest import needs_kratos

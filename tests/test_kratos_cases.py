@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 from cosim.cli import main
-from coupler.acceleration import ACCELERATIONS
-from coupler.scene_rules import resolve_plugins  # noqa: F401  (registers every acceleration)
+from coupler.accelerations import ACCELERATIONS
 from tests.conftest import needs_kratos
 
 needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None,
@@ -60,13 +59,14 @@ class Ours:
 
 @needs_cosim_application
 @pytest.mark.parametrize("kratos, ours", [
-    ({"type": "mvqn", "horizon": 5, "alpha": 0.2}, {"type": "mvqn", "horizon": 5, "initial_relaxation": 0.2}),
-    ({"type": "iqnils"}, {"type": "iqn-ils-plain"}),
+    ({"type": "mvqn", "horizon": 5, "alpha": 0.2}, {"type": "kratos-mvqn", "horizon": 5, "initial_relaxation": 0.2}),
+    ({"type": "iqnils"}, {"type": "kratos-iqn-ils"}),
     ({"type": "iqnils", "iteration_horizon": 6, "timestep_horizon": 3, "alpha": 0.2},
-     {"type": "iqn-ils-plain", "iteration_horizon": 6, "timestep_horizon": 3, "initial_relaxation": 0.2}),
-    ({"type": "aitken"}, {"type": "aitken-bounded"}),
+     {"type": "kratos-iqn-ils", "iteration_horizon": 6, "timestep_horizon": 3, "initial_relaxation": 0.2}),
+    ({"type": "aitken"}, {"type": "kratos-aitken"}),
+    ({"type": "aitken"}, {"type": "aitken-bounded"}),          # its former name, an alias
     ({"type": "aitken", "init_alpha": 0.3, "init_alpha_max": 0.2, "alpha_max": 0.9, "alpha_min": -0.5},
-     {"type": "aitken-bounded", "initial_relaxation": 0.3, "initial_relaxation_max": 0.2, "relaxation_max": 0.9,
+     {"type": "kratos-aitken", "initial_relaxation": 0.3, "initial_relaxation_max": 0.2, "relaxation_max": 0.9,
       "relaxation_min": -0.5}),
     ({"type": "constant_relaxation", "alpha": 0.3}, {"type": "constant", "relaxation": 0.3}),
 ])
@@ -83,7 +83,7 @@ def test_each_kratos_accelerator_is_a_cosim_plugin_with_the_same_iterates_bit_fo
 
 def test_mvqn_is_not_iqn_imvj():
     """The reason MVQN is a plug-in of its own: on the same problem the iterates part."""
-    mvqn = linear_iterations(lambda: Ours({"type": "mvqn", "horizon": 15, "initial_relaxation": 0.2}))
+    mvqn = linear_iterations(lambda: Ours({"type": "kratos-mvqn", "horizon": 15, "initial_relaxation": 0.2}))
     imvj = linear_iterations(lambda: Ours({"type": "iqn-imvj", "initial_relaxation": 0.2}))
     assert np.abs(mvqn - imvj).max() > 1e-3 * np.abs(mvqn).max()
 
@@ -203,7 +203,7 @@ def test_the_case_becomes_a_scene_with_kratos_settings_as_plugins(wall_case, cap
     coupling = scene["coupling"]
     assert coupling["scheme"] == "serial-implicit" and coupling["participants"] == ["fluid", "structure"]
     assert coupling["max_iterations"] == 12 and coupling["on_max_iterations"] == "accept"   # --set wins
-    assert coupling["acceleration"]["type"] == "mvqn" and coupling["acceleration"]["data"] == ["disp"]
+    assert coupling["acceleration"]["type"] == "kratos-mvqn" and coupling["acceleration"]["data"] == ["disp"]
     assert coupling["extrapolation_order"] == 0          # Kratos's linear predictor on a cloned buffer
     load = next(e for e in scene["exchange"] if e["data"] == "load")
     assert load["scale"] == -1.0 and load["mapping"] == {"type": "nearest-neighbour", "constraint": "conservative"}

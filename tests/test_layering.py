@@ -13,9 +13,12 @@ OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component
         "workflow", "precice_compat", "kratos_compat")
 ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "solid_component": {"cosim"},
            "rom_component": {"cosim"}, "kratos_solvers": {"cosim"},
-           # a case sits on everything it names: the coupler, the ROM, its solvers
-           "cases": {"cosim", "coupler", "rom_component", "fluid_component", "solid_component", "kratos_solvers"},
-           # the campaign calls the coupler's runs and the ROM's training, export and report
+           # a case sits on everything it names: the coupler, the ROM, its solvers, the studies (the tube's stability
+           # theory takes the Gauss-Seidel spectrum)
+           "cases": {"cosim", "coupler", "rom_component", "fluid_component", "solid_component", "kratos_solvers",
+                     "workflow"},
+           # the studies over many runs (sweeps, stability matrices, campaigns) call the coupler's runs and the ROM's
+           # training, export and report
            "workflow": {"cosim", "coupler", "rom_component"},
            # preCICE's cases read into scenes, above the coupler (its participant package imports none of ours)
            "precice_compat": {"cosim", "coupler"},
@@ -23,8 +26,9 @@ ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "
            "kratos_compat": {"cosim", "coupler", "kratos_solvers"}}
 
 
-def imported_packages(path) -> set[tuple[str, int]]:
-    """Our top-level packages imported anywhere in a module (in functions too), with line numbers."""
+def imported_packages(path, packages=OURS) -> set[tuple[str, int]]:
+    """The top-level ``packages`` (ours by default) imported anywhere in a module (in functions too), with line
+    numbers."""
     found = set()
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
@@ -33,7 +37,7 @@ def imported_packages(path) -> set[tuple[str, int]]:
             names = [node.module]
         else:
             continue
-        found |= {(name.split(".")[0], node.lineno) for name in names if name.split(".")[0] in OURS}
+        found |= {(name.split(".")[0], node.lineno) for name in names if name.split(".")[0] in packages}
     return found
 
 
@@ -59,6 +63,19 @@ def test_every_subcommand_is_registered_and_listed():
         assert name in text
 
 
+def test_the_studies_over_many_runs_are_the_workflow_s_and_the_coupler_holds_one_run():
+    """Sweeps, stability matrices and campaigns, and their commands, are in workflow/; the coupler runs one scene (no
+    module of it imports Dask or workflow, none is a study)."""
+    from importlib.metadata import entry_points
+    owners = {point.name: point.value.split(":")[0] for point in entry_points(group="cosim.commands")}
+    assert {owners[name] for name in ("sweep", "stability", "campaign")} == {"workflow.commands"}
+    assert {owners[name] for name in ("run", "check", "status", "plot")} == {"coupler.commands"}
+    graph = module_graph(("coupler",))
+    assert not {"coupler.sweep", "coupler.stability_matrix", "coupler.stability"} & set(graph)
+    assert [path for path in sorted((ROOT / "coupler").rglob("*.py")) if imported_packages(path, ("dask",))] == []
+    assert imported_packages(ROOT / "workflow" / "sweep.py", ("dask",))          # the check sees one
+
+
 def test_results_paths_are_spelled_only_in_the_results_module():
     """Writer and reader share cosim/results.py's Layout; no other file spells an HDF5 path of the layout."""
     import re
@@ -72,7 +89,9 @@ def test_results_paths_are_spelled_only_in_the_results_module():
 
 
 def test_the_tube_imports_no_kratos_nor_gmsh():
-    """Everything a tube run loads, in the coupler and in its component modules, stays free of Kratos and gmsh."""
+    """Everything a tube run loads, in the coupler and in its component modules, stays free of Kratos and gmsh (no
+    package of Kratos's, nor ours around it; the coupler's own updates after Kratos's, coupler.accelerations.kratos,
+    are NumPy)."""
     import subprocess
     import sys
     code = ("import sys; import cosim.cli, cosim.server, coupler.run, coupler.commands, fluid_component.tube, "
@@ -80,7 +99,7 @@ def test_the_tube_imports_no_kratos_nor_gmsh():
             "from coupler.run import run_scene; from cosim.scene import load_scene; import tempfile, pathlib; "
             "d = pathlib.Path(tempfile.mkdtemp()); "
             "run_scene(load_scene('scenes/tube_fom.toml', ['time.end=0.3']), d / 'run', progress=False); "
-            "print(sorted(m for m in sys.modules if 'kratos' in m.lower() or m.split('.')[0] == 'gmsh'))")
+            "print(sorted(m for m in sys.modules if 'kratos' in m.split('.')[0].lower() or m.split('.')[0] == 'gmsh'))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
     assert out.strip().splitlines()[-1] == "[]"
 

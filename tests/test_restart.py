@@ -152,7 +152,7 @@ def test_resume_refuses_another_scene_and_a_run_without_a_checkpoint(tmp_path, c
 
 
 def test_a_sweep_s_run_stopped_midway_goes_on_from_its_checkpoint(tmp_path, monkeypatch):
-    from coupler.sweep import run_one
+    from workflow.sweep import run_one
     overrides = ["time.end=3.0", "output.checkpoint_every=4"]
     run_scene(load_scene(TUBE_SCENE, overrides), tmp_path / "whole", progress=False)
     with pytest.raises(KeyboardInterrupt), monkeypatch.context() as patch:

@@ -10,8 +10,8 @@ from cases.tube.stability import tube_critical_stiffness, tube_eigenvalue
 from cosim.cli import main
 from cosim.scene import load_scene
 from coupler.scene_rules import resolve_plugins
-from coupler.stability import gauss_seidel_spectrum
 from tests.conftest import TUBE_SCENE
+from workflow.gauss_seidel import gauss_seidel_spectrum
 
 R0 = math.sqrt(1.0 / math.pi)
 

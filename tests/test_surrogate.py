@@ -8,7 +8,8 @@ import pytest
 from cosim.checkpoint import pack, unpack
 from cosim.results import RunResults
 from cosim.scene import load_scene
-from coupler.acceleration import IQNILS, IQNSurrogate
+from coupler.accelerations.quasi_newton import IQNILS
+from coupler.accelerations.surrogate import IQNSurrogate
 from coupler.surrogate import InterfaceSurrogate
 from tests.conftest import ROOT
 from tests.test_coupler_math import iterate

@@ -11,8 +11,8 @@ import pytest
 
 from cosim.cli import main
 from cosim.errors import SceneError
-from coupler.sweep import SweepRun, SweepTable, file_runs, grid_runs, run_sweep, scene_fingerprint
 from tests.conftest import ROOT, TUBE_SCENE, wait_for
+from workflow.sweep import SweepRun, SweepTable, file_runs, grid_runs, run_sweep, scene_fingerprint
 
 SHORT = ["time.end=0.5"]
 
@@ -213,7 +213,7 @@ def test_a_scheduler_off_this_host_needs_tls_or_an_explicit_insecure_flag(tmp_pa
     code = main(["sweep", str(TUBE_SCENE), "--grid", "inlet.h=4", "--out", str(tmp_path), "--scheduler", address])
     err = capsys.readouterr().err.strip()
     assert code == 2 and refused in err and "\n" not in err
-    from coupler.sweep import check_scheduler
+    from workflow.sweep import check_scheduler
     for fine in ("tls://10.1.2.3:8786", "tcp://127.0.0.1:8786", "tcp://localhost:8786", "tcp://[::1]:8786"):
         check_scheduler(fine)
     if "not of the form" not in refused:

@@ -9,7 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from coupler.acceleration import IQNILS, IQNIMVJ, Acceleration, Aitken
+from coupler.accelerations import Acceleration
+from coupler.accelerations.quasi_newton import IQNILS, IQNIMVJ
+from coupler.accelerations.relaxation import Aitken
 from coupler.convergence import make_measure
 from coupler.mapping import make_mapping
 from coupler.schemes import Exchange, ParallelImplicit, SerialImplicit

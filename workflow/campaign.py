@@ -13,7 +13,7 @@ A campaign file names a scene, a ROM configuration and three tables:
   of the same model, reference and switch time is its twin: ``DIR/report/fmu_check.txt`` says whether the
   two runs are bit-identical.
 
-Every run is the sweep's ``run_one`` (``coupler.sweep``) on a Dask worker, with the sweep's tables
+Every run is the sweep's ``run_one`` (``workflow.sweep``) on a Dask worker, with the sweep's tables
 ``DIR/fom/sweep.csv`` and ``DIR/rom/sweep.csv`` and run directories named from the overrides, so that
 ``cosim sweep`` and ``cosim campaign`` share finished runs. A model trains as soon as its FOM runs have
 finished (or failed after the model's ``snapshots.t_max``) and a ROM-FOM run starts as soon as its model
@@ -44,7 +44,11 @@ from cosim.errors import CosimError, SceneError
 from cosim.scene import read_toml
 from cosim.schema import AnyTable, Required, validate
 from coupler.restart import resumable
-from coupler.sweep import (
+from rom_component.fmu.export import export_fmu
+from rom_component.report.compare import Run, write_report
+from rom_component.static.train import load_config, train
+from workflow.scheduler import Scheduler
+from workflow.sweep import (
     TABLE,
     SweepRun,
     SweepTable,
@@ -54,10 +58,6 @@ from coupler.sweep import (
     scene_fingerprint,
     setting_keys,
 )
-from rom_component.fmu.export import export_fmu
-from rom_component.report.compare import Run, write_report
-from rom_component.static.train import load_config, train
-from workflow.scheduler import Scheduler
 
 PLAN = {"scene": Required(str), "rom_config": Required(str), "fom": Required(dict), "recipes": AnyTable(),
         "models": Required(dict), "predictions": Required(list)}

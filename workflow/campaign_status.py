@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 from cosim.rundir import read_status
-from coupler.sweep import TABLE
 from workflow.campaign import _model_is_current, _model_key, load_plan, ran_after_model
+from workflow.sweep import TABLE
 
 
 def _table(path: Path) -> dict[str, dict[str, str]]:

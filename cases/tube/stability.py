@@ -1,6 +1,6 @@
 """The elastic tube's stability: the continuum theory of plain Gauss-Seidel coupling, and the stability matrix
 (stiffness x time step x acceleration) as ``cosim stability`` draws it (the theory's lines, spectral.csv,
-contraction.png; the matrix itself is any scene's: ``coupler.stability_matrix``).
+contraction.png; the matrix itself is any scene's: ``workflow.stability_matrix``).
 
 For the linearised tube the continuum theory gives the eigenvalues
 lambda_m = -[1 / ((m - 1/2) pi kappa tau)]^2 with kappa = c_MK / v0, tau = v0 dt / L and
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from coupler.stability import gauss_seidel_spectrum
+from workflow.gauss_seidel import gauss_seidel_spectrum
 
 
 def tube_eigenvalue(m: int, tangent_modulus: float, rho: float, r0: float, v0: float, dt: float,

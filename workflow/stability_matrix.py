@@ -54,6 +54,8 @@ class StabilityTable:
     """A scene's ``[stability]`` table: the grid, methods, windows and settings of ``cosim stability``."""
 
     tables = ("stability",)
+    schemas = {"stability": STABILITY}
+    meanings = MEANINGS
 
     def validate(self, raw: dict[str, Any], data: dict[str, Any], source: str) -> None:
         data["stability"] = validate(raw.get("stability", {}), STABILITY, "stability.", source)
@@ -108,15 +110,15 @@ def accelerated_data(scene: Any) -> list[str]:
 
 def parse_axes(grids: Sequence[str]) -> list[tuple[str, list[str]]]:
     """``key=v1,v2,...`` items as (key, values); one or two axes."""
-    from coupler.sweep import _split_values
+    from workflow.sweep import split_values
     axes = []
     for text in grids:
         if not isinstance(text, str):
             raise SceneError(f"stability grid item {text!r} is not a string \"key=v1,v2,...\"")
         key, sep, values = text.partition("=")
-        if not sep or not key.strip() or not _split_values(values):
+        if not sep or not key.strip() or not split_values(values):
             raise SceneError(f"stability grid '{text}' is not of the form key=v1,v2,...")
-        axes.append((key.strip(), _split_values(values)))
+        axes.append((key.strip(), split_values(values)))
     if not 1 <= len(axes) <= 2:
         raise SceneError(f"a stability matrix sweeps one or two parameters; got {len(axes)} "
                          f"({', '.join(k for k, _ in axes) or 'none'}): give stability.grid or --grid")
@@ -130,7 +132,7 @@ def matrix_runs(axes: list[tuple[str, list[str]]], methods: Sequence[str], data:
     """Every (method, grid point) as a sweep run of ``windows`` windows (``dt_of(point)``: that run's time step)."""
     import itertools
 
-    from coupler.sweep import SweepRun
+    from workflow.sweep import SweepRun
     runs = []
     for method in methods:
         for values in itertools.product(*(v for _, v in axes)):

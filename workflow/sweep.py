@@ -80,11 +80,11 @@ def grid_runs(grids: list[str], common: Sequence[str] = ()) -> list[SweepRun]:
         key, sep, values = text.partition("=")
         if not sep or not key.strip() or not values.strip():
             raise SceneError(f"--grid '{text}' is not of the form key=v1,v2,...")
-        axes.append([f"{key.strip()}={value.strip()}" for value in _split_values(values)])
+        axes.append([f"{key.strip()}={value.strip()}" for value in split_values(values)])
     return [SweepRun((*common, *combination)) for combination in itertools.product(*axes)]
 
 
-def _split_values(values: str) -> list[str]:
+def split_values(values: str) -> list[str]:
     """Comma-separated values; commas inside brackets, braces or quotes (TOML arrays, tables) do not split."""
     parts, depth, quote, current = [], 0, "", ""
     for char in values:

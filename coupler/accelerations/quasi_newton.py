@@ -1,127 +1,21 @@
-"""Acceleration of implicit coupling iterations on the fixed-point map x -> H(x).
+"""Interface quasi-Newton accelerations, as preCICE's.
 
-Every method sees, per iteration, the iterate ``x`` that went into the map and the
-result ``x_tilde = H(x)`` (``observe``), and proposes the next iterate
-(``next_iterate``). ``start_window``/``end_window`` bracket each time window;
-``map_changed`` says that a participant's backend changed (ROM and full-order solver).
-
-- ``ConstantRelaxation``: x + omega r, with r = x_tilde - x.
-- ``Aitken``: dynamic relaxation (Irons and Tuck), omega reset to at most the
-  initial relaxation in every window.
-- ``IQNILS``: interface quasi-Newton with an inverse Jacobian from least squares
-  (Degroote et al. 2009), columns of reused time windows, a cap on used columns,
-  QR1 / QR1-absolute / QR2 filtering of nearly dependent columns. With several data
-  blocks the least-squares norm is scaled per block (``block_sizes``).
+- ``IQNILS``: interface quasi-Newton with an inverse Jacobian from least squares (Degroote et al. 2009), columns
+  of reused time windows, a cap on used columns, QR1 / QR1-absolute / QR2 filtering of nearly dependent columns.
+  With several data blocks the least-squares norm is scaled per block (``block_sizes``).
+- ``IQNIMVJ``: interface quasi-Newton with a multi-vector Jacobian kept across windows (Lindner et al. 2015).
 """
 
 from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
-from cosim.registry import Registry
 from cosim.schema import Choice, Positive, Value
+from coupler.accelerations.base import ACCELERATIONS, FILTERS, MAP_CHANGES, RELAXATION, Acceleration
 from coupler.linalg import QR, column_norms, norm
-
-ACCELERATIONS: Registry[Acceleration] = Registry("acceleration")
-FILTERS = ("qr1", "qr1-absolute", "qr2", "none")
-MAP_CHANGES = ("drop-span", "drop-all")
-COMMON: dict[str, Any] = {"data": []}   # the data items accelerated (default: the scheme's choice)
-RELAXATION = Value(0.5, low=0.0, high=1.0, low_open=True)
-
-
-@ACCELERATIONS.register("none")
-class Acceleration:
-    """Plain fixed-point iteration (no acceleration); base class."""
-
-    SETTINGS: dict = {}
-    HELP: dict[str, str] = {}
-
-    def __init__(self, block_sizes: list[int] | None = None) -> None:
-        self.block_sizes = block_sizes
-        self.x = np.zeros(0)           # the window's last iterate and the fixed-point map's value there,
-        self.x_tilde = np.zeros(0)     # set by observe before any update
-        self.iteration = 0
-
-    def start_window(self) -> None:
-        self.iteration = 0
-
-    def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
-        self.x, self.x_tilde = x, x_tilde
-        self.iteration += 1
-
-    def next_iterate(self) -> np.ndarray:
-        return self.x_tilde.copy()
-
-    def end_window(self) -> None:
-        pass
-
-    def map_changed(self) -> None:
-        """A participant's backend changed (ROM and full-order solver): the map x -> H(x) is another one.
-
-        Called before the first ``observe`` under the new map; what was learnt of the old map goes."""
-
-    def regrid(self, transform: Callable[[np.ndarray], np.ndarray], block_sizes: list[int]) -> None:
-        """The iterates' samples in time moved to another grid (a producer's substeps changed): every vector kept
-        goes through ``transform``, which resamples a difference of iterates onto the new grid; ``block_sizes``
-        are the data items' new sizes. Called before the first ``observe`` on the new grid."""
-        self.block_sizes = block_sizes
-
-
-@ACCELERATIONS.register("constant")
-class ConstantRelaxation(Acceleration):
-    """Constant under-relaxation: x <- x + omega (x~ - x)."""
-
-    SETTINGS = {"relaxation": RELAXATION}
-    HELP = {"relaxation": "the relaxation factor omega: x <- x + omega (x~ - x)"}
-
-    def __init__(self, relaxation: float, block_sizes: list[int] | None = None) -> None:
-        super().__init__()
-        self.omega = relaxation
-
-    def next_iterate(self) -> np.ndarray:
-        return self.x + self.omega * (self.x_tilde - self.x)
-
-
-@ACCELERATIONS.register("aitken")
-class Aitken(Acceleration):
-    """Aitken's dynamic relaxation: omega from the last two residuals, restarted every window."""
-
-    SETTINGS = {"initial_relaxation": RELAXATION}
-    HELP = {"initial_relaxation": "the relaxation factor of a window's first update, whence Aitken adapts it"}
-
-    def __init__(self, initial_relaxation: float, block_sizes: list[int] | None = None) -> None:
-        super().__init__()
-        self.initial = initial_relaxation
-        self.omega = initial_relaxation
-        self._r_previous: np.ndarray | None = None
-
-    def start_window(self) -> None:
-        super().start_window()
-        self.map_changed()
-
-    def map_changed(self) -> None:
-        """Forget the last residual; omega back to at most the initial relaxation (as in each new window)."""
-        self._r_previous = None
-        self.omega = np.sign(self.omega) * min(abs(self.omega), self.initial) or self.initial
-
-    def next_iterate(self) -> np.ndarray:
-        r = self.x_tilde - self.x
-        if self._r_previous is not None:
-            dr = r - self._r_previous
-            denominator = float(dr @ dr)
-            if denominator > 0.0:
-                self.omega = -self.omega * float(self._r_previous @ dr) / denominator
-        self._r_previous = r
-        return self.x + self.omega * r
-
-    def regrid(self, transform: Callable[[np.ndarray], np.ndarray], block_sizes: list[int]) -> None:
-        super().regrid(transform, block_sizes)
-        if self._r_previous is not None:
-            self._r_previous = transform(self._r_previous)
 
 
 @ACCELERATIONS.register("iqn-ils")
@@ -360,16 +254,6 @@ class IQNILS(Acceleration):
             self._windows.pop()
 
 
-def resolve_acceleration(table: object, where: str = "coupling.acceleration", source: str = "") -> dict:
-    """A scene's acceleration table checked against the chosen class's settings, defaults filled in."""
-    return ACCELERATIONS.settings(table, where, source, common=COMMON)
-
-
-def make_acceleration(settings: dict, block_sizes: list[int]) -> Acceleration:
-    """The acceleration resolved ``settings`` name (``data`` is the scheme's business)."""
-    return ACCELERATIONS.create({k: v for k, v in settings.items() if k != "data"}, block_sizes=block_sizes)
-
-
 @ACCELERATIONS.register("iqn-imvj")
 class IQNIMVJ(IQNILS):
     """Interface quasi-Newton with a multi-vector Jacobian (Lindner et al. 2015), as preCICE's IQN-IMVJ.
@@ -445,103 +329,3 @@ class IQNIMVJ(IQNILS):
         self.windows_since_restart += 1
         if self.restart_windows and self.windows_since_restart >= self.restart_windows:
             self.jacobian, self.windows_since_restart = None, 0
-
-
-CORRECTIONS = ("secant", "none")
-
-
-@ACCELERATIONS.register("iqn-surrogate")
-class IQNSurrogate(IQNILS):
-    """IQN-ILS whose inverse Jacobian has the coupled surrogate's as its prior (IQN-ILSM, as CoCoNuT).
-
-    With M = (J_S - I)^-1 from the surrogate's Jacobian J_S of H (``coupler.surrogate``) at the iterate, the
-    inverse Jacobian of the residual is N = M + (dX - M V) V^+ (dX = W - V: the iterates' differences), which
-    maps every column of V exactly as the secant equations ask and falls back to M elsewhere; the update is
-    x - N r. With M = -I it is IQN-ILS. ``correction = "none"`` takes the surrogate's Newton step x - M r alone.
-    Before the surrogate is trained, and for the rest of a window in which a surrogate step made the residual
-    worse, the update is IQN-ILS's (the surrogate may cost iterations, never the criterion). A surrogate step longer
-    than ``max_step_ratio`` times IQN-ILS's step from the same iterate (or the residual, if longer) is not taken
-    (IQN-ILS's is): a stale surrogate's step can carry a solver out of its domain (the double flap's solid mesh
-    failed after one).
-    """
-
-    SETTINGS = {**IQNILS.SETTINGS, "correction": Choice("secant", CORRECTIONS),
-                "max_step_ratio": Value(5.0, low=1.0)}
-    HELP = {**IQNILS.HELP,
-            "correction": "'secant': the surrogate's inverse Jacobian corrected by the secant columns (IQN-ILSM); "
-                          "'none': the surrogate's Newton step alone",
-            "max_step_ratio": "a surrogate step longer than this many times IQN-ILS's step from the same iterate (or "
-                              "the residual, if longer) is replaced by IQN-ILS's"}
-
-    def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
-                 filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
-                 on_map_change: str = "drop-span", correction: str = "secant", max_step_ratio: float = 5.0,
-                 block_sizes: list[int] | None = None) -> None:
-        super().__init__(initial_relaxation, max_used_iterations, reused_time_windows, filter, filter_limit,
-                         stale_step_ratio, on_map_change, block_sizes)
-        self.correction = correction
-        self.max_step_ratio = max_step_ratio
-        self.rejected_steps = 0
-        self.surrogate: Any = None      # set by the scheme: jacobian(x, y) and current (x, y)
-        self._plain = False             # this window fell back to IQN-ILS
-        self._surrogate_step = False    # the last update was the surrogate's
-        self.surrogate_updates = 0
-        self.fallback_windows = 0
-
-    def start_window(self) -> None:
-        super().start_window()
-        self._plain = self._surrogate_step = False
-
-    def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
-        worse = self.iteration >= 1 and norm(x_tilde - x) > self._last_norm
-        if self._surrogate_step and worse and not self._plain:
-            self._plain = True
-            self.fallback_windows += 1
-        super().observe(x, x_tilde)
-
-    def _prior(self) -> Any:
-        """M: v -> (J_S - I)^-1 v at the current iterate, or None (no surrogate, or not in use in this window).
-
-        J_S = U G has thin factors (rank k), so M v = -(v + U (I_k - G U)^-1 G v) (Woodbury)."""
-        if self._plain or self.surrogate is None or self.surrogate.current is None:
-            return None
-        factors = self.surrogate.jacobian_factors(*self.surrogate.current)
-        if factors is None:
-            return None
-        U, G = factors
-        if U.shape[0] != self.x.size or G.shape[1] != self.x.size or not (np.isfinite(U).all() and np.isfinite(G).all()):
-            return None
-        from scipy.linalg import LinAlgError, lu_factor, lu_solve
-        inner = np.eye(U.shape[1]) - G @ U
-        try:
-            lu = lu_factor(inner, check_finite=False)
-        except (LinAlgError, ValueError):
-            return None
-        if not np.isfinite(lu[0]).all() or np.abs(np.diag(lu[0])).min() <= 1e-12 * np.abs(np.diag(lu[0])).max():
-            return None
-        return lambda v: -(v + U @ lu_solve(lu, G @ v, check_finite=False))
-
-    def next_iterate(self) -> np.ndarray:
-        M = self._prior()
-        self._surrogate_step = False
-        if M is None:
-            return super().next_iterate()
-        proposal = self._surrogate_proposal(M)
-        plain = super().next_iterate()        # IQN-ILS's update from the same columns (and its housekeeping)
-        reach = max(float(np.linalg.norm(plain - self.x)), float(np.linalg.norm(self.x_tilde - self.x)))
-        if np.linalg.norm(proposal - self.x) > self.max_step_ratio * reach:
-            self.rejected_steps += 1
-            return plain
-        self._surrogate_step = True
-        self.surrogate_updates += 1
-        return proposal
-
-    def _surrogate_proposal(self, M: Any) -> np.ndarray:
-        """x - N r with the surrogate's prior M and the secant columns (filtered as IQN-ILS filters them)."""
-        r = self.x_tilde - self.x
-        step = M(r)
-        fit = self._secant_fit(r) if self.correction == "secant" else None
-        if fit is not None:
-            c, V, W = fit                         # c = -V^+ r
-            step = step - (W - V - M(V)) @ c      # + (dX - M V) V^+ r, dX = W - V
-        return self.x - step
