@@ -18,8 +18,6 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import numpy as np
-
 from cosim import stop
 from cosim.checkpoint import CheckpointError
 from cosim.errors import ComponentError, ComponentTimeout, CosimError, DiskFullError, SceneError
@@ -40,10 +38,9 @@ from coupler.recording import CallRecorder
 from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identity, write_checkpoint
 from coupler.run_log import RunLog
 from coupler.run_observers import CouplerLogs, ProgressBar, ResultsWindows, RunObserver, StatusFile
-from coupler.scene_rules import check_described, check_precision, resolve_plugins
+from coupler.scene_rules import check_described, check_precision, coupling_model, resolve_plugins
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange
-from coupler.surrogate import InterfaceSurrogate, load_model_class
 
 
 @dataclass
@@ -237,34 +234,12 @@ def build_scheme(scene: Scene, proxies: dict[str, Coupled],
     scheme = scheme_class(participants, exchanges, measures, None, coupling["acceleration"]["data"],
                           coupling["max_iterations"], coupling["on_max_iterations"],
                           coupling["extrapolation_order"], recorders, coupling["divergence_factor"],
-                          coupling["predictor"], make_surrogate(coupling))
+                          coupling["predictor"], coupling_model(coupling))
     scheme.initialize()
     scheme.acceleration = make_acceleration(coupling["acceleration"], scheme.block_sizes(scheme.accelerated))
-    if hasattr(scheme.acceleration, "surrogate"):
-        scheme.acceleration.surrogate = scheme.surrogate
+    if scheme.model is not None:
+        scheme.acceleration.use_model(scheme.model)
     return scheme
-
-
-def make_surrogate(coupling: dict) -> InterfaceSurrogate | None:
-    """The online interface surrogate of a resolved ``coupling`` table, or None without one."""
-    settings = coupling["surrogate"]
-    if not settings.get("start_window"):
-        return None
-    model_class, model = load_model_class(settings["model_type"]), settings["model"]   # checked by resolve_plugins
-    return InterfaceSurrogate(settings, settings["static"] == coupling["participants"][0], lambda: model_class(model))
-
-
-def surrogate_attributes(scheme: CouplingScheme) -> dict[str, float | int]:
-    """What the online surrogate did and cost, for the results file's attributes."""
-    surrogate, acceleration = scheme.surrogate, scheme.acceleration
-    errors = surrogate.secant_errors
-    return {"surrogate_trainings": surrogate.trainings, "surrogate_training_seconds": surrogate.training_seconds,
-            "surrogate_waiting_seconds": surrogate.waiting_seconds, "surrogate_call_seconds": surrogate.call_seconds,
-            "surrogate_predictions": surrogate.predictions, "surrogate_rejected_predictions": surrogate.rejected_predictions,
-            "surrogate_updates": getattr(acceleration, "surrogate_updates", 0),
-            "surrogate_fallback_windows": getattr(acceleration, "fallback_windows", 0),
-            "surrogate_rejected_steps": getattr(acceleration, "rejected_steps", 0),
-            "surrogate_secant_error_median": float(np.median(errors)) if errors else float("nan")}
 
 
 def prepare(scene: Scene) -> int:
@@ -518,12 +493,12 @@ class Run:
         store.wait_closed()
 
     def release(self) -> None:
-        """On every exit: the components asked to stop, the participants' hub and the surrogate's thread closed."""
+        """On every exit: the components asked to stop, the participants' hub and the coupling model closed."""
         shutdown_proxies([b.proxy for b in self.backends if b.proxy is not None])
         if self.hub is not None:
             self.hub.close()
-        if self.scheme is not None and self.scheme.surrogate is not None:
-            self.scheme.surrogate.close()
+        if self.scheme is not None and self.scheme.model is not None:
+            self.scheme.model.close()
 
     def close(self) -> None:
         """A run that did not finish: what it knows is kept (an error under way is the one reported)."""
@@ -536,13 +511,13 @@ class Run:
 
     def _final_attributes(self) -> None:
         """The run's closing attributes: its wall time, the windows accepted unconverged, the warnings, the ROM's
-        fallback windows, the surrogate's counts."""
+        fallback windows, the coupling model's counts."""
         schedules = [p for p in (self.participants or {}).values() if isinstance(p, BackendSchedule)]
         self.store.set_attributes(wall_seconds=self.wall, windows_unconverged=self.unconverged,
                                   component_warnings=self.warned,
                                   rom_fallback_windows=sum(len(p.fallback_windows) for p in schedules))
-        if self.scheme is not None and self.scheme.surrogate is not None:
-            self.store.set_attributes(**surrogate_attributes(self.scheme))
+        if self.scheme is not None and self.scheme.model is not None:
+            self.store.set_attributes(**self.scheme.model.attributes(self.scheme.acceleration))
 
 
 def _import_while_components_start(scene: Scene | None = None) -> None:

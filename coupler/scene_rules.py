@@ -21,6 +21,7 @@ from coupler.convergence import resolve_measure
 from coupler.mapping import MAPPINGS
 from coupler.schemes import SCHEMES
 from coupler.surrogate import SETTINGS as SURROGATE_SETTINGS
+from coupler.surrogate import InterfaceSurrogate, load_model_class
 
 COUPLING: dict[str, Any] = {
     "scheme": "serial-implicit",
@@ -179,10 +180,19 @@ def resolve_plugins(scene: Scene) -> None:
         exchange["mapping"] = MAPPINGS.settings(exchange["mapping"], f"exchange.{i}.mapping", source)
 
 
+def coupling_model(coupling: dict) -> InterfaceSurrogate | None:
+    """The model of the coupled map a resolved ``coupling`` table asks for (its ``surrogate`` table), or None."""
+    settings = coupling["surrogate"]
+    if not settings.get("start_window"):
+        return None
+    model_class, model = load_model_class(settings["model_type"]), settings["model"]   # checked by resolve_plugins
+    return InterfaceSurrogate(settings, settings["static"] == coupling["participants"][0], lambda: model_class(model),
+                              predicts_start=coupling["predictor"] == "surrogate")
+
+
 def check_model(surrogate: dict, source: str) -> None:
     """The surrogate's static model plug-in exists and takes its settings (checked now, not in the training
     thread)."""
-    from coupler.surrogate import load_model_class
     try:
         model_class = load_model_class(surrogate["model_type"])
     except KeyError as exc:

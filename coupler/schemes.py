@@ -36,6 +36,7 @@ from cosim.registry import Registry
 from coupler.accelerations import Acceleration
 from coupler.convergence import ConvergenceMeasure
 from coupler.coupled import Coupled, SavesState
+from coupler.coupling_model import CouplingModel
 from coupler.extrapolation import Extrapolation
 from coupler.linalg import norm
 from coupler.mapping import Mapping as InterfaceMapping
@@ -90,7 +91,7 @@ class CouplingScheme:
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
                  accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
                  extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None,
-                 divergence_factor: float = 1e3, predictor: str = "none", surrogate: Any = None):
+                 divergence_factor: float = 1e3, predictor: str = "none", model: CouplingModel | None = None):
         self.first, self.second = participants
         self.exchanges = list(exchanges)
         self.measures = list(measures)
@@ -116,7 +117,7 @@ class CouplingScheme:
         self._next_start: dict[str, np.ndarray] | None = None   # the acceleration's estimate for the next window
         self._state: dict[str, int] = {}      # each stateful participant's state at the window's start
         self._to_free: dict[str, int] = {}    # states of the last window, freed with the next step
-        self.surrogate = surrogate    # the online interface surrogate (coupler.surrogate), or None
+        self.model = model      # a model of the coupled map learnt during the run (coupler.coupling_model), or None
         self._deferred: Callable[[], None] | None = None
 
     def checkpoint_state(self) -> dict[str, Any]:
@@ -128,8 +129,8 @@ class CouplingScheme:
                            "samples": {name: pair[1] for name, pair in self.series.items()}},
                 "grid": self._grid,
                 "extrapolation": object_state(self._extrapolation),
-                "acceleration": object_state(self.acceleration, skip=("surrogate",)),
-                "surrogate": self.surrogate.checkpoint_state() if self.surrogate is not None else None,
+                "acceleration": object_state(self.acceleration, skip=("model",)),
+                "model": self.model.checkpoint_state() if self.model is not None else None,
                 "measures": [object_state(m) for m in self.measures],
                 "schedules": {p.name: kept for p in (self.first, self.second)
                               if (kept := p.coupling_state()) is not None}}
@@ -144,8 +145,8 @@ class CouplingScheme:
         self._next_start = state["next_start"]
         restore_object(self._extrapolation, state["extrapolation"])
         restore_object(self.acceleration, state["acceleration"])
-        if self.surrogate is not None:
-            self.surrogate.restore_checkpoint_state(state["surrogate"])
+        if self.model is not None:
+            self.model.restore_checkpoint_state(state["model"])
         for measure, measure_state in zip(self.measures, state["measures"]):
             restore_object(measure, measure_state)
         for p in (self.first, self.second):
@@ -189,9 +190,9 @@ class CouplingScheme:
             self._next_start = None
         else:
             values.update(self._split(self._extrapolation.predict(), self.accelerated))
-        if self.predictor == "surrogate" and self.surrogate is not None and self.accelerated:
+        if self.model is not None and self.model.predicts_start and self.accelerated:
             plain = self._stack(values, self.accelerated)
-            start = self.surrogate.predict_start(self._stack(self.values, self.accelerated), plain)
+            start = self.model.predict_start(self._stack(self.values, self.accelerated), plain)
             if start is not None:
                 values.update(self._split(start, self.accelerated))
         return values
@@ -413,8 +414,8 @@ class CouplingScheme:
     def _begin_implicit_window(self) -> dict[str, np.ndarray]:
         """Save states, reset acceleration and measures; the first iterate's data values."""
         self._save_states()
-        if self.surrogate is not None:
-            self.surrogate.start_window()
+        if self.model is not None:
+            self.model.start_window()
         self.acceleration.start_window()
         for m in self.measures:
             m.start_window()
@@ -423,8 +424,8 @@ class CouplingScheme:
     def _end_implicit_window(self, values: dict[str, np.ndarray], series: Series, t: float, iterations: int,
                              converged: bool) -> WindowResult:
         self.acceleration.end_window()
-        if self.surrogate is not None:
-            self.surrogate.end_window(converged)
+        if self.model is not None:
+            self.model.end_window(converged)
         self._free_states()
         self.values = values
         self.series = series
@@ -567,8 +568,8 @@ class SerialImplicit(CouplingScheme):
                              for m in self.measures])
             values.update({k: out_first[k] for k in forward})
             x, x_tilde = self._iterates(values, series, out_second, out_series, accelerated)
-            if self.surrogate is not None:
-                self.surrogate.observe(x, self._stack(out_first, forward), x_tilde)
+            if self.model is not None:
+                self.model.observe(x, self._stack(out_first, forward), x_tilde)
             self._observe(x, x_tilde)
             values.update({k: out_second[k] for k in feedback})
             series.update({k: v for k, v in out_series.items() if k in feedback})

@@ -100,7 +100,9 @@ def load_model_class(name: str) -> Any:
 class InterfaceSurrogate:
     """The online coupled surrogate of one serial implicit scheme (see the module's description)."""
 
-    def __init__(self, settings: dict[str, Any], static_first: bool, model_factory: Any) -> None:
+    def __init__(self, settings: dict[str, Any], static_first: bool, model_factory: Any,
+                 predicts_start: bool = False) -> None:
+        self.predicts_start = predicts_start    # a window starts from the surrogate's fixed point (the predictor)
         self.first_window = settings["start_window"]
         self.retrain_every = settings["retrain_every"]
         self.lag = settings["training_lag"]
@@ -189,6 +191,17 @@ class InterfaceSurrogate:
         since_first = self.window - max(self.first_window - self.lag, 1)   # the first training is in use at start_window
         if self.first_window and self._training is None and since_first >= 0 and since_first % self.retrain_every == 0:
             self._start_training()
+
+    def attributes(self, acceleration: Any) -> dict[str, float | int]:
+        """What the surrogate did and cost, with what the acceleration did with it, for the results file."""
+        errors = self.secant_errors
+        return {"surrogate_trainings": self.trainings, "surrogate_training_seconds": self.training_seconds,
+                "surrogate_waiting_seconds": self.waiting_seconds, "surrogate_call_seconds": self.call_seconds,
+                "surrogate_predictions": self.predictions, "surrogate_rejected_predictions": self.rejected_predictions,
+                "surrogate_updates": getattr(acceleration, "surrogate_updates", 0),
+                "surrogate_fallback_windows": getattr(acceleration, "fallback_windows", 0),
+                "surrogate_rejected_steps": getattr(acceleration, "rejected_steps", 0),
+                "surrogate_secant_error_median": float(np.median(errors)) if errors else float("nan")}
 
     def close(self) -> None:
         if self._executor is not None:

@@ -3,7 +3,7 @@ every dataset of their results files compared but the timings.
 
 The runs: the tube's FOM-FOM, the paper's mu1 inlet table, ROM-FOM and FMU-FOM from the start (a ROM trained once,
 on a FOM run to 18 s, with the first checkout), and 30 s each of IQN-IMVJ, Aitken, Jacobi with IQN-ILS on both
-fields, and linear extrapolation. With ``--all``: a second of Mok's wall, five windows of the double flap, the tube
+fields, linear extrapolation, and 20 s with the online surrogate (its predictor and its IQN). With ``--all``: a second of Mok's wall, five windows of the double flap, the tube
 as a preCICE case, and a Kratos CoSimulation case (``cases.kratos_wall.write``, written once by the first checkout).
 
 Usage: python -m scripts.same_bits TREE_A TREE_B --out DIR   (e.g. a worktree of the commit before a change, and .; a
@@ -31,6 +31,7 @@ RUNS = {
     "jacobi": ["time.end=30", "coupling.scheme=parallel-implicit",
                'coupling.acceleration={type="iqn-ils", data=["pressure","section"], initial_relaxation=0.1}'],
     "extrapolation": ["time.end=30", "coupling.extrapolation_order=1"],
+    "surrogate": ["time.end=20", "coupling.surrogate.start_window=10", "coupling.surrogate.retrain_every=10"],
 }
 OTHER_SCENES = {      # the other cases, short: Mok's wall (its structure with inertia) and the double flap (Kratos)
     "mok": ("scenes/mok.toml", ["time.end=1.0", "mesh.wall_cells=[2,40]"]),

@@ -40,7 +40,7 @@ def linear_problem(n: int = 12, seed: int = 3):
 def test_with_the_exact_jacobian_the_first_update_is_newtons_step_to_the_solution():
     A, b, solution = linear_problem()
     acceleration = IQNSurrogate(0.1, filter="none")
-    acceleration.surrogate = FixedJacobian(A)
+    acceleration.use_model(FixedJacobian(A))
     x, iterations = iterate(acceleration, lambda x: A @ x + b, np.zeros(len(b)))
     assert iterations == 2                       # one update, then the check
     np.testing.assert_allclose(x, solution, rtol=1e-10, atol=1e-10)
@@ -59,7 +59,7 @@ def test_a_wrong_surrogate_costs_iterations_never_the_solution(wrong):
     """A deliberately wrong Jacobian: the window falls back to IQN-ILS and still converges to the fixed point."""
     A, b, solution = linear_problem()
     acceleration = IQNSurrogate(0.1, filter="none")
-    acceleration.surrogate = FixedJacobian(wrong(A))
+    acceleration.use_model(FixedJacobian(wrong(A)))
     x, iterations = iterate(acceleration, lambda x: A @ x + b, np.zeros(len(b)))
     assert iterations is not None
     np.testing.assert_allclose(x, solution, rtol=1e-8, atol=1e-8)

@@ -36,6 +36,10 @@ class Acceleration:
         self.x_tilde = np.zeros(0)     # set by observe before any update
         self.iteration = 0
 
+    def use_model(self, model: Any) -> None:
+        """The run's model of the coupled map (``coupler.coupling_model``), for an acceleration that takes it as its
+        prior; the others leave it."""
+
     def start_window(self) -> None:
         self.iteration = 0
 

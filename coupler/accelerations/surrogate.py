@@ -46,11 +46,14 @@ class IQNSurrogate(IQNILS):
         self.correction = correction
         self.max_step_ratio = max_step_ratio
         self.rejected_steps = 0
-        self.surrogate: Any = None      # set by the scheme: jacobian(x, y) and current (x, y)
+        self.model: Any = None          # the run's coupled surrogate (use_model): jacobian(x, y), current (x, y)
         self._plain = False             # this window fell back to IQN-ILS
         self._surrogate_step = False    # the last update was the surrogate's
         self.surrogate_updates = 0
         self.fallback_windows = 0
+
+    def use_model(self, model: Any) -> None:
+        self.model = model
 
     def start_window(self) -> None:
         super().start_window()
@@ -67,9 +70,9 @@ class IQNSurrogate(IQNILS):
         """M: v -> (J_S - I)^-1 v at the current iterate, or None (no surrogate, or not in use in this window).
 
         J_S = U G has thin factors (rank k), so M v = -(v + U (I_k - G U)^-1 G v) (Woodbury)."""
-        if self._plain or self.surrogate is None or self.surrogate.current is None:
+        if self._plain or self.model is None or self.model.current is None:
             return None
-        factors = self.surrogate.jacobian_factors(*self.surrogate.current)
+        factors = self.model.jacobian_factors(*self.model.current)
         if factors is None:
             return None
         U, G = factors
