@@ -24,9 +24,9 @@ from pathlib import Path
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 from benchmarks.kratos_peer import run_coupled
-from cases.mok.components import FLUID_SCHEMA, STRUCTURE_SCHEMA, MokFluid, MokStructure
-from cases.mok.mesh import FLUID_INTERFACE, POINT_A, POINT_B, SOLID_INTERFACE, mok_meshes
 from cosim.schema import validate
+from kratos_solvers.mok import FLUID_SCHEMA, STRUCTURE_SCHEMA, MokFluid, MokStructure
+from kratos_solvers.mok_mesh import FLUID_INTERFACE, POINT_A, POINT_B, SOLID_INTERFACE, mok_meshes
 
 LIMIT = 1e-6
 DT = 0.1

@@ -41,7 +41,7 @@ class KratosFluid(KratosComponent):
     """Kratos FluidDynamicsAnalysis with the ``ale_fluid`` solver, one solve per coupling iteration.
 
     The class attributes name the mesh's sub-model parts and the element; a case with other boundaries
-    or another inlet overrides them, ``inlet_moduli`` and the schema (``cases.mok.components``).
+    or another inlet overrides them, ``inlet_moduli`` and the schema (``kratos_solvers.mok``).
     """
 
     name = "fluid"

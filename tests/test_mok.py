@@ -24,7 +24,7 @@ def private_cache(tmp_path_factory, monkeypatch):
 
 def fluid_area_exact() -> float:
     """The channel minus the wall minus what lies under the ramp, the arc and the step, in closed form."""
-    from cases.mok.mesh import GEOMETRY, ramp_tangent
+    from kratos_solvers.mok_mesh import GEOMETRY, ramp_tangent
     g = GEOMETRY
     tx, ty = ramp_tangent(g)
     (cx, cy), r = g["arc_centre"], g["arc_radius"]
@@ -40,7 +40,7 @@ def fluid_area_exact() -> float:
 
 
 def test_ramp_meets_the_arc_where_the_facts_say():
-    from cases.mok.mesh import GEOMETRY, ramp_tangent
+    from kratos_solvers.mok_mesh import GEOMETRY, ramp_tangent
     tx, ty = ramp_tangent(GEOMETRY)
     assert abs(tx - 1.1299) < 1e-4 and abs(ty - 0.2361) < 1e-4
     assert ty / (tx - GEOMETRY["wall_right"]) == pytest.approx(0.375704, abs=1e-5)
@@ -66,7 +66,8 @@ def test_mdpa_round_trip(tmp_path):
 
 @needs_gmsh
 def test_generated_meshes_have_the_geometry_the_wall_and_one_interface():
-    from cases.mok.mesh import (
+    from kratos_solvers.mdpa import read_mdpa
+    from kratos_solvers.mok_mesh import (
         CLAMPED,
         FLUID_INTERFACE,
         FLUID_VOLUME,
@@ -75,7 +76,6 @@ def test_generated_meshes_have_the_geometry_the_wall_and_one_interface():
         cell_areas,
         mok_meshes,
     )
-    from kratos_solvers.mdpa import read_mdpa
     paths = mok_meshes()
     fluid, solid = read_mdpa(paths["fluid"]), read_mdpa(paths["solid"])
 
@@ -109,7 +109,7 @@ def test_generated_meshes_have_the_geometry_the_wall_and_one_interface():
 
 @needs_gmsh
 def test_meshes_are_cached_by_their_fingerprint():
-    from cases.mok.mesh import mok_meshes
+    from kratos_solvers.mok_mesh import mok_meshes
     first = mok_meshes(COARSE)
     stamp = first["fluid"].stat().st_mtime_ns
     again = mok_meshes(dict(COARSE))
@@ -124,7 +124,7 @@ def test_meshes_are_cached_by_their_fingerprint():
 def test_fluid_resists_a_wall_accelerated_from_window_to_window():
     """Added mass: a wall moved with constant acceleration a feels a force against it, proportional to a.
     (With the input written before the step advanced, the fluid saw no motion between windows: zero force.)"""
-    from cases.mok.components import MokFluid
+    from kratos_solvers.mok import MokFluid
 
     def force(acceleration: float) -> float:
         fluid = MokFluid()

@@ -1,6 +1,6 @@
 """Write a Kratos CoSimulation case of Mok's channel in Kratos's own layout, as a Kratos user would have it:
 ``ProjectParametersCoSim.json``, ``ProjectParametersCFD.json``, ``ProjectParametersCSM.json``, the two materials
-files and the two ``.mdpa`` meshes (made by ``cases.mok.mesh``), plus a ``case.toml`` for ``cosim run``.
+files and the two ``.mdpa`` meshes (made by ``kratos_solvers.mok_mesh``), plus a ``case.toml`` for ``cosim run``.
 
 - ``static``: a quasi-static wall (Kratos's static solver, ten times Mok's stiffness), Gauss-Seidel strong with the structure first, IQN-ILS on
   the fluid's load (three windows reused), criteria on the load and on the displacement, the load mapped by the
@@ -22,9 +22,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cases.mok.components import FLUID_SCHEMA, STRUCTURE_SCHEMA, MokFluid, MokStructure
-from cases.mok.mesh import FLUID_INTERFACE, SOLID_INTERFACE, mok_meshes
 from cosim.schema import validate
+from kratos_solvers.mok import FLUID_SCHEMA, STRUCTURE_SCHEMA, MokFluid, MokStructure
+from kratos_solvers.mok_mesh import FLUID_INTERFACE, SOLID_INTERFACE, mok_meshes
 
 DT = 0.1
 # the static wall is ten times stiffer than Mok's: a massless wall as soft as Mok's, against an incompressible

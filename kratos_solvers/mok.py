@@ -8,7 +8,7 @@ generated meshes (shared/scenes/mok.md).
   elastic plane stress, recording points A and B.
 
 Both take the scene's ``mesh`` section (the resolution) and make the meshes on first use
-(``cases.mok.mesh``): the interface nodes of the two meshes coincide.
+(``kratos_solvers.mok_mesh``): the interface nodes of the two meshes coincide.
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from cases.mok.mesh import BOTTOM, FLUID_INTERFACE, POINT_A, POINT_B, RESOLUTION, TOP, mok_meshes
 from cosim.schema import AnyTable, Choice, Positive, Required, Value
 from kratos_solvers.fluid import KratosFluid
+from kratos_solvers.mok_mesh import BOTTOM, FLUID_INTERFACE, POINT_A, POINT_B, RESOLUTION, TOP, mok_meshes
 from kratos_solvers.solid import CONSTITUTIVE_LAWS, LINEAR_SOLVERS, KratosSolid
 
 MESH_SCHEMA = {"wall_cells": RESOLUTION["wall_cells"], "wall_size": Positive(RESOLUTION["wall_size"]),

@@ -7,7 +7,7 @@ wall's left, top and right curves belong to both surfaces, so the interface node
 gmsh nodes in both meshes. Each domain is written as a Kratos ``.mdpa`` with the sub-model parts
 the solvers use, and kept in the build cache by the fingerprint of the geometry and resolution.
 
-    python -m cases.mok.mesh [--wall-cells 2 100] [--wall-size 0.0025] [--far-size 0.03]
+    python -m kratos_solvers.mok_mesh [--wall-cells 2 100] [--wall-size 0.0025] [--far-size 0.03]
 """
 
 from __future__ import annotations
