@@ -21,10 +21,10 @@ import numpy as np
 from benchmarks.common import Timing, cold_call, machine, per_call
 from cosim.component import Component
 from cosim.results import RunResults
+from fmu_component.component import FmuComponent
 from rom_component.dynamic.component import StepMapRomSolid
 from rom_component.fmu.export import export_fmu
 from rom_component.model_file import load_arrays
-from solid_component.fmu import FmuSolid
 
 
 def small_model(folder: Path) -> tuple[Path, None]:
@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> dict[str, Timing]:
             rom = StepMapRomSolid()
             rom.instantiate({"model": str(model), "arithmetic": arithmetic})
             components[arithmetic] = rom
-        fmu = FmuSolid()
+        fmu = FmuComponent()
         fmu.instantiate({"path": str(export_fmu(model, folder / "model.fmu"))})
         fmu.enter_initialization_mode(0.0, 100.0)
         fmu.exit_initialization_mode()

@@ -24,11 +24,11 @@ from fmpy.fmi2 import (
 )
 from fmpy.validation import validate_fmu
 
+from fmu_component.component import FmuComponent
 from rom_component.fmu.build import SKELETON
 from rom_component.fmu.export import export_fmu
 from rom_component.static.compiled import SOURCE
 from rom_component.static.load import load_rom
-from solid_component.fmu import FmuSolid
 from tests.test_fmu import models, train  # noqa: F401  (the module's fixture)
 
 N = 101   # the rbf model's inputs and outputs
@@ -220,7 +220,7 @@ def test_a_binary_rebuilt_from_sources_is_bit_identical_without_libm(models, tmp
     for name in ("rbf", "qm_poly"):
         model, fmu, F = models[name]
         rom = load_rom(model)
-        component = FmuSolid()
+        component = FmuComponent()
         component.instantiate({"path": str(rebuilt(fmu, tmp_path / name, how))})
         component.enter_initialization_mode(0.0, 1.0)
         component.exit_initialization_mode()
