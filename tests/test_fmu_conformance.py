@@ -25,8 +25,8 @@ from fmpy.fmi2 import (
 from fmpy.validation import validate_fmu
 
 from fmu_component.component import FmuComponent
-from rom_component.fmu.build import SKELETON
 from rom_component.fmu.export import export_fmu
+from rom_component.fmu.skeleton import source_paths
 from rom_component.static.compiled import SOURCE
 from rom_component.static.load import load_rom
 from tests.test_fmu import models, train  # noqa: F401  (the module's fixture)
@@ -155,7 +155,7 @@ def test_free_instance_frees_states_the_importer_did_not_free(rbf):
 
 
 def test_every_log_category_used_is_declared_and_logging_on_is_honoured(rbf):
-    used = {c for path in (SOURCE, *(SOURCE.with_name(n) for n in SKELETON[2]))
+    used = {c for path in source_paths(SOURCE, 2)
             for c in re.findall(r'"(log[A-Z]\w+)"', path.read_text())}
     declared = {c.name for c in read_model_description(str(rbf[1])).logCategories}
     assert used == declared == {"logEvents", "logStatusError"}

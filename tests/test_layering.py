@@ -204,11 +204,12 @@ def test_make_demo_installs_the_tube_s_extras_only_and_the_kratos_targets_every_
 
 
 ROM_FAMILIES = ("static", "dynamic")
-ROM_SHARED = ("model_file", "model_check", "envelope", "parts", "recorded", "reduction", "fmu.build", "fmu.package")
+ROM_SHARED = ("model_file", "model_check", "envelope", "parts", "recorded", "reduction", "native")
 
 
 def rom_part(module: str) -> str:
-    """The part of ``rom_component`` a module belongs to: a family, a shared module or folder, or the top."""
+    """The part of ``rom_component`` a module belongs to: a family, a shared module or folder, the FMU export, the
+    report, or the top."""
     name = module.removeprefix("rom_component.")
     for part in (*ROM_FAMILIES, *ROM_SHARED, "fmu", "report"):
         if name == part or name.startswith(part + "."):
@@ -219,11 +220,15 @@ def rom_part(module: str) -> str:
 def test_the_rom_families_import_neither_each_other_nor_the_exports():
     """rom_component by family: the quasi-static ROM (static/) and the ROM with memory (dynamic/) import each other's
     modules nowhere; the shared modules (the model file, its checks, the parts, the reduction, the recorded data,
-    the C build) import no family; only the commands, the FMU exports and the report sit on the families."""
+    the native runtime and its C build) import no family, no export and no report; the FMU export (fmu/) sits on the
+    families and the native runtime, and only the export command imports it."""
     graph = module_graph(("rom_component",))
     wrong = [f"{module} imports {target}" for module, targets in sorted(graph.items()) for target in sorted(targets)
              if (rom_part(module) in ROM_FAMILIES and rom_part(target) in ROM_FAMILIES
                  and rom_part(target) != rom_part(module))
-             or (rom_part(module) in ROM_SHARED and rom_part(target) in (*ROM_FAMILIES, "fmu", "report"))]
+             or (rom_part(module) in ROM_SHARED and rom_part(target) in (*ROM_FAMILIES, "fmu", "report"))
+             or (rom_part(target) == "fmu" and rom_part(module) not in ("fmu", "commands"))]
     assert wrong == []
-    assert {rom_part(m) for m in graph} >= {*ROM_FAMILIES, "reduction", "fmu", "report"}
+    assert {rom_part(m) for m in graph} >= {*ROM_FAMILIES, "reduction", "native", "fmu", "report"}
+    assert {"rom_component.native.build"} <= graph["rom_component.static.compiled"] & \
+        graph["rom_component.dynamic.compiled"]
