@@ -10,8 +10,8 @@ import shutil
 import numpy as np
 import pytest
 
+from benchmarks.newmark_chain import newmark_calls
 from rom_component.dynamic.model import StepMapRom
-from tests.test_step_map import newmark_calls
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler")
 N = 12
