@@ -44,6 +44,8 @@ from benchmarks.common import (
     rewrite_readme,
 )
 from cosim.component import MESH_PREFIX
+from fmu_component.component import FmuComponent
+from fmu_component.fmi2_instance import Fmi2Instance
 from rom_component import model_file
 from rom_component.fmu.export import export_fmu
 from rom_component.recorded import interface_index, read_interface, read_training_set
@@ -53,8 +55,6 @@ from rom_component.static.estimator import SolidRom, resolve_parts
 from rom_component.static.load import load_rom
 from rom_component.static.online import OnlineRom
 from rom_component.static.train import load_config
-from solid_component.fmi2_instance import Fmi2Instance
-from solid_component.fmu import FmuSolid
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -153,7 +153,7 @@ def main(argv: list[str] | None = None) -> dict:
     online = load_rom(model_path)
     fast = OnlineRom(*model_file.load_arrays(model_path), arithmetic="fast")
     fmu_path = export_fmu(model_path, out / "solid_rom.fmu", 2)
-    fmu = FmuSolid()
+    fmu = FmuComponent()
     fmu.instantiate({"path": str(fmu_path)})
     fmu.enter_initialization_mode(0.0, 1.0)
     fmu.exit_initialization_mode()

@@ -29,6 +29,8 @@ from cosim.component import MESH_PREFIX
 from cosim.results import RunResults
 from cosim.scene import load_scene
 from coupler.run import run_scene
+from fmu_component.component import FmuComponent
+from fmu_component.fmi2_instance import Fmi2Instance
 from rom_component import model_file
 from rom_component.fmu.export import export_fmu
 from rom_component.recorded import read_interface, read_snapshots
@@ -38,8 +40,6 @@ from rom_component.static.load import load_rom
 from rom_component.static.online import OnlineRom
 from rom_component.static.selection import holdout_table
 from rom_component.static.train import load_config
-from solid_component.fmi2_instance import Fmi2Instance
-from solid_component.fmu import FmuSolid
 from solid_component.tube import TubeSolid
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> dict:
     online = load_rom(model_path)
     fast = OnlineRom(*model_file.load_arrays(model_path), arithmetic="fast")
     fmu_path = export_fmu(model_path, out / "solid_rom.fmu")
-    fmu = FmuSolid()
+    fmu = FmuComponent()
     fmu.instantiate({"path": str(fmu_path)})
     fmu.enter_initialization_mode(0.0, 1.0)
     fmu.exit_initialization_mode()

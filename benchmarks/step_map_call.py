@@ -19,20 +19,20 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import Timing, cold_call, machine, per_call
+from benchmarks.newmark_chain import newmark_calls
 from cosim.component import Component
 from cosim.results import RunResults
+from fmu_component.component import FmuComponent
 from rom_component.dynamic.component import StepMapRomSolid
 from rom_component.fmu.export import export_fmu
 from rom_component.model_file import load_arrays
-from solid_component.fmu import FmuSolid
 
 
 def small_model(folder: Path) -> tuple[Path, None]:
-    """A step map fitted to the Newmark chain of the tests (12 masses)."""
+    """A step map fitted to the Newmark chain (12 masses), as the tests fit one."""
     from rom_component import model_file
     from rom_component.dynamic.model import StepMapRom
     from rom_component.dynamic.train import model_contents
-    from tests.test_step_map import newmark_calls
     data = newmark_calls()
     fitted = StepMapRom(force_modes=8, disp_modes=6, history=3, ridge=1e-10).fit(data, 120)
     arrays, metadata = model_contents(fitted, data, 120, np.arange(data.U.shape[1]), {}, 0.1, "force", "displacement")
@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> dict[str, Timing]:
             rom = StepMapRomSolid()
             rom.instantiate({"model": str(model), "arithmetic": arithmetic})
             components[arithmetic] = rom
-        fmu = FmuSolid()
+        fmu = FmuComponent()
         fmu.instantiate({"path": str(export_fmu(model, folder / "model.fmu"))})
         fmu.enter_initialization_mode(0.0, 100.0)
         fmu.exit_initialization_mode()

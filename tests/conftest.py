@@ -9,6 +9,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from types import ModuleType
 from typing import Any, TypeVar
 
 import pytest
@@ -23,6 +24,17 @@ T = TypeVar("T")
 #: the double flap's solvers; the tube needs none of Kratos, and a tube-only install skips these tests
 needs_kratos = pytest.mark.skipif(importlib.util.find_spec("KratosMultiphysics") is None,
                                   reason="needs Kratos Multiphysics (pip install -e '.[kratos]')")
+
+
+def participant_module(name: str) -> ModuleType:
+    """A module of the preCICE participant package (``precice_compat/participant/precice/``), loaded from its file:
+    the package is installed where the participants run, not in the tests' environment."""
+    path = ROOT / "precice_compat" / "participant" / "precice" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"precice_participant.{name}", path)
+    assert spec is not None and spec.loader is not None, path
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def wait_for(condition: Callable[[], T], what: str, timeout: float = 60.0, poll: float = 0.05) -> T:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import os
 import time
 
@@ -13,7 +14,7 @@ from cosim.launcher import Launcher
 from cosim.proxy import ComponentProxy
 from cosim.results import RunResults
 from rom_component import model_file
-from rom_component.fmu.build import library_path
+from rom_component.native.build import library_path
 from rom_component.static import compiled
 from rom_component.static.component import RomSolid
 from rom_component.static.load import load_rom
@@ -74,8 +75,25 @@ def test_the_library_is_built_once_per_source_and_a_missing_compiler_is_named(mo
     assert library_path(compiled.SOURCE) == first and first.stat().st_mtime_ns == built
     assert list((tmp_path / "cache").iterdir()) == [first]       # no build leftovers
     monkeypatch.setenv("CC", "no-such-compiler")                  # another compiler: another library, not built
-    with pytest.raises(CosimError, match="no-such-compiler.*not found"):
+    with pytest.raises(CosimError, match="the compiled ROM .*no-such-compiler.*not found") as refused:
         load_rom(path, "compiled")
+    assert "export-fmu" not in str(refused.value)
+
+
+def test_the_in_process_library_needs_no_fmpy_and_has_no_fmi_entry_points(tmp_path):
+    """The families' compiled paths build the ROM's C code with the runtime and the in-process entry points only:
+    no FMI header (fmpy's) is needed, and the library has no FMI function."""
+    import subprocess
+    import sys
+    code = ("import sys; sys.modules['fmpy'] = None; from rom_component.native.build import library_path; "
+            "from rom_component.static.compiled import SOURCE as SOLID; "
+            "from rom_component.dynamic.compiled import SOURCE as STEP_MAP; "
+            "print(library_path(SOLID)); print(library_path(STEP_MAP))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                          env={**os.environ, "COSIM_CACHE": str(tmp_path)})
+    for library in done.stdout.split():
+        lib = ctypes.CDLL(library)
+        assert hasattr(lib, "rom_open") and not hasattr(lib, "fmi2Instantiate") and not hasattr(lib, "fmi2GetVersion")
 
 
 def test_the_component_takes_compiled_arithmetic_and_names_a_wrong_one(models):  # noqa: F811

@@ -68,11 +68,8 @@ def test_the_damped_wall_example_keeps_its_implicit_euler_law_window_by_window(t
 def test_a_component_with_no_state_answer_is_refused_under_implicit_coupling(tmp_path, capsys):
     """Without state methods and without ``stateless``, ``cosim check`` refuses it, naming the methods to add."""
     from cosim.cli import main
-    (tmp_path / "forgetful.py").write_text(
-        "import sys\n"
-        f"sys.path.insert(0, {str(DAMPED.parent)!r})\n"
-        "from cosim.component import Component\n"
-        "from damped_wall import DampedWall\n\n\n"
+    (tmp_path / "forgetful.py").write_text(      # the example's module, with a subclass that forgets its state
+        (DAMPED.parent / "damped_wall.py").read_text() + "\n\n"
         "class ForgetfulWall(DampedWall):\n"
         "    save_state = Component.save_state\n"
         "    restore_state = Component.restore_state\n")

@@ -1,4 +1,4 @@
-"""The double-flap ROM on real solid calls (tests/data/flap_snapshots.npz, written by cases/double_flap/test_data.py
+"""The double-flap ROM on real solid calls (tests/data/flap_snapshots.npz, written by scripts/flap_snapshots.py
 from the campaign's Re = 178.6 FOM-FOM run: every call with t <= 3 s, POD-compressed)."""
 
 from __future__ import annotations

@@ -17,8 +17,8 @@ from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
 from cosim.errors import ComponentError
+from fmu_component.component import FmuComponent
 from rom_component.fmu.export import export_fmu
-from solid_component.fmu import FmuSolid
 from tests.conftest import ROOT
 from tests.test_fmu import models, train  # noqa: F401  (the module's fixtures)
 from tests.test_step_map_fmu import N, calls, model  # noqa: F401
@@ -26,8 +26,8 @@ from tests.test_step_map_fmu import N, calls, model  # noqa: F401
 WALLS = ROOT / "tests" / "data" / "fmi3_walls"
 
 
-def started(path: Path, **parameters) -> FmuSolid:
-    component = FmuSolid()
+def started(path: Path, **parameters) -> FmuComponent:
+    component = FmuComponent()
     component.instantiate({"path": str(path), **parameters})
     component.enter_initialization_mode(0.0, 10.0)
     component.exit_initialization_mode()

@@ -12,10 +12,10 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
 from cosim.errors import ComponentError
+from fmu_component.component import FmuComponent
 from rom_component import model_file
 from rom_component.fmu.export import export_fmu
 from rom_component.static.load import load_rom
-from solid_component.fmu import FmuSolid
 from tests.conftest import ROOT
 from tests.roms import solid_rom
 from tests.test_rom import smooth_data
@@ -90,7 +90,7 @@ def test_simulate_fmu_reproduces_the_python_rom(models, name):
 def test_fmu_component_is_bit_identical_to_the_python_rom(models, name):
     model, fmu, F = models[name]
     rom = load_rom(model)
-    component = FmuSolid()
+    component = FmuComponent()
     component.instantiate({"path": str(fmu)})
     component.enter_initialization_mode(0.0, 1.0)
     component.exit_initialization_mode()
@@ -106,7 +106,7 @@ def test_fmu_state_round_trip(models):
     """The FMU's own state: a window repeated by rolling back (state = "rollback") gives the first call's bits,
     and a state saved, then restored after another window, gives its outputs back."""
     _, fmu, F = models["rbf"]
-    component = FmuSolid()
+    component = FmuComponent()
     component.instantiate({"path": str(fmu), "state": "rollback"})
     assert component.repeats_steps and not component.stateless
     component.enter_initialization_mode(0.0, 1.0)
@@ -123,7 +123,7 @@ def test_fmu_state_round_trip(models):
 
 def test_c_code_checks_pointers_counts_and_references(models):
     _, fmu, _ = models["rbf"]
-    component = FmuSolid()
+    component = FmuComponent()
     component.instantiate({"path": str(fmu)})
     set_real, get_real = component.fmu._set, component.fmu._get
     handle = component.fmu.component
@@ -148,27 +148,27 @@ def test_bad_fmus_get_clear_errors(models, tmp_path):
     garbage = tmp_path / "garbage.fmu"
     garbage.write_bytes(b"definitely not a zip")
     with pytest.raises(ComponentError, match="not a zip archive"):
-        FmuSolid().instantiate({"path": str(garbage)})
+        FmuComponent().instantiate({"path": str(garbage)})
     truncated = tmp_path / "truncated.fmu"
     truncated.write_bytes(fmu.read_bytes()[: fmu.stat().st_size // 2])
     with pytest.raises(ComponentError, match="not a zip archive|no valid modelDescription"):
-        FmuSolid().instantiate({"path": str(truncated)})
+        FmuComponent().instantiate({"path": str(truncated)})
     with pytest.raises(ComponentError, match="does not exist"):
-        FmuSolid().instantiate({"path": str(tmp_path / "missing.fmu")})
+        FmuComponent().instantiate({"path": str(tmp_path / "missing.fmu")})
     no_resource = tmp_path / "no_resource.fmu"
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(no_resource, "w") as target:
         for item in source.infolist():
             if item.filename != "resources/rom.bin":
                 target.writestr(item, source.read(item.filename))
     with pytest.raises(ComponentError, match=r"failed to instantiate.*cannot open resource file '.*rom.bin'"):
-        FmuSolid().instantiate({"path": str(no_resource)})
+        FmuComponent().instantiate({"path": str(no_resource)})
     short_resource = tmp_path / "short_resource.fmu"
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(short_resource, "w") as target:
         for item in source.infolist():
             data = source.read(item.filename)
             target.writestr(item, data[:-8] if item.filename == "resources/rom.bin" else data)
     with pytest.raises(ComponentError, match=r"bytes, the sizes in its header need"):
-        FmuSolid().instantiate({"path": str(short_resource)})
+        FmuComponent().instantiate({"path": str(short_resource)})
 
 
 def test_resource_uri_forms(models, tmp_path):
@@ -274,7 +274,7 @@ def test_a_model_file_is_read_with_a_size_cap_before_anything_is_decompressed(mo
 def unpacked_folders() -> set[str]:
     import tempfile
 
-    from solid_component.fmu import UNPACK_ROOT
+    from fmu_component.component import UNPACK_ROOT
     root = Path(tempfile.gettempdir()) / UNPACK_ROOT
     return {p.name for p in root.iterdir()} if root.is_dir() else set()
 
@@ -295,11 +295,11 @@ def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
             if not item.filename.startswith("binaries/"):
                 target.writestr(item, source.read(item.filename))
     with pytest.raises(ComponentError, match="has no linux64 binary"):
-        FmuSolid().instantiate({"path": str(no_binary)})
+        FmuComponent().instantiate({"path": str(no_binary)})
     assert unpacked_folders() == before
     with Launcher(tmp_path / "logs") as launcher:
         for stop in (signal.SIGTERM, signal.SIGKILL):
-            process = launcher.spawn("fmu", "solid_component.fmu:FmuSolid")
+            process = launcher.spawn("fmu", "fmu_component.component:FmuComponent")
             proxy = ComponentProxy("fmu", launcher.handshake(process), process=process)
             proxy.instantiate({"path": str(fmu)})
             mine = {name for name in unpacked_folders() - before if name.startswith(f"{process.pid}-")}
@@ -310,13 +310,13 @@ def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
             if stop == signal.SIGTERM:
                 assert not mine & unpacked_folders()
         assert mine <= unpacked_folders()        # SIGKILL: no process can clean up after itself ...
-        FmuSolid().instantiate({"path": str(fmu)})   # ... the next FMU instance does
+        FmuComponent().instantiate({"path": str(fmu)})   # ... the next FMU instance does
         wait_for(lambda: not mine & unpacked_folders(), "the killed instance's folder to go")
 
 
 def test_an_fmu_that_cannot_serialise_its_state_is_named_when_checkpointed(models, tmp_path):
     path = models["rbf"][1]
-    component = FmuSolid()
+    component = FmuComponent()
     component.instantiate({"path": str(path)})
     component.enter_initialization_mode(0.0, 1.0)
     component.exit_initialization_mode()
@@ -378,8 +378,8 @@ import gc
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi1 import FMICallException
-from solid_component.fmu import FmuSolid
-component = FmuSolid()
+from fmu_component.component import FmuComponent
+component = FmuComponent()
 component.instantiate({{"path": {str(fmu)!r}}})
 component.enter_initialization_mode(0.0, 1.0)
 component.exit_initialization_mode()

@@ -24,11 +24,11 @@ from fmpy.fmi2 import (
 )
 from fmpy.validation import validate_fmu
 
-from rom_component.fmu.build import SKELETON
+from fmu_component.component import FmuComponent
 from rom_component.fmu.export import export_fmu
+from rom_component.fmu.skeleton import source_paths
 from rom_component.static.compiled import SOURCE
 from rom_component.static.load import load_rom
-from solid_component.fmu import FmuSolid
 from tests.test_fmu import models, train  # noqa: F401  (the module's fixture)
 
 N = 101   # the rbf model's inputs and outputs
@@ -155,7 +155,7 @@ def test_free_instance_frees_states_the_importer_did_not_free(rbf):
 
 
 def test_every_log_category_used_is_declared_and_logging_on_is_honoured(rbf):
-    used = {c for path in (SOURCE, *(SOURCE.with_name(n) for n in SKELETON[2]))
+    used = {c for path in source_paths(SOURCE, 2)
             for c in re.findall(r'"(log[A-Z]\w+)"', path.read_text())}
     declared = {c.name for c in read_model_description(str(rbf[1])).logCategories}
     assert used == declared == {"logEvents", "logStatusError"}
@@ -220,7 +220,7 @@ def test_a_binary_rebuilt_from_sources_is_bit_identical_without_libm(models, tmp
     for name in ("rbf", "qm_poly"):
         model, fmu, F = models[name]
         rom = load_rom(model)
-        component = FmuSolid()
+        component = FmuComponent()
         component.instantiate({"path": str(rebuilt(fmu, tmp_path / name, how))})
         component.enter_initialization_mode(0.0, 1.0)
         component.exit_initialization_mode()

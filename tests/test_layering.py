@@ -9,10 +9,10 @@ import pytest
 from cosim.cli import commands, parser
 from tests.conftest import ROOT
 
-OURS = ("cosim", "coupler", "fluid_component", "solid_component", "rom_component", "kratos_solvers", "cases",
-        "workflow", "precice_compat", "kratos_compat")
+OURS = ("cosim", "coupler", "fluid_component", "solid_component", "fmu_component", "rom_component", "kratos_solvers",
+        "cases", "workflow", "precice_compat", "kratos_compat")
 ALLOWED = {"cosim": set(), "coupler": {"cosim"}, "fluid_component": {"cosim"}, "solid_component": {"cosim"},
-           "rom_component": {"cosim"}, "kratos_solvers": {"cosim"},
+           "fmu_component": {"cosim"}, "rom_component": {"cosim"}, "kratos_solvers": {"cosim"},
            # a case sits on everything it names: the coupler, the ROM, its solvers, the studies (the tube's stability
            # theory takes the Gauss-Seidel spectrum)
            "cases": {"cosim", "coupler", "rom_component", "fluid_component", "solid_component", "kratos_solvers",
@@ -95,13 +95,24 @@ def test_the_tube_imports_no_kratos_nor_gmsh():
     import subprocess
     import sys
     code = ("import sys; import cosim.cli, cosim.server, coupler.run, coupler.commands, fluid_component.tube, "
-            "solid_component.tube, solid_component.fmu, rom_component.static.component, rom_component.commands; "
+            "solid_component.tube, fmu_component.component, rom_component.static.component, rom_component.commands; "
             "from coupler.run import run_scene; from cosim.scene import load_scene; import tempfile, pathlib; "
             "d = pathlib.Path(tempfile.mkdtemp()); "
             "run_scene(load_scene('scenes/tube_fom.toml', ['time.end=0.3']), d / 'run', progress=False); "
             "print(sorted(m for m in sys.modules if 'kratos' in m.split('.')[0].lower() or m.split('.')[0] == 'gmsh'))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
     assert out.strip().splitlines()[-1] == "[]"
+
+
+def test_the_fmu_component_imports_fmpy_only_when_it_loads_an_fmu():
+    """fmpy, an optional extra, is imported inside the functions that load an FMU, not with the modules."""
+    import subprocess
+    import sys
+    code = ("import sys, fmu_component.component, fmu_component.archive, fmu_component.instance, "
+            "fmu_component.fmi2_instance, fmu_component.fmi3_instance; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'fmpy'))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
 
 
 def module_graph(folders=OURS) -> dict[str, set[str]]:
@@ -166,7 +177,7 @@ def test_cosim_names_no_module_of_an_upper_package():
     """The bottom layer names no class or module above it, not even in a string: backends, commands and plots
     reach it as entry points."""
     import re
-    upper = re.compile(r"\b(coupler|rom_component|solid_component|fluid_component|benchmarks|scripts)\.[a-z_]")
+    upper = re.compile(r"\b(coupler|rom_component|solid_component|fmu_component|fluid_component|benchmarks|scripts)\.[a-z_]")
     named = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
              for path in sorted((ROOT / "cosim").rglob("*.py"))
              for number, line in enumerate(path.read_text().splitlines(), 1) if upper.search(line)]
@@ -193,11 +204,12 @@ def test_make_demo_installs_the_tube_s_extras_only_and_the_kratos_targets_every_
 
 
 ROM_FAMILIES = ("static", "dynamic")
-ROM_SHARED = ("model_file", "model_check", "envelope", "parts", "recorded", "reduction", "fmu.build", "fmu.package")
+ROM_SHARED = ("model_file", "model_check", "envelope", "parts", "recorded", "reduction", "native")
 
 
 def rom_part(module: str) -> str:
-    """The part of ``rom_component`` a module belongs to: a family, a shared module or folder, or the top."""
+    """The part of ``rom_component`` a module belongs to: a family, a shared module or folder, the FMU export, the
+    report, or the top."""
     name = module.removeprefix("rom_component.")
     for part in (*ROM_FAMILIES, *ROM_SHARED, "fmu", "report"):
         if name == part or name.startswith(part + "."):
@@ -208,11 +220,15 @@ def rom_part(module: str) -> str:
 def test_the_rom_families_import_neither_each_other_nor_the_exports():
     """rom_component by family: the quasi-static ROM (static/) and the ROM with memory (dynamic/) import each other's
     modules nowhere; the shared modules (the model file, its checks, the parts, the reduction, the recorded data,
-    the C build) import no family; only the commands, the FMU exports and the report sit on the families."""
+    the native runtime and its C build) import no family, no export and no report; the FMU export (fmu/) sits on the
+    families and the native runtime, and only the export command imports it."""
     graph = module_graph(("rom_component",))
     wrong = [f"{module} imports {target}" for module, targets in sorted(graph.items()) for target in sorted(targets)
              if (rom_part(module) in ROM_FAMILIES and rom_part(target) in ROM_FAMILIES
                  and rom_part(target) != rom_part(module))
-             or (rom_part(module) in ROM_SHARED and rom_part(target) in (*ROM_FAMILIES, "fmu", "report"))]
+             or (rom_part(module) in ROM_SHARED and rom_part(target) in (*ROM_FAMILIES, "fmu", "report"))
+             or (rom_part(target) == "fmu" and rom_part(module) not in ("fmu", "commands"))]
     assert wrong == []
-    assert {rom_part(m) for m in graph} >= {*ROM_FAMILIES, "reduction", "fmu", "report"}
+    assert {rom_part(m) for m in graph} >= {*ROM_FAMILIES, "reduction", "native", "fmu", "report"}
+    assert {"rom_component.native.build"} <= graph["rom_component.static.compiled"] & \
+        graph["rom_component.dynamic.compiled"]

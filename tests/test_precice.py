@@ -18,7 +18,7 @@ from cosim.results import RunResults
 from cosim.rundir import read_status
 from cosim.scene import load_scene
 from coupler.run import run_scene
-from tests.conftest import ROOT, TUBE_SCENE, children_of, wait_for
+from tests.conftest import ROOT, TUBE_SCENE, children_of, participant_module, wait_for
 
 EXAMPLE = ROOT / "examples" / "precice_tube"
 SHIM = ROOT / "precice_compat" / "participant"
@@ -73,11 +73,7 @@ def test_tube_participants_on_the_v2_api_give_the_native_run_bit_for_bit(native_
 
 def test_a_participant_wire_message_is_cosims_both_ways():
     """The participant package's own codec and cosim.protocol read each other's messages."""
-    sys.path.insert(0, str(SHIM))
-    try:
-        from precice import _wire
-    finally:
-        sys.path.remove(str(SHIM))
+    _wire = participant_module("_wire")
     arrays = {"data:P": np.linspace(0.0, 1.0, 7), "mesh:M": np.arange(12.0).reshape(6, 2)}
     header, decoded = protocol.decode(_wire.encode({"op": "advance", "id": 3, "args": {"dt": 0.1}}, arrays))
     assert header["op"] == "advance" and header["args"] == {"dt": 0.1}

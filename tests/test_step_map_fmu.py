@@ -10,8 +10,8 @@ import shutil
 import numpy as np
 import pytest
 
+from benchmarks.newmark_chain import newmark_calls
 from rom_component.dynamic.model import StepMapRom
-from tests.test_step_map import newmark_calls
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler")
 N = 12
@@ -45,15 +45,15 @@ def calls(data, windows: int = 30, per_window: int = 3) -> list[tuple[float, np.
 
 
 def test_numpy_compiled_and_fmu_give_the_same_bits(model):
+    from fmu_component.component import FmuComponent
     from rom_component.dynamic.component import StepMapRomSolid
-    from solid_component.fmu import FmuSolid
     path, fmu_path, data = model
     components = []
     for arithmetic in ("reproducible", "compiled"):
         component = StepMapRomSolid()
         component.instantiate({"model": str(path), "arithmetic": arithmetic})
         components.append(component)
-    fmu = FmuSolid()
+    fmu = FmuComponent()
     fmu.instantiate({"path": str(fmu_path)})
     fmu.enter_initialization_mode(0.0, 3.0)
     fmu.exit_initialization_mode()

@@ -3,8 +3,6 @@ oscillator's convergence order under waveform iteration."""
 
 import json
 import shutil
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,10 +14,9 @@ from coupler.convergence import make_measure
 from coupler.mapping import make_mapping
 from coupler.schemes import Exchange, ParallelImplicit, SerialImplicit
 from coupler.waveform import evaluate, knots, resampling
+from tests.conftest import ROOT, participant_module
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "precice_compat" / "participant"))
-from precice._waveform import Waveform  # noqa: E402
+Waveform = participant_module("_waveform").Waveform
 
 
 # --- the interpolant ----------------------------------------------------------------------------------------------

@@ -164,7 +164,7 @@ def train_model(sources: list[str], config_path: str, overrides: list[str], out:
     metadata = train(sources, out, load_config(config_path, overrides), echo=lines.append)
     lines.append(f"training with cross-validation: {time.perf_counter() - started:.1f} s")
     out_path.with_suffix(".log").write_text("\n".join(lines) + "\n")
-    _stamp(out_path).write_text(json.dumps(_model_key(sources, config_path, overrides)))
+    _stamp(out_path).write_text(json.dumps(model_key(sources, config_path, overrides)))
     return {"seconds": time.perf_counter() - started, "cv_seconds": metadata.get("cv_seconds"),
             "fit_seconds": metadata["fit_seconds"], "modes": metadata["params"]["encoder"]["modes"]}
 
@@ -173,11 +173,14 @@ def _stamp(model: Path) -> Path:
     return model.with_suffix(".json")
 
 
-def _model_key(sources: list[str], config_path: str, overrides: list[str]) -> dict:
+def model_key(sources: list[str], config_path: str, overrides: list[str]) -> dict:
+    """What a trained model was made from (its runs, the ROM configuration's text, the overrides), as its stamp
+    holds it."""
     return {"sources": sources, "config": Path(config_path).read_text(), "overrides": list(overrides)}
 
 
-def _model_is_current(model: Path, key: dict) -> bool:
+def model_is_current(model: Path, key: dict) -> bool:
+    """Whether ``model`` exists and was made from ``key`` (``model_key``), by its stamp."""
     try:
         return model.is_file() and json.loads(_stamp(model).read_text()) == key
     except (OSError, ValueError):
@@ -236,14 +239,14 @@ class CampaignRun:
         self.sources = {name: [str(self.fom_dir[run] / "results.h5") for run in spec["runs"]]
                         for name, spec in plan.models.items()}
         self.current = {name for name, spec in plan.models.items()      # models trained with today's configuration
-                        if _model_is_current(spec["path"], self._model_key(name))}
+                        if model_is_current(spec["path"], self._model_key(name))}
         self.failed_fom: set[str] = set()
         self.queued: set[str] = set()        # models and predictions queued (or given up on)
         self.report_due = False              # a ROM-FOM run finished since the last interim report
         self.scheduler: Scheduler | None = None
 
     def _model_key(self, name: str) -> dict:
-        return _model_key(self.sources[name], str(self.plan.rom_config), self.plan.models[name]["set"])
+        return model_key(self.sources[name], str(self.plan.rom_config), self.plan.models[name]["set"])
 
     def prepare(self, retry_failed: bool) -> None:
         """Name the runs, forget those of stale models (and, with ``retry_failed``, the failed ones, whose

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from cosim.rundir import read_status
-from workflow.campaign import _model_is_current, _model_key, load_plan, ran_after_model
+from workflow.campaign import load_plan, model_is_current, model_key, ran_after_model
 from workflow.sweep import TABLE
 
 
@@ -54,7 +54,7 @@ def campaign_status(campaign: str | Path, out: str | Path) -> list[str]:
     current = set()
     for name, spec in plan.models.items():
         sources = [str(fom_dir[run] / "results.h5") for run in spec["runs"]]
-        if _model_is_current(spec["path"], _model_key(sources, str(plan.rom_config), spec["set"])):
+        if model_is_current(spec["path"], model_key(sources, str(plan.rom_config), spec["set"])):
             state = "trained"
             current.add(name)
         elif spec["path"].is_file():

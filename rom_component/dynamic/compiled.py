@@ -1,4 +1,4 @@
-"""The step-map ROM's C code (``fmu/step_map_rom.c``): the binary resource of a model's arrays it reads, and the
+"""The step-map ROM's C code (``native/step_map_rom.c``): the binary resource of a model's arrays it reads, and the
 in-process path that calls it (``CompiledStepMap``). The FMU (``rom_component.fmu.step_map_rom``) runs the same
 C code, so a run served in-process with
 ``arithmetic = "compiled"`` or by the FMU gives the same bits; the C sums follow the component's
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from cosim.errors import CosimError
-from rom_component.fmu.build import C_SOURCES, NAME_BYTES, library_path
+from rom_component.native.build import C_SOURCES, NAME_BYTES, library_path
 
 SOURCE = C_SOURCES / "step_map_rom.c"
 

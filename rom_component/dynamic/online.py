@@ -2,7 +2,7 @@
 
 ``evaluate(f)`` is a window's call from the history, which it leaves as it is; ``commit()`` moves the
 window's last call into the history; ``take_over`` builds a history from a full-order run's converged
-windows. ``arithmetic="reproducible"`` runs every sum in the order of the C code (``fmu/step_map_rom.c``):
+windows. ``arithmetic="reproducible"`` runs every sum in the order of the C code (``native/step_map_rom.c``):
 long dot products as NumPy's pairwise row sums, the decoder as a sum over the reduced coordinates in order,
 so the FMU and the in-process C path (``rom_component.dynamic.compiled.CompiledStepMap``) give the same bits;
 ``"fast"`` uses BLAS products.

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from cosim.errors import CosimError
-from rom_component.fmu.build import compile_binary, source_files, write_sources
+from rom_component.fmu.skeleton import compile_binary, source_files, write_sources
 
 AXES = "xyz"
 

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from cosim.component import MESH_PREFIX
-from rom_component.fmu.build import source_files
 from rom_component.fmu.package import ArrayVariable, check_components, description_root, variables, write_fmu
+from rom_component.fmu.skeleton import source_files
 from rom_component.static.compiled import SOURCE, model_guid, resource_bytes
 from rom_component.static.online import OnlineRom
 

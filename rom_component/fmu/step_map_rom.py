@@ -16,8 +16,8 @@ import numpy as np
 
 from cosim.component import MESH_PREFIX
 from rom_component.dynamic.compiled import SOURCE, model_guid, resource_bytes
-from rom_component.fmu.build import source_files
 from rom_component.fmu.package import ArrayVariable, description_root, variables, write_fmu
+from rom_component.fmu.skeleton import source_files
 
 MODEL_IDENTIFIER = "step_map_rom"
 

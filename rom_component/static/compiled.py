@@ -1,6 +1,6 @@
-"""The ROM's online path run by the exported FMU's own C code, in-process (``arithmetic = "compiled"``).
+"""The ROM's online path run by its C code in-process (``arithmetic = "compiled"``), the code the exported FMU runs.
 
-The FMU's source (``fmu/solid_rom.c``) is compiled once per source and compiler into a cache
+The ROM's source (``native/solid_rom.c``) is compiled once per source and compiler into a cache
 folder (``$COSIM_CACHE``, else ``~/.cache/cosim``) and called through ctypes on the caller's arrays,
 without the FMI state machine. Its sums run in the order of ``OnlineRom(arithmetic="reproducible")``,
 so the results are bit-identical to it and to the FMU, at the FMU's speed.
@@ -23,8 +23,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from cosim.errors import CosimError
-from rom_component.fmu.build import C_SOURCES, NAME_BYTES, library_path
 from rom_component.model_check import check_arrays
+from rom_component.native.build import C_SOURCES, NAME_BYTES, library_path
 from rom_component.static.online import OnlineRom
 
 SOURCE = C_SOURCES / "solid_rom.c"
@@ -97,7 +97,7 @@ class Served(NamedTuple):
 
 
 class CompiledRom(OnlineRom):
-    """``OnlineRom`` whose calls run the FMU's C code (bit-identical to ``arithmetic="reproducible"``)."""
+    """``OnlineRom`` whose calls run the ROM's C code (bit-identical to ``arithmetic="reproducible"``)."""
 
     def __init__(self, arrays: Mapping[str, np.ndarray], metadata: Mapping[str, Any], defines: tuple[str, ...] = ()):
         """``defines``: preprocessor names for the build (``SOLID_ROM_SCALAR``: no vector types, same results)."""

@@ -23,7 +23,7 @@ _BOUNDARY = np.array([_SQRT_HALF_HIGH_WORD << 32], dtype=np.uint64).view(np.floa
 
 
 def portable_log(x: np.ndarray) -> np.ndarray:
-    """log(x) for positive finite ``x`` (normal or subnormal), as ``rom_log`` in ``fmu/solid_rom.c``.
+    """log(x) for positive finite ``x`` (normal or subnormal), as ``rom_log`` in ``native/solid_rom.c``.
 
     The C code reduces x to f + 1 in [0.7071066, 1.4142132) by bit manipulation; ``np.frexp``
     and one doubling give the same f exactly (scaling by powers of two is exact).

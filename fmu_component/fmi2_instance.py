@@ -1,4 +1,4 @@
-"""An FMI 2.0 Co-Simulation FMU's instance as ``FmuSolid`` drives it (fmpy's ``FMU2Slave``).
+"""An FMI 2.0 Co-Simulation FMU's instance as ``FmuComponent`` drives it (fmpy's ``FMU2Slave``).
 
 Scalar variables named ``name[node]`` or ``name[node].x|y|z`` are gathered into the array variables ``name``
 (node-major). The hot path calls the FMU's raw ``fmi2SetReal``/``fmi2DoStep``/``fmi2GetReal`` with preallocated
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from solid_component.fmi_instance import FmiInstance, FmuVariable
+from fmu_component.instance import FmiInstance, FmuVariable
 
 NAME = re.compile(r"^(?P<name>[A-Za-z_]\w*)\[(?P<node>\d+)\](?:\.(?P<axis>[xyz]))?$")
 

@@ -1,4 +1,4 @@
-"""An FMI 3.0 Co-Simulation FMU's instance as ``FmuSolid`` drives it (fmpy's ``FMU3Slave``).
+"""An FMI 3.0 Co-Simulation FMU's instance as ``FmuComponent`` drives it (fmpy's ``FMU3Slave``).
 
 Its ``Float64`` variables of causality input, output and local are the component's variables, each array whole
 (its fixed ``Dimension``s; (nodes, components) when the last has 1 to 3). The hot path calls the FMU's raw
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from solid_component.fmi_instance import FmiError, FmiInstance, FmuVariable
+from fmu_component.instance import FmiError, FmiInstance, FmuVariable
 
 COUPLED = ("input", "output", "local")
 

@@ -6,7 +6,7 @@ stores the forces (530 values) in their leading 60 POD modes and the displacemen
 in their leading 30 (mean, modes and coefficients in float32; the energy left out is printed), with
 each call's window and the interface index K of the 530 interface values in the field.
 
-Usage: python -m cases.double_flap.test_data runs/campaign/fom/runs/run-d3cece0ee6/results.h5 (Re = 178.6) [--every 2] [--t-max 3.0]
+Usage: python -m scripts.flap_snapshots runs/campaign/fom/runs/run-d3cece0ee6/results.h5 (Re = 178.6) [--every 2] [--t-max 3.0]
 """
 
 from __future__ import annotations

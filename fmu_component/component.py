@@ -1,9 +1,9 @@
-"""Any FMI 2.0 or FMI 3.0 Co-Simulation FMU as a solid component (loaded with fmpy), its version read from its
-model description.
+"""Any FMI 2.0 or FMI 3.0 Co-Simulation FMU as a component (loaded with fmpy), its version read from its model
+description.
 
 FMI 2.0's scalar variables named ``name[node]`` or ``name[node].x|y|z`` are gathered into the array variables
 ``name`` (node-major); FMI 3.0's ``Float64`` array variables are the component's variables as they are
-(``fmi2_instance``, ``fmi3_instance``). The archive is checked before anything of it is used (``fmu_archive``).
+(``fmi2_instance``, ``fmi3_instance``). The archive is checked before anything of it is used (``archive``).
 
 How it repeats a window under implicit coupling (``state``):
 - ``auto`` (default): stateless if the FMU's ``resources/interface.json`` says so (a quasi-static ROM from
@@ -33,10 +33,7 @@ import numpy as np
 from cosim.component import Component, Variable, check_inputs
 from cosim.errors import ComponentError
 from cosim.schema import Choice, FilePath
-from solid_component.fmi2_instance import Fmi2Instance
-from solid_component.fmi3_instance import Fmi3Instance
-from solid_component.fmi_instance import FmiError, FmiInstance
-from solid_component.fmu_archive import (
+from fmu_component.archive import (
     UNPACK_ROOT,
     FmuArchiveError,
     check_archive,
@@ -44,8 +41,11 @@ from solid_component.fmu_archive import (
     unpack,
     unpack_directory,
 )
+from fmu_component.fmi2_instance import Fmi2Instance
+from fmu_component.fmi3_instance import Fmi3Instance
+from fmu_component.instance import FmiError, FmiInstance
 
-__all__ = ["FmuSolid", "UNPACK_ROOT"]
+__all__ = ["FmuComponent", "UNPACK_ROOT"]
 
 STATES = ("auto", "rollback", "stateless")
 FMU_SCHEMA = {"path": FilePath(), "state": Choice("auto", STATES)}
@@ -55,7 +55,7 @@ FMU_HELP = {"path": "any FMI 2.0 or FMI 3.0 Co-Simulation FMU (for example from 
 INSTANCES: dict[str, type[FmiInstance]] = {"2.0": Fmi2Instance, "3.0": Fmi3Instance}
 
 
-class FmuSolid(Component):
+class FmuComponent(Component):
     """A Co-Simulation FMU behind the component contract."""
 
     name = "solid_fmu"

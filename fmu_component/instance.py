@@ -1,4 +1,4 @@
-"""What ``FmuSolid`` asks of an FMU's instance, whatever its FMI version: its array variables, values in and out,
+"""What ``FmuComponent`` asks of an FMU's instance, whatever its FMI version: its array variables, values in and out,
 a step, its state (get, set, free, serialise), and its life."""
 
 from __future__ import annotations
