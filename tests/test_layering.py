@@ -232,3 +232,13 @@ def test_the_rom_families_import_neither_each_other_nor_the_exports():
     assert {rom_part(m) for m in graph} >= {*ROM_FAMILIES, "reduction", "native", "fmu", "report"}
     assert {"rom_component.native.build"} <= graph["rom_component.static.compiled"] & \
         graph["rom_component.dynamic.compiled"]
+
+
+def test_the_schemes_drive_a_declared_protocol_and_name_no_surrogate():
+    """The schemes ask what they drive through ``coupler.coupled.Coupled`` (no isinstance test, no getattr probe),
+    and neither the schemes nor the run name the online surrogate: it is behind ``CouplingModel``."""
+    import re
+    schemes = (ROOT / "coupler" / "schemes.py").read_text()
+    assert re.findall(r"\bisinstance\(|\bgetattr\(|\bhasattr\(", schemes) == []
+    for module in ("schemes.py", "run.py", "run_observers.py"):
+        assert "surrogate" not in (ROOT / "coupler" / module).read_text().lower(), module
