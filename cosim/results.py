@@ -319,6 +319,11 @@ class Calls:
     def __len__(self) -> int:
         return len(self.window)
 
+    def select(self, rows: np.ndarray) -> Calls:
+        """The calls at ``rows`` (indices or a mask)."""
+        return Calls({k: v[rows] for k, v in self.inputs.items()}, {k: v[rows] for k, v in self.outputs.items()},
+                     self.window[rows], self.iteration[rows], self.converged[rows])
+
 
 class RunResults:
     """A run's results file, opened read-only: ``RunResults(DIR or DIR/results.h5)``."""

@@ -2,8 +2,9 @@
 ``precice-<participant>-watchpoint-<name>.log`` format, which preCICE users' plot scripts read.
 
 A watch point takes the values of the mesh's vertex nearest its coordinate (preCICE interpolates on the nearest
-element; cosim keeps no elements), from the component's recorded calls that converged: every variable the
-component reads or writes on that mesh, at each window's end. The results writer writes them once the run's file
+element; cosim keeps no elements), from each window's last recorded call of the component (its converged or
+accepted iteration; of a component that subcycles, its last step): every variable the component reads or writes on
+that mesh, at each window's end. The results writer writes them once the run's file
 is closed, into the run's directory.
 """
 
@@ -53,7 +54,12 @@ def write(results: str | Path, folder: str | Path, points: Sequence[Mapping[str,
             coordinate = np.asarray(point["coordinate"], dtype=float)
             width = min(nodes.shape[1], len(coordinate))
             nearest = int(np.argmin(np.linalg.norm(nodes[:, :width] - coordinate[:width], axis=1)))
-            calls = run.calls(component, converged_only=True)
+            calls = run.calls(component)
+            # each window's last call: its converged (or accepted) iteration, and of a component that subcycles, the
+            # last step
+            last = np.flatnonzero(np.append(calls.window[1:] != calls.window[:-1], True)) if len(calls.window) \
+                else np.zeros(0, dtype=int)
+            calls = calls.select(last)
             columns = ["Time", *(f"Coordinate{k}" for k in range(nodes.shape[1]))]
             values = [np.asarray(times[:len(calls)])[:, None], np.repeat(nodes[nearest][None], len(calls), axis=0)]
             for variable in record.variables:

@@ -166,18 +166,31 @@ def _projection(nodes: np.ndarray, points: np.ndarray, lines: np.ndarray, tolera
                          shape=(len(points), len(nodes)))
 
 
+# Wendland's compactly supported functions of r = distance / support radius < 1 (preCICE's compact-polynomial-cN)
+COMPACT_BASES = {
+    "compact-polynomial-c0": lambda r: (1.0 - r) ** 2,
+    "compact-polynomial-c2": lambda r: (1.0 - r) ** 4 * (4.0 * r + 1.0),
+    "compact-polynomial-c4": lambda r: (1.0 - r) ** 6 * (35.0 * r * r + 18.0 * r + 3.0),
+    "compact-polynomial-c6": lambda r: (1.0 - r) ** 8 * (32.0 * r ** 3 + 25.0 * r * r + 8.0 * r + 1.0),
+}
+
+
 @MAPPINGS.register("rbf")
 class RadialBasisFunctions(Mapping):
     """Radial basis functions with compact support and a linear polynomial, as a sparse operator."""
 
-    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS), "support_radius": Positive()}
-    HELP = {**NearestNeighbour.HELP, "support_radius": "the compact Wendland C2 kernel's support radius"}
+    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS), "support_radius": Positive(),
+                "basis": Choice("compact-polynomial-c2", tuple(COMPACT_BASES))}
+    HELP = {**NearestNeighbour.HELP, "support_radius": "the compact kernel's support radius",
+            "basis": "Wendland's compactly supported function of that smoothness (preCICE's compact-polynomial-c0 "
+                     "to -c6)"}
 
     def build(self, source: np.ndarray, target: np.ndarray,  # type: ignore[override]  # a mapping's own settings
-              constraint: str = "consistent", support_radius: float = 1.0) -> Any:
+              constraint: str = "consistent", support_radius: float = 1.0,
+              basis: str = "compact-polynomial-c2") -> Any:
         if constraint == "consistent":
-            return _RbfOperator(source, target, support_radius, transpose=False)
-        return _RbfOperator(target, source, support_radius, transpose=True)
+            return _RbfOperator(source, target, support_radius, transpose=False, basis=basis)
+        return _RbfOperator(target, source, support_radius, transpose=True, basis=basis)
 
 
 class _RbfOperator:
@@ -187,14 +200,18 @@ class _RbfOperator:
     the consistent map is B A^-1 [I; 0]; its transpose is [I 0] A^-1 B^T (A is symmetric).
     """
 
-    def __init__(self, centres: np.ndarray, points: np.ndarray, radius: float, transpose: bool):
+    def __init__(self, centres: np.ndarray, points: np.ndarray, radius: float, transpose: bool,
+                 basis: str = "compact-polynomial-c2"):
         n = len(centres)
-        polynomial_centres, polynomial_points = _linear_basis(centres), _linear_basis(points)
+        columns = _polynomial_columns(centres)        # the centres decide the polynomial: the points follow
+        polynomial_centres, polynomial_points = _linear_basis(centres, columns), _linear_basis(points, columns)
         import scipy.sparse as sp
         from scipy.sparse.linalg import splu
-        A = sp.bmat([[_wendland(centres, centres, radius), sp.csr_matrix(polynomial_centres)],
+        kernel = COMPACT_BASES[basis]
+        A = sp.bmat([[_compact(centres, centres, radius, kernel), sp.csr_matrix(polynomial_centres)],
                      [sp.csr_matrix(polynomial_centres.T), None]], format="csc")
-        self.B = sp.hstack([_wendland(points, centres, radius), sp.csr_matrix(polynomial_points)], format="csr")
+        self.B = sp.hstack([_compact(points, centres, radius, kernel), sp.csr_matrix(polynomial_points)],
+                           format="csr")
         self.lu = splu(A)
         self.n, self.m = n, polynomial_centres.shape[1]
         self.transpose = transpose
@@ -208,20 +225,31 @@ class _RbfOperator:
         return self.B @ self.lu.solve(padded)
 
 
-def _wendland(points: np.ndarray, centres: np.ndarray, radius: float) -> sp.csr_matrix:
+def _compact(points: np.ndarray, centres: np.ndarray, radius: float, kernel: Any) -> sp.csr_matrix:
+    """A compact kernel of r = distance / radius < 1 between ``points`` and ``centres``, as a sparse matrix."""
     import scipy.sparse as sp
     from scipy.spatial import cKDTree
-    """Wendland C2 kernel (1 - r)^4 (4 r + 1), r = distance / radius < 1, as a sparse matrix."""
     distances = cKDTree(points).sparse_distance_matrix(cKDTree(centres), radius, output_type="coo_matrix")
-    r = distances.data / radius
-    values = (1.0 - r) ** 4 * (4.0 * r + 1.0)
+    values = kernel(distances.data / radius)
     return sp.coo_matrix((values, (distances.row, distances.col)), shape=(len(points), len(centres))).tocsr()
 
 
-def _linear_basis(points: np.ndarray) -> np.ndarray:
-    """[1, x, y, ...] per point, without coordinates that are constant over the points."""
-    varying = np.ptp(points, axis=0) > 1e-12 * max(1.0, float(np.abs(points).max(initial=0.0)))
-    return np.hstack([np.ones((len(points), 1)), points[:, varying]])
+def _polynomial_columns(centres: np.ndarray) -> list[int]:
+    """The coordinates whose linear terms the centres can carry: not constant over them, and not a combination of
+    the constant and the coordinates kept before (collinear or coplanar centres: preCICE's dead axes)."""
+    scale = max(1.0, float(np.abs(centres).max(initial=0.0)))
+    varying = [k for k in range(centres.shape[1]) if np.ptp(centres[:, k]) > 1e-12 * scale]
+    kept: list[int] = []
+    for k in varying:
+        trial = np.hstack([np.ones((len(centres), 1)), centres[:, kept + [k]] / scale])
+        if np.linalg.matrix_rank(trial, tol=1e-10 * np.sqrt(len(centres))) == len(kept) + 2:
+            kept.append(k)
+    return kept
+
+
+def _linear_basis(points: np.ndarray, columns: list[int]) -> np.ndarray:
+    """[1, and the ``columns`` coordinates] per point."""
+    return np.hstack([np.ones((len(points), 1)), points[:, columns]])
 
 
 class ScaledMapping(Mapping):

@@ -22,8 +22,9 @@ SCHEMES = {"serial-explicit": "serial-explicit", "parallel-explicit": "parallel-
 MEASURES = {"relative-convergence-measure": "relative", "absolute-convergence-measure": "absolute",
             "residual-relative-convergence-measure": "residual-relative"}
 FILTERS = {"QR1": "qr1", "QR2": "qr2", "QR1-absolute": "qr1-absolute"}
-RBF_BASES = {"compact-polynomial-c2": "rbf"}       # Wendland's C2 function: cosim's compact RBF
-V2_RBF = {"rbf-compact-polynomial-c2": "compact-polynomial-c2"}
+# Wendland's compact functions, which cosim's RBF mapping holds (coupler.mapping.COMPACT_BASES)
+RBF_BASES = ("compact-polynomial-c0", "compact-polynomial-c2", "compact-polynomial-c4", "compact-polynomial-c6")
+V2_RBF = {f"rbf-{basis}": basis for basis in RBF_BASES}
 
 
 @dataclass
@@ -322,7 +323,7 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
             if element.get(attribute) is not None and attribute not in ("solver-rtol", "preallocation"):
                 if not (attribute == "polynomial" and element.attributes[attribute] == "separate"):
                     raise reader.fail(element, f"'{attribute}' is not supported by cosim's RBF mapping (a compact "
-                                               "Wendland C2 basis with a separate linear polynomial)")
+                                               "Wendland basis with a separate linear polynomial)")
         if kind in ("rbf", "rbf-global-direct", "rbf-global-iterative", "rbf-pum-direct"):
             bases = [c for c in element.children if c.kind()[0] == "basis-function"]
             if len(bases) != 1 or len(element.children) != 1:
@@ -332,10 +333,11 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
             bases[0].get("shape-parameter")
             reader.done(bases[0])
         if basis not in RBF_BASES:
-            raise reader.fail(element, f"the RBF basis {basis or kind!r} is not supported: cosim's RBF mapping is "
-                                       "compact-polynomial-c2 (Wendland C2) with a support radius")
+            raise reader.fail(element, f"the RBF basis {basis or kind!r} is not supported: cosim's RBF mapping holds "
+                                       f"{', '.join(RBF_BASES)} (Wendland's functions) with a support radius")
         if radius is None:
-            raise reader.fail(element, "compact-polynomial-c2 needs a 'support-radius'")
+            raise reader.fail(element, f"{basis} needs a 'support-radius'")
+        settings["basis"] = basis
         try:
             settings["support_radius"] = float(radius)
         except ValueError:
@@ -563,6 +565,9 @@ def _check(reader: _Reader, config: Config) -> None:
     acceleration = scheme["acceleration"]
     iterated = {e.data for e in config.exchanges if scheme["kind"] == "parallel-implicit"
                 or (scheme["kind"] == "serial-implicit" and e.source == names[1])}
+    if acceleration is not None and acceleration["type"] == "constant" and not acceleration["data"]:
+        # preCICE relaxes all the data the scheme iterates when constant relaxation names none
+        acceleration["data"] = list(dict.fromkeys(e.data for e in config.exchanges if e.data in iterated))
     for exchange in config.exchanges:
         held = acceleration is not None and exchange.data in acceleration["data"]
         if exchange.substeps and exchange.data in iterated and acceleration is not None and not held:

@@ -388,3 +388,41 @@ def test_a_changed_map_starts_the_quasi_newton_afresh(kind):
     assert after["blind"] is None or after["blind"] > 2 * n
     with pytest.raises(ValueError, match="on_map_change 'forget' not in"):
         IQNILS(0.1, on_map_change="forget")
+
+
+RBF_BASES = ["compact-polynomial-c0", "compact-polynomial-c2", "compact-polynomial-c4", "compact-polynomial-c6"]
+
+
+@pytest.mark.parametrize("basis", RBF_BASES)
+def test_each_compact_rbf_basis_reproduces_linear_fields_and_its_transpose_conserves_the_sum(basis):
+    """Wendland's C0 to C6 with the linear polynomial: a linear field is mapped exactly (consistent), and the
+    conservative form keeps the total (forces)."""
+    rng = np.random.default_rng(5)
+    source, target = rng.random((60, 2)), rng.random((45, 2))
+    linear = 1.0 + 2.0 * source[:, 0] - 3.0 * source[:, 1]
+    settings = {"type": "rbf", "support_radius": 0.5, "basis": basis}
+    consistent = make_mapping({**settings, "constraint": "consistent"}, source, target, (60,), (45,), "test")
+    np.testing.assert_allclose(consistent(linear), 1.0 + 2.0 * target[:, 0] - 3.0 * target[:, 1], atol=1e-10)
+    forces = rng.standard_normal(60)
+    conservative = make_mapping({**settings, "constraint": "conservative"}, source, target, (60,), (45,), "test")
+    assert conservative(forces).sum() == pytest.approx(forces.sum(), rel=1e-10)
+
+
+@pytest.mark.parametrize("line", ["axis", "diagonal"])
+def test_an_rbf_mapping_from_collinear_vertices_drops_the_dead_axis(line):
+    """Vertices on a line (preCICE's fake fluid), to vertices off it: the polynomial keeps the constant and the one
+    direction the line spans (a linear field along it is exact), where the system was singular or mismatched."""
+    s = np.linspace(0.0, 1.0, 59)
+    source = np.column_stack([s, np.zeros_like(s)]) if line == "axis" else np.column_stack([s, s])
+    rng = np.random.default_rng(7)
+    target = rng.random((20, 2))
+    along = source[:, 0] if line == "axis" else source[:, 0] + source[:, 1]
+    mapped = make_mapping({"type": "rbf", "support_radius": 0.3, "constraint": "consistent"}, source, target,
+                          (59,), (20,), "test")(2.0 + 5.0 * along)
+    expected = 2.0 + 5.0 * (target[:, 0] if line == "axis" else 2.0 * target[:, 0])   # the line's own coordinate
+    on_line = target.copy()
+    on_line[:, 1] = 0.0 if line == "axis" else on_line[:, 0]
+    back = make_mapping({"type": "rbf", "support_radius": 0.3, "constraint": "consistent"}, source, on_line,
+                        (59,), (20,), "test")(2.0 + 5.0 * along)
+    assert np.isfinite(mapped).all()
+    np.testing.assert_allclose(back, expected, atol=1e-9)

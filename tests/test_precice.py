@@ -187,6 +187,9 @@ MISUSES = [
     ("a read beyond the step", 'participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, dt)',
      'participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, 1.5 * dt)',
      "Participant.read_data: relative_read_time 0.15 is outside the step (0 to 0.1, what is left of the window)"),
+    ("a read at a NaN time", 'participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, dt)',
+     'participant.read_data("Fluid-Nodes", "CrossSectionLength", vertex_ids, float("nan"))',
+     "Participant.read_data: relative_read_time nan is outside the step (0 to 0.1, what is left of the window)"),
     ("a NaN written", 'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)',
      'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure * float("nan"))',
      "Participant.write_data: values of 'Pressure' are not finite"),
@@ -496,3 +499,90 @@ def test_a_watch_point_writes_precices_log_of_the_data_at_its_vertex(tmp_path):
         assert np.array_equal(table[:, 3], results.fields()["Pressure"][:, 0])          # the vertex nearest x = 0.04
         used = results.calls("Fluid", converged_only=True).inputs["CrossSectionLength"]   # what the fluid read
         assert np.array_equal(table[:, 4], used[:, 0])
+
+
+# --- what pyprecice and preCICE do that unmodified participants rely on ----------------------------------------------
+def run_fluid_variant(tmp_path, name: str, old: str, new: str, *settings: str) -> tuple[int, Path]:
+    """The test participant with ``old`` replaced by ``new``, against the example's solid, for ten windows."""
+    assert old in PARTICIPANT
+    folder = tmp_path / name
+    folder.mkdir()
+    (folder / "Fluid.py").write_text(PARTICIPANT.replace(old, new, 1))
+    out = tmp_path / f"{name}-run"
+    code = main(["run", str(EXAMPLE / "case.toml"), "--out", str(out), "--quiet", "--set", "time.end=1",
+                 "--set", f"participants.Fluid.command=python3 Fluid.py {EXAMPLE / 'precice-config.xml'}",
+                 "--set", f"participants.Fluid.cwd={folder}", *settings])
+    return code, out
+
+
+@pytest.mark.parametrize("ending", ["", "del participant"], ids=["exits", "collected"])
+def test_a_participant_that_never_calls_finalize_is_finalized_as_precices_destructor_does(tmp_path, capsys, ending):
+    """preCICE's tutorials' elastic tube ends without finalize(): the participant's exit (or its collection)
+    finalizes it, and the run ends as with finalize()."""
+    code, out = run_fluid_variant(tmp_path, "fluid", "participant.finalize()", ending)
+    assert code == 0, capsys.readouterr().err
+    with RunResults(out / "results.h5") as results:
+        assert len(results.windows) == 10 and results.windows.converged.all()
+    assert children_of(os.getpid()) == []
+
+
+def test_scalar_data_written_as_any_array_of_its_values_is_taken_as_pyprecice_takes_it(tmp_path, capsys):
+    """A column (N, 1) of scalar data, as preCICE's FMI runner writes it, is the same data as (N,)."""
+    write = 'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)'
+    code, plain = run_fluid_variant(tmp_path, "plain", write, write)
+    assert code == 0, capsys.readouterr().err
+    code, column = run_fluid_variant(tmp_path, "column", write, write.replace("pressure)", "pressure[:, None])"))
+    assert code == 0, capsys.readouterr().err
+    with RunResults(plain / "results.h5") as a, RunResults(column / "results.h5") as b:
+        assert a.fields()["Pressure"].tobytes() == b.fields()["Pressure"].tobytes()
+        assert np.array_equal(a.windows.iterations, b.windows.iterations)
+
+
+def test_get_version_information_gives_bytes_that_start_with_the_version():
+    """As pyprecice: tools decode it and read the version before the first ';'."""
+    code = "import precice; v = precice.get_version_information(); print(type(v).__name__, v.decode().split(';')[0])"
+    done = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(SHIM)},
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    kind, version = done.stdout.split()
+    assert kind == "bytes" and version.split(".")[0] == "3" and len(version.split(".")) == 3
+
+
+def test_constant_relaxation_naming_no_data_relaxes_what_the_scheme_iterates(tmp_path):
+    """preCICE's <acceleration:constant> without <data> relaxes all of the scheme's iterated data: here the data the
+    second participant sends (the heat case's config lists none)."""
+    start = TUBE_CONFIG.index("<acceleration:IQN-ILS>")
+    end = TUBE_CONFIG.index("</acceleration:IQN-ILS>") + len("</acceleration:IQN-ILS>")
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu"))
+    (tmp_path / "case" / "precice-config.xml").write_text(
+        TUBE_CONFIG[:start] + '<acceleration:constant><relaxation value="0.5" /></acceleration:constant>'
+        + TUBE_CONFIG[end:])
+    acceleration = load_scene(tmp_path / "case" / "case.toml")["coupling"]["acceleration"]
+    assert (acceleration["type"], acceleration["data"], acceleration["relaxation"]) == \
+        ("constant", ["CrossSectionLength"], 0.5)
+
+
+def test_a_watch_point_on_a_subcycling_participant_gives_a_row_per_window(tmp_path):
+    """A takes four steps a window and sends each (substeps): its watch point has the window's end, a row a window
+    (the resonant circuit's case: it once failed on 222 calls for 10 windows)."""
+    config = SUBCYCLING_CONFIG.replace('<exchange data="X" mesh="A-Mesh" from="A" to="B" substeps="false"/>',
+                                       '<exchange data="X" mesh="A-Mesh" from="A" to="B" substeps="true"/>')
+    config = config.replace('<write-data name="X" mesh="A-Mesh"/>',
+                            '<write-data name="X" mesh="A-Mesh"/><watch-point mesh="A-Mesh" name="End" '
+                            'coordinate="1.0;0.0"/>')
+    assert config.count("substeps=\"true\"") == 1 and "watch-point" in config
+    partner = PARTNER.replace("    t += dt", "    t = t if participant.requires_reading_checkpoint() else t + dt")
+    assert partner != PARTNER            # B repeats its window's time: the windows converge
+    for name, text in (("A/A.py", SUBCYCLING), ("B/B.py", partner), ("config.xml", config),
+                       ("case.toml", '[precice]\nconfig = "config.xml"\n[participants.A]\ncommand = "python3 A.py"\n'
+                                     'cwd = "A"\n[participants.B]\ncommand = "python3 B.py"\ncwd = "B"\n')):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+    run_scene(load_scene(tmp_path / "case.toml"), tmp_path / "out", progress=False)
+    header, *rows = (tmp_path / "out" / "precice-A-watchpoint-End.log").read_text().splitlines()
+    table = np.array([[float(v) for v in row.split()] for row in rows])
+    with RunResults(tmp_path / "out") as results:
+        assert results.windows.converged.all()
+        assert len(results.calls("A", converged_only=True)) == 4 * len(results.windows)   # a call a step
+        assert np.array_equal(table[:, 0], results.windows.time)
+        assert np.array_equal(table[:, header.split().index("X")], results.fields()["X"][:, 1])   # x = 1's vertex

@@ -17,9 +17,10 @@ from precice._participant import Participant
 __version__ = "3.0.0+cosim.0.1.0"
 
 
-def get_version_information() -> str:
-    """The version this package stands for (preCICE's API), and whose coupler serves it."""
-    return "preCICE API 3.0.0 and 2.5 (v2 Interface), served by cosim 0.1.0"
+def get_version_information() -> bytes:
+    """As pyprecice: bytes that start with the version of preCICE's API this package stands for, then, after ``;``,
+    whose coupler serves it."""
+    return b"3.0.0;served by cosim 0.1.0 (preCICE's v3 Participant and v2 Interface)"
 
 
 __all__ = ["Participant", "Interface", "Error", "action_write_initial_data", "action_write_iteration_checkpoint",

@@ -141,8 +141,8 @@ class Core:
         dimensions = int(spec["dimensions"])
         array = np.asarray(values, dtype=np.float64)
         expected = (len(vertex_ids),) if dimensions == 1 else (len(vertex_ids), dimensions)
-        if array.shape != expected and array.size == int(np.prod(expected)) and dimensions > 1 and array.ndim == 1:
-            array = array.reshape(expected)     # pyprecice takes a flat vector block too
+        if array.shape != expected and array.size == int(np.prod(expected)) and (dimensions == 1 or array.ndim == 1):
+            array = array.reshape(expected)     # as pyprecice: any N values of scalar data, or a flat vector block
         if array.shape != expected:
             kind = "scalar" if dimensions == 1 else "vector"
             raise self.fail(call, f"values of shape {array.shape} for {len(vertex_ids)} vertices of {kind} data "
@@ -166,7 +166,8 @@ class Core:
         vertex_ids = self._ids(call, mesh, ids)
         if relative_read_time is not None:
             remaining = self.remaining()
-            if relative_read_time < 0 or relative_read_time > remaining * (1 + EPSILON) + EPSILON * self.window:
+            if not np.isfinite(relative_read_time) or relative_read_time < 0 \
+                    or relative_read_time > remaining * (1 + EPSILON) + EPSILON * self.window:
                 raise self.fail(call, f"relative_read_time {relative_read_time:g} is outside the step (0 to {remaining:g}, what is left of the "
                                 "window)")
             moment = (self.elapsed + relative_read_time) / self.window
@@ -258,6 +259,21 @@ class Core:
             for data in self.substep_data:
                 arrays["substeps:" + data] = np.stack([sample[data] for _, sample in self.samples])
         self._exchange("advance", args, arrays)
+
+    def release(self) -> None:
+        """What preCICE's destructor does for a participant that did not call ``finalize``: one whose coupling is
+        over is finalized; any other has its connection closed (the coupler names it). Never raises: it runs when the
+        participant is collected or its interpreter exits."""
+        if self.state == "finalized":
+            return
+        try:
+            if self.state == "initialized" and not self.ongoing:
+                self.finalize("finalize")
+            else:
+                self.state = "finalized"
+                self.connection.close()
+        except Exception:
+            pass
 
     def finalize(self, call: str) -> None:
         if self.state == "finalized":

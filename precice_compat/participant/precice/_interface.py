@@ -3,6 +3,7 @@ actions instead of ``requires_*``, and the initial data exchanged by ``initializ
 
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import numpy as np
@@ -33,6 +34,7 @@ class Interface:
     def __init__(self, solver_name: str, configuration_file_name: str, solver_process_index: int,
                  solver_process_size: int, communicator: Any = None):
         self._core = Core("Interface", solver_name, configuration_file_name, solver_process_index, solver_process_size)
+        weakref.finalize(self, self._core.release)     # as preCICE's destructor: finalized if finalize was not called
         self._mesh_ids = {name: i for i, name in enumerate(sorted(self._core.meshes))}
         pairs = sorted(set(self._core.write) | set(self._core.read))
         self._data_ids: dict[tuple[str, str], int] = {pair: i for i, pair in enumerate(pairs)}

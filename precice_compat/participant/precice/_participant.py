@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import numpy as np
@@ -16,6 +17,7 @@ class Participant:
                  solver_process_size: int, communicator: Any = None):
         self._core = Core("Participant", participant_name, configuration_file_name, solver_process_index,
                           solver_process_size)
+        weakref.finalize(self, self._core.release)     # as preCICE's destructor: finalized if finalize was not called
 
     # --- steering -------------------------------------------------------------------------------------------------
     def initialize(self) -> None:
