@@ -7,6 +7,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tomllib
 import zipfile
 from pathlib import Path
 
@@ -166,7 +167,7 @@ def test_an_fmi3_fmu_of_another_maker_couples_and_one_that_cannot_roll_back_is_r
     """pythonfmu3's FMUs against the tube's fluid, implicitly coupled. The spring wall cannot get and set its state:
     refused in one line with the reason, unless the scene vouches that it is stateless, when it couples as the
     example's Python spring wall does. The damped wall can: rolled back to each window's start through its FMU
-    state, it couples as the example's Python damped wall does (same iterations, sections to 1e-10)."""
+    state, it couples as the example's Python damped wall does (same iterations, sections to the criterion)."""
     spring, damped = walls
     refused = run("examples/damped_wall/scene.toml", "--set", "components.solid.backend=fmu", "--set",
                   f"components.solid.fmu.path={spring}", "--set", "time.end=1", "--out", str(tmp_path / "refused"))
@@ -183,7 +184,10 @@ def test_an_fmi3_fmu_of_another_maker_couples_and_one_that_cannot_roll_back_is_r
         (iterations, section), (their_iterations, their_section) = (fields(tmp_path / f"{name}_python"),
                                                                     fields(tmp_path / f"{name}_fmu"))
         assert iterations.tolist() == their_iterations.tolist()
-        np.testing.assert_allclose(their_section, section, rtol=0, atol=1e-10 * np.ptp(section))
+        # two runs whose solvers round differently meet the same criterion on the same fixed point: they agree to
+        # the criterion's relative change of the section, not to its rounding (AVX-512 BLAS kernels differ in ulps)
+        limit = tomllib.loads((ROOT / scene).read_text())["coupling"]["convergence"][0]["limit"]
+        np.testing.assert_allclose(their_section, section, rtol=0, atol=limit * np.abs(section).max())
 
 
 def rewritten(fmu: Path, out: Path, change) -> Path:
