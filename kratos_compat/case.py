@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
+from cosim.scene import MAX_WINDOWS
 from cosim.schema import AnyTable, Positive, unknown_key_message, validate
 from kratos_compat.cosim_parameters import CoSimParameters, Data, Role, Transfer, read_cosim_parameters
 from kratos_compat.json_source import JsonSource
@@ -49,6 +50,9 @@ def scene_of(params: CoSimParameters, solvers: dict[str, dict[str, Any]] | None 
     """The scene ``params`` becomes; ``solvers``: the case's own settings of each solver's component."""
     solvers = solvers or {}
     start, dt = params.start, _time_step(params)
+    if (params.end - start) / dt > MAX_WINDOWS:
+        raise SceneError(f"{params.source.where(('problem_data', 'end_time'))}: {params.end:g} makes "
+                         f"{(params.end - start) / dt:.3g} windows of {dt:g} s; at most {MAX_WINDOWS:,} are allowed")
     windows, t = 0, start
     while t < params.end:          # Kratos steps while its time is before end_time
         t += dt

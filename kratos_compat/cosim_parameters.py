@@ -148,6 +148,9 @@ class _Reader:
         problem = self.get(data, (), "problem_data", dict)
         start = self.get(problem, ("problem_data",), "start_time", float, 0.0)
         end = self.get(problem, ("problem_data",), "end_time", float)
+        if not (math.isfinite(start) and math.isfinite(end)):
+            raise self.fail(("problem_data", "end_time" if math.isfinite(start) else "start_time"),
+                            "must be a finite time")
         if not end > start:
             raise self.fail(("problem_data", "end_time"), f"{end} is not after start_time {start}")
         settings = self.get(data, (), "solver_settings", dict)

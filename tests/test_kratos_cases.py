@@ -157,6 +157,9 @@ BAD = [  # (what, key path in the CoSim file, new value, message)
      r"'fluid.load' goes from 'fluid' to 'structure'; in a Gauss-Seidel sequence \(fluid, structure\) only data "
      r"going back to 'fluid' can be accelerated"),
     ("no end time", "problem_data/end_time", DELETE, r"'problem_data.end_time': is missing"),
+    ("an end time of 1e9", "problem_data/end_time", 1e9,
+     r"'problem_data.end_time': 1e\+09 makes 1e\+10 windows of 0.1 s; at most 10,000,000 are allowed"),
+    ("an infinite end time", "problem_data/end_time", float("inf"), r"'problem_data.end_time': must be a finite time"),
     ("a criterion on the other end of the accelerated data", f"{S}/convergence_criteria/0/solver", "structure",
      r"the criterion is on the source of 'disp' and the accelerator on its target; put both on the same data"),
     ("a coupling operation", f"{S}/coupling_operations", {"scale": {"type": "scaling"}},
