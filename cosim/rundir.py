@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import fcntl
 import json
+import math
 import os
 import shutil
 import time
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import CosimError
+from cosim.input_file import read_input
 
 LOCK = ".lock"
 SETTLE_SECONDS = 10.0     # the longest a dead run's results writer is waited for (it writes what it was handed)
@@ -156,16 +158,43 @@ def settling(path: str | Path) -> bool:
         os.close(fd)
 
 
+MAX_STATUS_BYTES = 1 << 20
+
+
 def read_status(path: str | Path) -> dict[str, Any]:
     """The last ``status.json`` of the run in ``path`` ({} if there is none yet). A run whose process is
     gone while its status still says it is starting or running is reported as ``"died"``."""
     try:
-        status = json.loads((Path(path) / STATUS).read_text())
-    except (OSError, ValueError):
+        status = json.loads(read_input(Path(path) / STATUS, "status", MAX_STATUS_BYTES))
+    except (CosimError, ValueError, RecursionError):
         return {}
+    if not isinstance(status, dict):
+        return {}                   # damaged: a status is a table
+    status = _well_formed(status)
     if status.get("state") in ("starting", "running") and not alive(status.get("pid")):
         status["state"] = "died"
     return status
+
+
+COUNTS = ("windows_completed", "windows_total", "windows_at_start", "iterations_total", "last_iterations",
+          "windows_unconverged", "pid")
+TIMES = ("time", "started", "updated", "wall_seconds")
+
+
+def _well_formed(status: dict[str, Any]) -> dict[str, Any]:
+    """``status`` without the fields a damaged file got wrong: counts that are not whole numbers, times that are
+    not finite numbers, a state or an error that is not text, measures that are not finite numbers."""
+    def number(value: Any) -> bool:
+        return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    kept = {k: v for k, v in status.items() if k not in (*COUNTS, *TIMES, "state", "error", "measures")}
+    kept.update({k: int(status[k]) for k in COUNTS if number(status.get(k)) and float(status[k]).is_integer()
+                 and status[k] >= 0})
+    kept.update({k: float(status[k]) for k in TIMES if number(status.get(k))})
+    kept.update({k: status[k] for k in ("state", "error") if isinstance(status.get(k), str)})
+    measures = status.get("measures")
+    if isinstance(measures, dict):
+        kept["measures"] = {str(k): float(v) for k, v in measures.items() if number(v)}
+    return kept
 
 
 def alive(pid: Any) -> bool:

@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import SceneError
+from cosim.errors import CosimError, SceneError
+from cosim.input_file import read_input
 from cosim.schema import (
     AnyTable,
     Choice,
@@ -316,10 +317,7 @@ def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) ->
     path = Path(path)
     reader = _reader_for(path, None) if path.suffix != ".toml" else None
     if reader is not None:
-        try:
-            text, raw = path.read_text(encoding="utf-8", errors="replace"), None
-        except OSError as exc:
-            raise SceneError(f"cannot read '{path}': {exc.strerror or exc}") from None
+        text, raw = read_input(path, "case", MAX_FILE_BYTES).decode("utf-8", errors="replace"), None
     else:
         text, raw = read_toml(path, "scene")
         reader = _reader_for(path, raw)
@@ -370,12 +368,7 @@ def read_toml(path: str | Path, what: str = "scene") -> tuple[str, dict[str, Any
     """The text of a TOML file and its data; every failure is a one-line ``SceneError`` naming the file."""
     path = Path(path)
     try:
-        size = path.stat().st_size if path.is_file() else 0
-        if size > MAX_FILE_BYTES:
-            raise SceneError(f"{path}: {size:,} bytes; a {what} file has at most {MAX_FILE_BYTES:,}")
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SceneError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
+        text = _input_text(path, what)
     except UnicodeDecodeError as exc:
         line = exc.object[:exc.start].count(b"\n") + 1
         raise SceneError(f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} on line {line})") from None
@@ -388,6 +381,13 @@ def read_toml(path: str | Path, what: str = "scene") -> tuple[str, dict[str, Any
     if _depth(raw) > MAX_DEPTH:
         raise SceneError(f"{path}: tables or arrays nest more than {MAX_DEPTH} deep")
     return text, raw
+
+
+def _input_text(path: Path, what: str) -> str:
+    try:
+        return read_input(path, what, MAX_FILE_BYTES).decode("utf-8")
+    except CosimError as exc:
+        raise SceneError(str(exc)) from None
 
 
 def _depth(value: Any) -> int:

@@ -6,7 +6,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import SceneError
+from cosim.errors import CosimError, SceneError
+from cosim.input_file import read_input
 
 MAX_BYTES = 16 << 20
 _WHITESPACE = " \t\n\r"
@@ -21,13 +22,13 @@ class JsonSource:
     def __init__(self, path: Path, text: str | None = None):
         self.path = Path(path)
         if text is None:
+            if not self.path.exists():
+                raise SceneError(f"'{self.path}' does not exist")
             try:
-                if self.path.stat().st_size > MAX_BYTES:
-                    raise SceneError(f"{self.path}: larger than {MAX_BYTES >> 20} MB; not a Kratos parameters file")
-                text = self.path.read_text(encoding="utf-8")
-            except FileNotFoundError:
-                raise SceneError(f"'{self.path}' does not exist") from None
-            except (OSError, UnicodeDecodeError) as exc:
+                text = read_input(self.path, "Kratos parameters", MAX_BYTES).decode("utf-8")
+            except CosimError as exc:
+                raise SceneError(str(exc)) from None
+            except UnicodeDecodeError as exc:
                 raise SceneError(f"cannot read '{self.path}': {exc}") from None
         self.text = text
         self.offsets: dict[Path_, int] = {}

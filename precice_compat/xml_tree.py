@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
 
-from cosim.errors import SceneError
+from cosim.errors import CosimError, SceneError
+from cosim.input_file import read_input
 
 MAX_BYTES = 4 << 20
 
@@ -34,12 +35,9 @@ class Element:
 def parse(path: Path) -> Element:
     """The root element of ``path``; a file that is no XML is a one-line ``SceneError`` with its line."""
     try:
-        size = path.stat().st_size
-        if size > MAX_BYTES:
-            raise SceneError(f"{path}: {size:,} bytes; a preCICE configuration has at most {MAX_BYTES:,}")
-        data = path.read_bytes()
-    except OSError as exc:
-        raise SceneError(f"cannot read the preCICE configuration '{path}': {exc.strerror or exc}") from None
+        data = read_input(path, "preCICE configuration", MAX_BYTES)
+    except CosimError as exc:
+        raise SceneError(str(exc)) from None
     parser = expat.ParserCreate()
     stack: list[Element] = []
     roots: list[Element] = []

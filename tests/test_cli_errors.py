@@ -229,3 +229,39 @@ def test_check_refuses_what_a_run_would_refuse_before_its_first_window(capsys, t
         err = one_line_error(capsys, ["check", str(TUBE_SCENE), "--set", f"components.solid.backend={kind}",
                                       "--set", f"components.solid.{kind}.{key}={tmp_path}"])
         assert err.endswith(f"'components.solid.{kind}.{key}' names '{tmp_path}', which is a directory, not a file")
+
+
+def test_special_files_named_as_inputs_are_refused_at_once(capsys, tmp_path):
+    """A FIFO as a scene, a case or a preCICE configuration would block the read forever, /dev/zero would be read
+    without end, and a FIFO or a damaged status.json made `cosim status` hang or crash: each is refused or read as
+    no status, within the test's seconds."""
+    import json
+    import os
+    import shutil
+    fifo = tmp_path / "scene.toml"
+    os.mkfifo(fifo)
+    err = one_line_error(capsys, ["check", str(fifo)])
+    assert err.endswith(f"cannot read scene '{fifo}': it is a FIFO, not a regular file"), err
+    err = one_line_error(capsys, ["check", "/dev/zero"])
+    assert "it is a device or socket, not a regular file" in err, err
+    case = tmp_path / "case"
+    shutil.copytree(ROOT / "examples" / "precice_tube", case, ignore=shutil.ignore_patterns("*.npz", "*.fmu"))
+    (case / "precice-config.xml").unlink()
+    os.mkfifo(case / "precice-config.xml")
+    err = one_line_error(capsys, ["check", str(case / "case.toml")])
+    assert "precice-config.xml': it is a FIFO, not a regular file" in err, err
+    from cosim.rundir import read_status
+    for damaged in ("[1, 2]", '"running"', "{", "[" * 5000 + "]" * 5000):
+        (tmp_path / "status.json").write_text(damaged)
+        assert read_status(tmp_path) == {}
+    (tmp_path / "status.json").unlink()
+    os.mkfifo(tmp_path / "status.json")
+    assert read_status(tmp_path) == {}
+    (tmp_path / "status.json").unlink()
+    (tmp_path / "status.json").write_text(json.dumps({"state": "finished", "windows_completed": 3}))
+    assert read_status(tmp_path)["windows_completed"] == 3
+    (tmp_path / "status.json").write_text('{"state": "finished", "windows_completed": "x", "windows_total": 10, '
+                                          '"wall_seconds": NaN, "measures": {"a": "b", "c": 1.5}, "error": 7}')
+    assert read_status(tmp_path) == {"state": "finished", "windows_total": 10, "measures": {"c": 1.5}}
+    assert main(["status", str(tmp_path)]) == 0          # the fields it can read, no traceback
+    assert "finished, 0 of 10 windows" in capsys.readouterr().out
