@@ -20,6 +20,12 @@ from cosim.errors import SceneError
 from cosim.results import RunResults
 
 
+def file_name_part(name: str) -> bool:
+    """Whether ``name`` can stand inside a file name in the run's folder: not empty, no separator, no NUL, not a
+    folder's own name."""
+    return bool(name) and "/" not in name and "\0" not in name and name not in (".", "..")
+
+
 def check(points: Any, components: Mapping[str, Mapping[str, Any]], source: str) -> None:
     """``output.watch_points``: tables of ``component`` (recorded), ``mesh``, ``name`` and ``coordinate``."""
     if not isinstance(points, list):
@@ -34,6 +40,9 @@ def check(points: Any, components: Mapping[str, Mapping[str, Any]], source: str)
         if not spec["record"]:
             raise SceneError(f"{source}: '{where}' watches '{point['component']}', whose calls are not recorded: set "
                              f"components.{point['component']}.record = true")
+        if not isinstance(point["name"], str) or not file_name_part(point["name"]):
+            raise SceneError(f"{source}: '{where}.name' is {point['name']!r}: a watch point's name becomes a file "
+                             "name (precice-<component>-watchpoint-<name>.log), so no '/' and not '..'")
         coordinate = point["coordinate"]
         if not isinstance(coordinate, list) or not coordinate or \
                 not all(isinstance(v, int | float) and not isinstance(v, bool) for v in coordinate):

@@ -134,6 +134,10 @@ def check_coupling(data: dict[str, Any], source: str) -> None:
     if not exchanged:
         raise SceneError(f"{source}: the scene exchanges no data (add [[exchange]] tables)")
     for i, measure in enumerate(coupling["convergence"]):
+        minimum = measure.get("iterations") if measure.get("type") == "min-iterations" else None
+        if isinstance(minimum, int) and not isinstance(minimum, bool) and minimum > coupling["max_iterations"]:
+            raise SceneError(f"{source}: 'coupling.convergence.{i}.iterations' is {minimum}, above "
+                             f"'coupling.max_iterations' ({coupling['max_iterations']}): no window could converge")
         if "data" in measure and measure["data"] not in exchanged:
             raise SceneError(f"{source}: 'coupling.convergence.{i}.data' is {measure['data']!r}, "
                              f"not exchanged data ({', '.join(sorted(exchanged))})")

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
+from cosim.watch_points import file_name_part
 from precice_compat.xml_tree import Element, parse
 
 SCHEMES = {"serial-explicit": "serial-explicit", "parallel-explicit": "parallel-explicit",
@@ -276,7 +277,11 @@ def _participant(reader: _Reader, config: Config, element: Element) -> None:
         elif prefix == "mapping":
             participant.mappings.append(_mapping(reader, config, child, kind))
         elif child.tag == "watch-point":
-            participant.watch_points.append({"name": reader.required(child, "name"),
+            name = reader.required(child, "name")
+            if not file_name_part(name):
+                raise reader.fail(child, f"the watch point's name {name!r} must be a plain name: it becomes a file "
+                                         "name (precice-<participant>-watchpoint-<name>.log), so no '/' and not '..'")
+            participant.watch_points.append({"name": name,
                                              "mesh": _mesh_of(reader, config, child, reader.required(child, "mesh")),
                                              "coordinate": _coordinate(reader, child)})
             reader.done(child)
@@ -587,5 +592,8 @@ def _check(reader: _Reader, config: Config) -> None:
         if preconditioner is not None and len(acceleration["data"]) > 1 and preconditioner != "value":
             raise SceneError(f"{config.path}, line {line}: the preconditioner {preconditioner!r} is not supported "
                              "with several accelerated data: cosim scales each by its values' norm (type \"value\")")
+    if scheme.get("min_iterations", 1) > scheme.get("max_iterations", 100):
+        raise SceneError(f"{where}: <min-iterations value=\"{scheme['min_iterations']}\"/> is above "
+                         f"<max-iterations value=\"{scheme.get('max_iterations', 100)}\"/>: no window could converge")
     if scheme["kind"].endswith("implicit") and not scheme["measures"]:
         raise SceneError(f"{where}: an implicit scheme needs a convergence measure")

@@ -142,6 +142,13 @@ BAD_CONFIGS = [
     ("not XML", ("</precice-configuration>", "</precice-configuratio>"), "not XML: mismatched tag"),
     ("a missing mapping", ('    <mapping:nearest-neighbor direction="read" from="Solid-Nodes" to="Fluid-Nodes" '
                            'constraint="consistent" />\n', ''), "no <mapping:...> maps 'Solid-Nodes' to 'Fluid-Nodes'"),
+    ("a watch point named as a path", ('<write-data name="Pressure" mesh="Fluid-Nodes" />',
+                                       '<write-data name="Pressure" mesh="Fluid-Nodes" />\n    <watch-point '
+                                       'mesh="Fluid-Nodes" name="../../x" coordinate="0.0;0.0" />'),
+     "the watch point's name '../../x' must be a plain name"),
+    ("min-iterations above max-iterations", ('<max-iterations value="90" />',
+                                             '<max-iterations value="5" /><min-iterations value="6" />'),
+     '<min-iterations value="6"/> is above <max-iterations value="5"/>'),
     ("a scaled-consistent constraint", ('to="Fluid-Nodes" constraint="consistent"',
                                         'to="Fluid-Nodes" constraint="scaled-consistent-surface"'),
      "cosim maps 'consistent' or 'conservative' data"),
