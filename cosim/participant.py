@@ -224,7 +224,10 @@ class ParticipantProxy:
         if header.get("op") != "hello":
             raise ComponentError(self.name, f"sent '{header.get('op')}' before its hello")
         self._pending = header
-        self.pid = int((header.get("args") or {}).get("pid", self.pid or 0)) or self.pid
+        pid = (header.get("args") or {}).get("pid", self.pid or 0)
+        if isinstance(pid, bool) or not isinstance(pid, int) or pid < 0:
+            raise ComponentError(self.name, f"its hello gave the pid {str(pid)[:40]!r}, not a process number")
+        self.pid = pid or self.pid
 
     def call(self, op: str, args: Mapping[str, Any] | None = None, timeout: float | None = None) -> tuple[dict, dict]:
         """``ping`` (cosim check's probe of a component served by hand) has no meaning here."""
@@ -242,6 +245,14 @@ class ParticipantProxy:
             raise ComponentError(self.name, f"called '{header.get('op')}' where initialize was expected")
         self._pending = header
         self.meshes = {name[len("mesh:"):]: value for name, value in arrays.items() if name.startswith("mesh:")}
+        for mesh, vertices in self.meshes.items():
+            dimensions = int((self.setup.get("meshes") or {}).get(mesh, {}).get("dimensions", 0))
+            if vertices.dtype != np.float64 or vertices.ndim != 2 or (dimensions and vertices.shape[1] != dimensions):
+                raise ComponentError(self.name, f"gave the vertices of mesh '{mesh}' as {vertices.dtype} of shape "
+                                                f"{vertices.shape}; expected float64 of shape (n, "
+                                                f"{dimensions or 'dim'})")
+            if not np.isfinite(vertices).all():
+                raise ComponentError(self.name, f"gave vertices of mesh '{mesh}' that are not finite")
         self._initial = {name[len("data:"):]: value for name, value in arrays.items() if name.startswith("data:")}
         variables = []
         for causality, key in (("output", "write"), ("input", "read")):
@@ -313,9 +324,9 @@ class ParticipantProxy:
             raise ComponentError(self.name, f"its advance carried no '{missing[0]}'")
         self.substeps = self._samples(args.get("times"), arrays)
         self.substep_calls = self._calls(outputs) if self.substeps else []
-        compute = float(args.get("compute_seconds", roundtrip))
+        compute = _seconds(args.get("compute_seconds"), roundtrip)
         self.compute_seconds.append(compute)
-        self.cpu_seconds.append(float(args.get("cpu_seconds", compute)))
+        self.cpu_seconds.append(_seconds(args.get("cpu_seconds"), compute))
         self.roundtrip_seconds.append(roundtrip)
         return self.check_outputs(outputs)
 
@@ -373,7 +384,11 @@ class ParticipantProxy:
         return self.receive_step()
 
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Write data as the participant's setup and its mesh declare it; a wrong shape, NaN or Inf is an error."""
+        """Write data as the participant's setup and its mesh declare it: float64 (preCICE's data are doubles);
+        another type, a wrong shape, NaN or Inf is an error."""
+        for name, value in arrays.items():
+            if value.dtype != np.float64:
+                raise ComponentError(self.name, f"wrote '{name}' as {value.dtype}; preCICE's data are float64")
         return checked_outputs(self.name, self.variables, arrays)
 
     # --- the end ------------------------------------------------------------------------------------------------
@@ -425,3 +440,10 @@ class ParticipantProxy:
 
     def lines_of(self, name: str) -> np.ndarray | None:
         return None          # a participant's meshes carry no connectivity here
+
+
+def _seconds(value: Any, default: float) -> float:
+    """A time a participant reports, if it is a finite number of seconds, else ``default`` (it is only recorded)."""
+    if isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value):
+        return float(value)
+    return default

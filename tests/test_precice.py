@@ -593,3 +593,62 @@ def test_a_watch_point_on_a_subcycling_participant_gives_a_row_per_window(tmp_pa
         assert len(results.calls("A", converged_only=True)) == 4 * len(results.windows)   # a call a step
         assert np.array_equal(table[:, 0], results.windows.time)
         assert np.array_equal(table[:, header.split().index("X")], results.fields()["X"][:, 1])   # x = 1's vertex
+
+
+WRAP = '''
+core = participant._core
+send = core._request
+def _request(op, args=None, arrays=None):
+    if op == "{op}":
+        args, arrays = {change}
+    return send(op, args, arrays)
+core._request = _request
+'''
+RAW_WIRE = '''
+import msgpack, precice._wire
+def raw_encode(header, arrays=None):          # each array with its own dtype, as a foreign client may send it
+    arrays = {name: np.ascontiguousarray(value) for name, value in (arrays or {}).items()}
+    specs = [{"name": name, "dtype": a.dtype.name, "shape": list(a.shape)} for name, a in arrays.items()]
+    return [msgpack.packb(dict(header, v=1, arrays=specs), use_bin_type=True)] + [a.tobytes() for a in arrays.values()]
+precice._wire.encode = raw_encode
+'''
+MISBEHAVING = [   # a participant that holds the run's token and sends what no participant package sends
+    ("a pid that is no number", "import precice", 'import precice, os\nos.getpid = lambda: "abc"',
+     "its hello gave the pid 'abc', not a process number"),
+    ("a one-dimensional mesh", "participant.write_data(\"Fluid-Nodes\", \"Pressure\", vertex_ids, fluid.get_values",
+     "participant._core.vertices['Fluid-Nodes'] = [coords[:, 0].copy()]\n"
+     "participant.write_data(\"Fluid-Nodes\", \"Pressure\", vertex_ids, fluid.get_values",
+     "gave the vertices of mesh 'Fluid-Nodes' as float64 of shape (101,); expected float64 of shape (n, 2)"),
+    ("a NaN vertex", "participant.write_data(\"Fluid-Nodes\", \"Pressure\", vertex_ids, fluid.get_values",
+     "participant._core.vertices['Fluid-Nodes'][0][3, 1] = float('nan')\n"
+     "participant.write_data(\"Fluid-Nodes\", \"Pressure\", vertex_ids, fluid.get_values",
+     "gave vertices of mesh 'Fluid-Nodes' that are not finite"),
+    ("boolean data", "participant.initialize()", "participant.initialize()" + RAW_WIRE + WRAP.format(
+        op="advance", change="args, {k: v > 0 for k, v in arrays.items()}"), "wrote 'Pressure' as bool"),
+    ("integer data", "participant.initialize()", "participant.initialize()" + WRAP.format(
+        op="advance", change="args, {k: v.astype(int) for k, v in arrays.items()}"), "wrote 'Pressure' as int64"),
+    ("float32 data", "participant.initialize()", "participant.initialize()" + RAW_WIRE + WRAP.format(
+        op="advance", change="args, {k: v.astype('float32') for k, v in arrays.items()}"),
+     "wrote 'Pressure' as float32"),
+]
+
+
+@pytest.mark.parametrize("what, old, new, message", MISBEHAVING, ids=[m[0] for m in MISBEHAVING])
+def test_a_participant_sending_what_no_participant_sends_stops_the_run_in_one_line(tmp_path, capsys, what, old, new,
+                                                                                 message):
+    """The coupler checks what a participant holding the run's token sends: a bad pid, meshes that are not (n, dim)
+    finite doubles and data that is not float64 are named, where they crashed the coupler or the other participant."""
+    code, _ = run_fluid_variant(tmp_path, "fluid", old, new, "--set", "participants.Fluid.startup_timeout=20")
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert "component 'Fluid'" in err and message in err, err
+    assert children_of(os.getpid()) == []
+
+
+def test_timings_that_are_no_numbers_are_left_out_not_a_crash(tmp_path, capsys):
+    new = "participant.initialize()" + WRAP.format(
+        op="advance", change='{**(args or {}), "compute_seconds": "x", "cpu_seconds": None}, arrays')
+    code, out = run_fluid_variant(tmp_path, "fluid", "participant.initialize()", new)
+    assert code == 0, capsys.readouterr().err
+    with RunResults(out / "results.h5") as results:
+        assert results.windows.converged.all()
