@@ -50,6 +50,9 @@ def status_lines(run_dir: str | Path) -> list[str]:
     return lines
 
 
+RUN_FILES = ("run.png", "results.h5", "status.json", "checkpoint.npz")    # what a run writes itself
+
+
 def plot_convergence(run_dir: str | Path, out: str | Path | None = None) -> Path:
     """A PNG of the run's convergence history: every measure and the residual norm at every coupling iteration,
     and the iterations of every window; returns its path (default ``DIR/convergence.png``)."""
@@ -64,9 +67,15 @@ def plot_convergence(run_dir: str | Path, out: str | Path | None = None) -> Path
     if not path.is_file():
         raise CosimError(f"'{path}' does not exist: the run has written no coupling iteration yet (or ran before "
                          "the coupler wrote convergence logs)")
+    target = Path(out) if out else run_dir / "convergence.png"
+    if target.suffix.lower() != ".png" or (target.resolve().parent == run_dir.resolve() and target.name in RUN_FILES):
+        raise CosimError(f"--out '{target}': the convergence plot is written as a PNG of its own, not over "
+                         f"{'a file of the run' if target.suffix.lower() == '.png' else 'a ' + (target.suffix or 'file without suffix')} "
+                         "(default: DIR/convergence.png)")
     columns, rows = read_table(path)
-    _, windows = read_table(run_dir / "logs" / ITERATIONS)
-    if not rows:
+    iterations_log = run_dir / "logs" / ITERATIONS
+    windows = read_table(iterations_log)[1] if iterations_log.is_file() else []
+    if len(columns) < 3 or not rows:
         raise CosimError(f"'{path}' holds no iteration yet")
     table = np.array(rows)
     figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=False, gridspec_kw={"height_ratios": [2, 1]})
@@ -92,7 +101,6 @@ def plot_convergence(run_dir: str | Path, out: str | Path | None = None) -> Path
         bottom.yaxis.set_major_locator(MaxNLocator(integer=True))
         bottom.xaxis.set_major_locator(MaxNLocator(integer=True))
     figure.tight_layout()
-    target = Path(out) if out else run_dir / "convergence.png"
     figure.savefig(target, dpi=110)
     plt.close(figure)
     return target

@@ -110,6 +110,17 @@ def _cut(path: Path, windows: int) -> None:
 
 
 def read_table(path: Path) -> tuple[list[str], list[list[float]]]:
-    """A log table's columns and rows (numbers)."""
-    header, *rows = path.read_text().splitlines()
-    return header.split(), [[float(v) for v in row.split()] for row in rows if row.strip()]
+    """A log table's columns and rows (numbers). A table its run is writing may end in a line cut midway, and a
+    damaged one may hold lines that are no rows: only whole rows of numbers, one per column, are read."""
+    header, *rows = path.read_bytes().decode("utf-8", errors="replace").splitlines() or [""]
+    columns = header.split()
+    table = []
+    for row in rows:
+        fields = row.split()
+        if len(fields) != len(columns):
+            continue
+        try:
+            table.append([float(v) for v in fields])
+        except ValueError:
+            continue
+    return columns, table

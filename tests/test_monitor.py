@@ -122,3 +122,27 @@ def test_a_log_that_cannot_be_written_stops_being_written_never_the_run(tmp_path
         log.event("a line the disk has no room for")
         assert log.broken
         log.event("and no more tries")
+
+
+def test_the_convergence_plot_reads_damaged_or_unfinished_logs_and_never_writes_over_the_run(tmp_path, capsys):
+    """A log cut mid-line (as a run writes it), garbage or invalid UTF-8 lines are passed over, an empty log is no
+    iteration yet, and --out cannot name results.h5, run.png or a file that is no PNG: one line each, exit 2."""
+    logs = tmp_path / "run" / "logs"
+    logs.mkdir(parents=True)
+    header = "TimeWindow Iteration relative(section) ResidualNorm\n"
+    rows = "1 1 1.0e+00 2.0e-01\n1 2 1.0e-05 3.0e-06\n2 1 9.0e-01 1.0e-01\n"
+    (logs / "convergence.log").write_bytes((header + rows + "2 2 4.0e-0").encode() + b"\nxyz \xff\xfe 1\n")
+    (logs / "iterations.log").write_text("TimeWindow Time Iterations TotalIterations Converged relative(section)\n"
+                                         "1 0.1 2 2 1 1.0e-05\n2 0.2")
+    picture = plot_convergence(tmp_path / "run")
+    assert picture.stat().st_size > 5_000
+    from coupler.run_log import read_table
+    assert read_table(logs / "convergence.log")[1] == [[1, 1, 1.0, 0.2], [1, 2, 1e-5, 3e-6], [2, 1, 0.9, 0.1]]
+    for target, message in ((tmp_path / "run" / "results.h5", "not over a .h5"),
+                            (tmp_path / "run" / "run.png", "not over a file of the run")):
+        assert main(["plot", str(tmp_path / "run"), "--convergence", "--out", str(target)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and message in err, err
+    (logs / "convergence.log").write_text("")
+    assert main(["plot", str(tmp_path / "run"), "--convergence"]) == 2
+    assert "holds no iteration yet" in capsys.readouterr().err
