@@ -88,12 +88,12 @@ def _time_step(params: CoSimParameters) -> float:
     steps = {}
     for solver in params.solvers.values():
         source = JsonSource(solver.project)
-        settings = source.data.get("solver_settings", {})
         path: tuple[str, ...] = ("solver_settings",)
-        if settings.get("solver_type") == "ale_fluid":
-            settings, path = settings.get("fluid_solver_settings", {}), (*path, "fluid_solver_settings")
-        stepping = settings.get("time_stepping", {})
-        if stepping.get("automatic_time_step", False):
+        source.typed(path, dict, {})
+        if source.typed((*path, "solver_type"), str, "") == "ale_fluid":
+            path = (*path, "fluid_solver_settings")
+        stepping = source.typed((*path, "time_stepping"), dict, {})
+        if source.typed((*path, "time_stepping", "automatic_time_step"), bool, False):
             raise SceneError(f"{source.where((*path, 'time_stepping', 'automatic_time_step'))}: an automatic time "
                              "step is not supported (the coupling needs a fixed window)")
         step = stepping.get("time_step")

@@ -306,8 +306,10 @@ class _Reader:
             if self.get(entry, at, key, list, []):
                 raise self.fail((*at, key), "coupling operations are not supported by cosim")
         interval = self.get(entry, at, "interval", list, [0.0, 1e30])
-        if interval != [0.0, 1e30] and not (len(interval) == 2 and interval[0] <= 0 and
-                                             (interval[1] == "End" or interval[1] >= 1e30)):
+        numbers = [isinstance(v, int | float) and not isinstance(v, bool) for v in interval]
+        if len(interval) != 2 or not numbers[0] or not (numbers[1] or interval[1] == "End"):
+            raise self.fail((*at, "interval"), f"must be [start, end] of numbers (end may be \"End\"), got {interval}")
+        if interval != [0.0, 1e30] and not (interval[0] <= 0 and (interval[1] == "End" or interval[1] >= 1e30)):
             raise self.fail((*at, "interval"), "a transfer for part of the run is not supported (only the whole run)")
         own = self.lookup(solvers, solver, self.get(entry, at, "data", str), (*at, "data"))
         other_name = self.get(entry, at, other_key, str)
@@ -374,14 +376,15 @@ class _Reader:
 def model_parts(project: Path, folder: Path) -> set[str] | None:
     """The model parts a solver's ProjectParameters and its ``.mdpa`` file define (``Main``, ``Main.Sub``, ...);
     None when they cannot be told without Kratos (a mesh in another format)."""
-    settings = JsonSource(project).data.get("solver_settings", {})
-    if settings.get("solver_type") == "ale_fluid":
-        settings = settings.get("fluid_solver_settings", {})
-    main = settings.get("model_part_name", "")
-    imports = settings.get("model_import_settings", {})
-    if not main or imports.get("input_type", "mdpa") != "mdpa":
+    source = JsonSource(project)
+    at: tuple[str, ...] = ("solver_settings",)
+    source.typed(at, dict, {})
+    if source.typed((*at, "solver_type"), str, "") == "ale_fluid":
+        at = (*at, "fluid_solver_settings")
+    main = source.typed((*at, "model_part_name"), str, "")
+    if not main or source.typed((*at, "model_import_settings", "input_type"), str, "mdpa") != "mdpa":
         return None
-    mesh = folder / (imports.get("input_filename", "") + ".mdpa")
+    mesh = folder / (source.typed((*at, "model_import_settings", "input_filename"), str, "") + ".mdpa")
     if not mesh.is_file():
         raise SceneError(f"{project}: 'solver_settings.model_import_settings.input_filename': '{mesh}' does not exist")
     names, stack = {main}, [main]

@@ -159,7 +159,7 @@ BAD = [  # (what, key path in the CoSim file, new value, message)
     ("no end time", "problem_data/end_time", DELETE, r"'problem_data.end_time': is missing"),
     ("an end time of 1e9", "problem_data/end_time", 1e9,
      r"'problem_data.end_time': 1e\+09 makes 1e\+10 windows of 0.1 s; at most 10,000,000 are allowed"),
-    ("an infinite end time", "problem_data/end_time", float("inf"), r"'problem_data.end_time': must be a finite time"),
+    ("an infinite end time", "problem_data/end_time", float("inf"), r"not valid JSON \(Infinity is not JSON"),
     ("a criterion on the other end of the accelerated data", f"{S}/convergence_criteria/0/solver", "structure",
      r"the criterion is on the source of 'disp' and the accelerator on its target; put both on the same data"),
     ("a coupling operation", f"{S}/coupling_operations", {"scale": {"type": "scaling"}},
@@ -366,3 +366,61 @@ def test_nearest_element_is_kratoss_mapper(beyond):
         ours = make_mapping({"type": "nearest-element", "constraint": constraint}, source, target, given.shape,
                             target.shape, "test", lines, target_lines)(given)
         np.testing.assert_allclose(ours, values(destination), rtol=0, atol=1e-12)
+
+
+CSM_BAD = [  # (what, key path in ProjectParametersCSM.json, new value, message)
+    ("solver_settings as a list", "solver_settings", [1], r"'solver_settings': must be an object, got \[1\]"),
+    ("time_stepping as a list", "solver_settings/time_stepping", [], r"'solver_settings.time_stepping': must be an "
+                                                                     r"object, got \[\]"),
+    ("model_import_settings as a string", "solver_settings/model_import_settings", "structure",
+     r"'solver_settings.model_import_settings': must be an object, got \"structure\""),
+    ("input_filename a number", "solver_settings/model_import_settings/input_filename", 5,
+     r"'solver_settings.model_import_settings.input_filename': must be a string, got 5"),
+    ("model_part_name a number", "solver_settings/model_part_name", 7,
+     r"'solver_settings.model_part_name': must be a string, got 7"),
+]
+
+
+@needs_gmsh
+@pytest.mark.parametrize("what, path, value, message", CSM_BAD, ids=[b[0] for b in CSM_BAD])
+def test_a_solver_s_bad_parameters_are_one_line_naming_the_key(wall_case, tmp_path, capsys, what, path, value, message):
+    import re
+    import shutil
+    folder = tmp_path / "case"
+    shutil.copytree(wall_case, folder)
+    document = json.loads((folder / "ProjectParametersCSM.json").read_text())
+    edit(document, path, value)
+    (folder / "ProjectParametersCSM.json").write_text(json.dumps(document, indent=4))
+    assert main(["check", str(folder / "case.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err, err
+    assert "ProjectParametersCSM.json" in err and re.search(message, err), err
+
+
+@needs_gmsh
+def test_the_json_reader_takes_what_kratos_takes_and_refuses_what_it_refuses(wall_case, tmp_path, capsys):
+    """Kratos's parser takes comments and a byte order mark, and refuses NaN and Infinity; a number of thousands of
+    digits, nesting thousands deep and an interval of strings are one line each, not a traceback."""
+    import shutil
+    folder = tmp_path / "case"
+    shutil.copytree(wall_case, folder)
+    cosim = folder / "ProjectParametersCoSim.json"
+    original = cosim.read_text()
+    cosim.write_text("\ufeff// a Kratos case\n" + original.replace("{", "{ /* the top */", 1))
+    assert main(["check", str(folder / "case.toml")]) == 0, capsys.readouterr().err
+    capsys.readouterr()
+    document = json.loads(original)
+    document["problem_data"]["echo_level"] = 123456.5           # where each raw value below is put
+    document["solver_settings"]["coupling_sequence"][1]["input_data_list"][0]["interval"] = ["a", "b"]
+    with_interval = json.dumps(document)
+    del document["solver_settings"]["coupling_sequence"][1]["input_data_list"][0]["interval"]
+    for what, raw, message in (("NaN", "NaN", "NaN is not JSON (Kratos refuses it)"),
+                               ("Infinity", "-Infinity", "-Infinity is not JSON (Kratos refuses it)"),
+                               ("digits", "9" * 5001, "a number of more digits than Python reads"),
+                               ("nesting", "[" * 2000 + "]" * 2000, "objects and arrays nested more than 64 deep"),
+                               ("interval", None, "must be [start, end] of numbers")):
+        text = with_interval.replace("123456.5", "0") if raw is None else json.dumps(document).replace("123456.5", raw)
+        cosim.write_text(text)
+        assert main(["check", str(folder / "case.toml")]) == 2, what
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and "Traceback" not in err and message in err, (what, err)
