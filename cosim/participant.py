@@ -31,7 +31,7 @@ from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimE
 from cosim.launcher import ComponentProcess
 from cosim.proxy import checked_outputs
 from cosim.rundir import alive
-from cosim.subcycling import Spline
+from cosim.subcycling import MAX_SUBSTEPS, Spline
 
 SLICE_SECONDS = 0.05
 ENDPOINT_VARIABLE, TOKEN_VARIABLE, PID_VARIABLE = ("COSIM_PARTICIPANT_ENDPOINT", "COSIM_PARTICIPANT_TOKEN",
@@ -352,6 +352,9 @@ class ParticipantProxy:
             times = np.asarray(given, dtype=float)
         except (TypeError, ValueError):
             raise ComponentError(self.name, f"its substeps' times {given!r} are not numbers") from None
+        if times.size >= MAX_SUBSTEPS:
+            raise ComponentError(self.name, f"took {times.size + 1:,} steps in the window {self._window}; cosim "
+                                            f"interpolates a window through at most {MAX_SUBSTEPS:,} steps")
         if times.ndim != 1 or not (np.all(np.diff(times) > 0) and times.size and 0 < times[0] and times[-1] < 1):
             raise ComponentError(self.name, f"its substeps' times {np.round(times, 6).tolist()} are not increasing "
                                             "inside the window")

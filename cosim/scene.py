@@ -34,6 +34,7 @@ from cosim.schema import (
     unknown_key_message,
     validate,
 )
+from cosim.subcycling import MAX_SUBSTEPS
 
 BACKEND = {"entry": "", "switch_time": 0.0}
 COMPONENT = {
@@ -48,7 +49,7 @@ COMPONENT = {
     "record": False,
     "timeout": Positive(120.0),
     "startup_timeout": Positive(60.0),
-    "substeps": Value(1, low=1),    # steps per window (cosim.subcycling)
+    "substeps": Value(1, low=1, high=MAX_SUBSTEPS),    # steps per window (cosim.subcycling)
     "threads": Positive(1),
     "cores": [],
     "environment": AnyTable(),

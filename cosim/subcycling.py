@@ -19,6 +19,7 @@ import numpy as np
 from cosim.errors import ComponentError, ProtocolError
 
 EPSILON = 1e-9       # relative: a time this close to the window's end is its end
+MAX_SUBSTEPS = 10_000   # steps a window at most: a window's waveform is interpolated through every one of them
 
 
 class Spline:

@@ -16,6 +16,8 @@ The interpolant is linear in the samples, so resampling a waveform on another se
 from __future__ import annotations
 
 import functools
+from collections import OrderedDict
+from typing import Any
 
 import numpy as np
 
@@ -45,7 +47,34 @@ def spline(times: np.ndarray, samples: np.ndarray, degree: int):
     return make_interp_spline(times, samples, k=k, t=knots(times, k), axis=0)
 
 
-@functools.lru_cache(maxsize=256)
+CACHE_BYTES = 256 << 20      # what the matrices kept per time grid may hold in all
+
+
+def _cached_by_size(function: Any) -> Any:
+    """``function``'s results kept per arguments, least recently used first to go once they hold more than
+    ``CACHE_BYTES`` (a participant whose step count changes every window makes a new grid every window)."""
+    kept: OrderedDict[tuple, Any] = OrderedDict()
+    held = [0]
+
+    def size(value: Any) -> int:
+        return sum(part.nbytes for part in (value if isinstance(value, tuple) else (value,)))
+
+    @functools.wraps(function)
+    def cached(*key: Any) -> Any:
+        if key in kept:
+            kept.move_to_end(key)
+            return kept[key]
+        value = kept[key] = function(*key)
+        held[0] += size(value)
+        while held[0] > CACHE_BYTES and len(kept) > 1:
+            held[0] -= size(kept.popitem(last=False)[1])
+        return value
+
+    cached.held = held      # type: ignore[attr-defined]  # the bytes held now (for tests)
+    return cached
+
+
+@_cached_by_size
 def _interpolation(inner: bytes, degree: int) -> tuple[np.ndarray, np.ndarray]:
     grid = np.concatenate([[0.0], np.frombuffer(inner), [END]])
     identity = spline(grid, np.eye(len(grid)), degree)
@@ -83,7 +112,7 @@ def resampling(times: np.ndarray, degree: int, at: np.ndarray) -> np.ndarray:
                        np.ascontiguousarray(at, dtype=float).tobytes())
 
 
-@functools.lru_cache(maxsize=256)
+@_cached_by_size
 def _resampling(times: bytes, degree: int, at: bytes) -> np.ndarray:
     grid = np.frombuffer(times)
     return evaluate(grid, np.eye(len(grid)), degree, np.frombuffer(at))

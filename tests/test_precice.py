@@ -652,3 +652,23 @@ def test_timings_that_are_no_numbers_are_left_out_not_a_crash(tmp_path, capsys):
     assert code == 0, capsys.readouterr().err
     with RunResults(out / "results.h5") as results:
         assert results.windows.converged.all()
+
+
+def test_a_participant_taking_more_steps_in_a_window_than_a_waveform_holds_is_named(tmp_path, capsys):
+    """10,001 steps in one window, each a sample: one line naming the participant and the bound, not an allocation
+    of gigabytes (substeps = 1000000 asked for 7 TiB)."""
+    config = SUBCYCLING_CONFIG.replace('<exchange data="X" mesh="A-Mesh" from="A" to="B" substeps="false"/>',
+                                       '<exchange data="X" mesh="A-Mesh" from="A" to="B" substeps="true"/>')
+    many = SUBCYCLING.replace("for step in range(4):", "for step in range(10001):").replace("(4 - step)",
+                                                                                           "(10001 - step)")
+    assert many != SUBCYCLING and config != SUBCYCLING_CONFIG
+    for name, text in (("A/A.py", many), ("B/B.py", PARTNER), ("config.xml", config),
+                       ("case.toml", '[precice]\nconfig = "config.xml"\n[participants.A]\ncommand = "python3 A.py"\n'
+                                     'cwd = "A"\n[participants.B]\ncommand = "python3 B.py"\ncwd = "B"\n')):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+    code = main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "Traceback" not in err, err
+    assert "component 'A'" in err and "took 10,001 steps in the window" in err and "at most 10,000 steps" in err, err
+    assert children_of(os.getpid()) == []

@@ -447,3 +447,18 @@ def test_a_rom_trained_on_a_subcycled_run_is_trained_per_step_and_serves_subcycl
     with RunResults(tmp_path / "rom") as results:
         rom = results.fields()["section"]
     assert np.abs(rom - fom).max() < 0.05 * np.abs(fom - 1.0).max() + 1e-3
+
+
+def test_the_waveforms_matrices_kept_per_time_grid_hold_a_bounded_number_of_bytes(monkeypatch):
+    """A participant whose step count changes every window makes a new grid every window: the matrices kept stay
+    within CACHE_BYTES (a participant taking 1500 + k steps in window k reached 4.3 GB in 60 windows), and the one
+    a window's iterations share is still the one kept."""
+    from coupler import waveform
+    monkeypatch.setattr(waveform, "CACHE_BYTES", 20 << 20)
+    for steps in range(300, 360):                   # (steps + 2)^2 doubles each: about 0.8 MB, 60 grids of them
+        inner = np.linspace(0.0, 1.0, steps + 2)[1:-1]
+        knots_, matrix = waveform._interpolation(inner.tobytes(), 3)
+        assert waveform._interpolation(inner.tobytes(), 3)[1] is matrix       # the same window's next iteration
+        waveform.resampling(np.concatenate([[0.0], inner, [1.0]]), 3, np.array([0.5]))
+    for cache in (waveform._interpolation, waveform._resampling):
+        assert 0 < cache.held[0] <= 20 << 20
