@@ -9,6 +9,7 @@ at load, in one line naming the file, the line and the key path, and what is sup
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +40,9 @@ MAPPERS = ("nearest_neighbor", "nearest_element")
 TRANSFER_OPTIONS = {"kratos_mapping": ("swap_sign", "use_transpose"), "copy": ("swap_sign",)}
 LOCATIONS = ("node_historical", "node_non_historical")
 COMMON = {"type", "solver", "data_name", "echo_level", "label"}
+
+
+MAX_THREADS_PER_CORE = 4     # a solver's OpenMP threads: more than a few a core only slows it
 
 
 @dataclass
@@ -208,6 +212,11 @@ class _Reader:
             raise self.fail((*at, "solver_wrapper_settings", "input_file"),
                             f"'{project}' does not exist (paths are relative to {self.folder})")
         threads = self.get(wrapper, (*at, "solver_wrapper_settings"), "num_threads", int, None)
+        most = MAX_THREADS_PER_CORE * (os.cpu_count() or 1)
+        if threads is not None and not 1 <= threads <= most:
+            raise self.fail((*at, "solver_wrapper_settings", "num_threads"),
+                            f"{threads} threads; from 1 to {most} ({MAX_THREADS_PER_CORE} a core of this machine's "
+                            f"{os.cpu_count() or 1}: Kratos dies at start with far more)")
         solver = Solver(name, WRAPPERS[kind], project, threads)
         parts = model_parts(project, self.folder)
         for data_name, entry in self.get(spec, at, "data", dict).items():

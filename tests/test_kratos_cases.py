@@ -157,6 +157,8 @@ BAD = [  # (what, key path in the CoSim file, new value, message)
      r"'fluid.load' goes from 'fluid' to 'structure'; in a Gauss-Seidel sequence \(fluid, structure\) only data "
      r"going back to 'fluid' can be accelerated"),
     ("no end time", "problem_data/end_time", DELETE, r"'problem_data.end_time': is missing"),
+    ("100000 threads", f"{S}/solvers/structure/solver_wrapper_settings/num_threads", 100000,
+     r"'solver_settings.solvers.structure.solver_wrapper_settings.num_threads': 100000 threads; from 1 to \d+"),
     ("an end time of 1e9", "problem_data/end_time", 1e9,
      r"'problem_data.end_time': 1e\+09 makes 1e\+10 windows of 0.1 s; at most 10,000,000 are allowed"),
     ("an infinite end time", "problem_data/end_time", float("inf"), r"not valid JSON \(Infinity is not JSON"),
