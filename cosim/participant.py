@@ -182,7 +182,7 @@ class ParticipantProxy:
             if taken is not None:
                 header, arrays = taken
                 if header.get("op") == "error":     # the participant's own misuse, in one line, before it raises
-                    raise ComponentError(self.name, str((header.get("args") or {}).get("message", "failed")))
+                    raise ComponentError(self.name, one_line((header.get("args") or {}).get("message", "failed")))
                 return header, arrays
             stop.check()
             if self.process is None and self.pid and not alive(self.pid):     # started by hand, and gone
@@ -450,3 +450,12 @@ def _seconds(value: Any, default: float) -> float:
     if isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value):
         return float(value)
     return default
+
+
+MAX_MESSAGE = 400      # characters of a participant's message that an error line carries
+
+
+def one_line(message: Any) -> str:
+    """A message a participant sent, as one line of an error: its lines joined, at most ``MAX_MESSAGE`` characters."""
+    text = " ".join(str(message).split())
+    return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE - 3] + "..."

@@ -672,3 +672,16 @@ def test_a_participant_taking_more_steps_in_a_window_than_a_waveform_holds_is_na
     assert code == 2 and "\n" not in err and "Traceback" not in err, err
     assert "component 'A'" in err and "took 10,001 steps in the window" in err and "at most 10,000 steps" in err, err
     assert children_of(os.getpid()) == []
+
+
+def test_a_participants_message_is_one_short_line_and_close_numbers_read_apart(tmp_path, capsys):
+    """A participant's message with newlines, 2 MB long, is one line of at most 400 characters in the run's error;
+    a read just past the step shows both numbers with the digits that tell them apart (%g printed 0.1 and 0.1)."""
+    code, _ = run_fluid_variant(tmp_path, "long", "participant.initialize()",
+                                'raise participant._core.fail("initialize", "line one\\nline two " + "x" * 2_000_000)')
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and len(err) < 1000, err[:300]
+    assert "line one line two xxx" in err and err.endswith("..."), err[:300]
+    code, _ = run_fluid_variant(tmp_path, "close", 'vertex_ids, dt)', 'vertex_ids, dt * (1 + 1e-6))')
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "relative_read_time 0.1000001" in err and "(0 to 0.1, what is left" in err, err

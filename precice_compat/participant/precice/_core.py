@@ -168,8 +168,9 @@ class Core:
             remaining = self.remaining()
             if not np.isfinite(relative_read_time) or relative_read_time < 0 \
                     or relative_read_time > remaining * (1 + EPSILON) + EPSILON * self.window:
-                raise self.fail(call, f"relative_read_time {relative_read_time:g} is outside the step (0 to {remaining:g}, what is left of the "
-                                "window)")
+                shown, limit = _distinct(relative_read_time, remaining)
+                raise self.fail(call, f"relative_read_time {shown} is outside the step (0 to {limit}, what is left of "
+                                "the window)")
             moment = (self.elapsed + relative_read_time) / self.window
             waveform = self.waveforms.get(data)
             if waveform is not None and moment < 1.0 - EPSILON:
@@ -283,3 +284,9 @@ class Core:
         self.state = "finalized"
         self._request("finalize")
         self.connection.close()
+
+
+def _distinct(a: float, b: float) -> tuple[str, str]:
+    """``a`` and ``b`` as short as they read apart (``%g``, or every digit where ``%g`` shows them equal)."""
+    short = (f"{a:g}", f"{b:g}")
+    return short if short[0] != short[1] or a == b else (repr(float(a)), repr(float(b)))
