@@ -94,6 +94,10 @@ class Component:
     #: its state, say): implicit coupling refuses it with this reason
     state_note: str = ""
 
+    #: variables the component has and cannot offer, with why (an FMU's Int32 input): a scene that couples one is
+    #: refused with the reason
+    variable_notes: dict[str, str] = {}
+
     #: how many of the last converged windows the component needs to be handed when it takes over from another
     #: backend during a run (a structure with inertia: its history); 0 for none
     history_windows: int = 0
@@ -127,6 +131,8 @@ class Component:
         }
         if self.state_note:
             description["state_note"] = self.state_note
+        if self.variable_notes:
+            description["variable_notes"] = dict(self.variable_notes)
         for name, nodes in self.meshes().items():
             description[MESH_PREFIX + name] = np.asarray(nodes, dtype=np.float64)
         for name, lines in self.lines().items():

@@ -63,6 +63,7 @@ class ComponentProxy:
         self.repeats_steps = False
         self.stateless = False
         self.state_note = ""
+        self.variable_notes: dict[str, str] = {}     # why it cannot offer some of its variables
         self.step_saves_state = False   # its server takes save and free with a step (``send_step``)
         self.saved_state: int | None = None     # the handle the last saving step returned
         self.history_windows = 0        # the converged windows it takes over from a backend before it
@@ -201,6 +202,8 @@ class ComponentProxy:
         self.repeats_steps = bool(result.get("repeats_steps"))
         self.stateless = bool(result.get("stateless"))
         self.state_note = str(result.get("state_note", ""))
+        notes = result.get("variable_notes")
+        self.variable_notes = {str(k): str(v) for k, v in notes.items()} if isinstance(notes, dict) else {}
         self.step_saves_state = bool(result.get("step_saves_state"))
         self.history_windows = int(result.get("history_windows", 0))
         return result

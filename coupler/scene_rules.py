@@ -278,6 +278,11 @@ def check_described(scene: Scene, proxies: Mapping[str, Any]) -> None:
         source, target = proxies[spec["from"]], proxies[spec["to"]]
         data = spec["data"]
         out_var, in_var = source.variables.get(data), target.variables.get(data)
+        for end, proxy, variable in (("from", source, out_var), ("to", target, in_var)):
+            why = getattr(proxy, "variable_notes", {}).get(data)
+            if variable is None and why:
+                raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec[end]}' "
+                                 f"cannot couple it: {why}")
         if out_var is None or out_var.causality != "output":
             raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['from']}' has "
                              f"no output '{data}' (outputs: {', '.join(source.output_names()) or 'none'})")

@@ -85,10 +85,13 @@ class FmuComponent(Component):
         kinds = {causality: {n: v for n, v in self.fmu.variables.items() if v.causality == causality}
                  for causality in ("input", "output", "local")}
         self.inputs, self.outputs, self.locals = kinds["input"], kinds["output"], kinds["local"]
-        if not self.inputs or not self.outputs:
+        self.variable_notes = dict(self.fmu.skipped)
+        if not self.inputs and not self.outputs:       # outputs alone drive a solver; inputs alone take its data
             expected = ("scalar names like 'force[1].x' or 'pressure[1]'" if self.fmi_version == "2.0"
-                        else "Float64 inputs and outputs")
-            raise ComponentError(self.name, f"FMU '{path}' has no array inputs or outputs (expected {expected})")
+                        else "Float64 inputs or outputs")
+            skipped = "; ".join(self.fmu.skipped.values())
+            raise ComponentError(self.name, f"FMU '{path}' has no array inputs or outputs (expected {expected})"
+                                 + (f": {skipped}" if skipped else ""))
         self.unzipped = str(unpack_directory())
         atexit.register(shutil.rmtree, self.unzipped, ignore_errors=True)
         try:

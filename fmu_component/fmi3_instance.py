@@ -32,10 +32,10 @@ class Fmi3Instance(FmiInstance):
         for v in md.modelVariables:
             if v.causality not in COUPLED:
                 continue
-            if v.type != "Float64":
-                if v.causality == "local":
-                    continue          # a local of another type is the FMU's own business
-                raise FmiError(f"{v.causality} '{v.name}' is {v.type}; only Float64 variables can be coupled")
+            if v.type != "Float64":     # the FMU's own business unless the scene couples it (then refused)
+                if v.causality != "local":
+                    self.skipped[v.name] = f"{v.causality} '{v.name}' is {v.type}; only Float64 variables can be coupled"
+                continue
             extents = []
             for dimension in v.dimensions:
                 if dimension.start is None:

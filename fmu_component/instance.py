@@ -33,6 +33,7 @@ class FmiInstance:
         self.md, self.name = md, name
         self.messages: list[str] = []
         self.variables: dict[str, FmuVariable] = {}
+        self.skipped: dict[str, str] = {}     # inputs and outputs that cannot be coupled, and why
         self.can_get_and_set_state = False
         self.can_serialize = False
 

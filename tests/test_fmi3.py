@@ -151,7 +151,8 @@ def walls(tmp_path_factory):
         pytest.skip("pythonfmu3 is not installed (pip install '.[test]')")
     folder = tmp_path_factory.mktemp("walls")
     tool = str(Path(sys.executable).parent / "pythonfmu3")
-    for script, options in (("spring_wall_fmu.py", []), ("damped_wall_fmu.py", ["--handle-state"])):
+    for script, options in (("spring_wall_fmu.py", []), ("damped_wall_fmu.py", ["--handle-state"]),
+                            ("pressure_driver_fmu.py", [])):
         subprocess.run([tool, "build", "-f", str(WALLS / script), "-d", str(folder), *options], check=True,
                        capture_output=True)
     return folder / "SpringWallFmu.fmu", folder / "DampedWallFmu.fmu"
@@ -305,3 +306,49 @@ def test_a_truncated_or_foreign_fmi3_state_is_refused_when_restored(model, model
         assert message in str(caught.value) and "\n" not in str(caught.value)
     component.restore_checkpoint({"fmu_state": saved})
     component.terminate()
+
+
+DRIVEN_WALL = """
+[time]
+end = 1.0
+dt = 0.1
+
+[tube]
+length = 10.0
+cells = 100
+a0 = 1.0
+
+[components.driver]
+entry = "fmu_component.component:FmuComponent"
+parameters = {{ path = "{fmu}" }}
+
+[components.solid]
+entry = "solid_component.tube:TubeSolid"
+sections = ["tube"]
+parameters = {{ E_small = 12500.0, E_large = 2500.0, s0 = 20.0, eps0 = 2e-3 }}
+
+[[exchange]]
+data = "pressure"
+from = "driver"
+to = "solid"
+
+[coupling]
+scheme = "serial-explicit"
+participants = ["driver", "solid"]
+"""
+
+
+def test_an_fmu_with_outputs_alone_drives_a_solver_one_way_and_its_other_variables_stay_its_own(walls, tmp_path):
+    """An FMU with no Float64 input (the Reference FMUs' BouncingBall, Dahlquist, VanDerPol) drives the tube's wall
+    one way; its Int32 input, which the scene does not couple, does not refuse it (as the Reference Feedthrough's
+    Float32 input did). The wall receives the FMU's signal at each window's end."""
+    driver = walls[0].parent / "PressureDriverFmu.fmu"
+    (tmp_path / "scene.toml").write_text(DRIVEN_WALL.format(fmu=driver))
+    done = run(str(tmp_path / "scene.toml"), "--out", str(tmp_path / "run"))
+    assert done.returncode == 0, done.stderr
+    from cosim.results import RunResults
+    with RunResults(tmp_path / "run" / "results.h5") as results:
+        times, pressure = results.windows.time, results.fields()["pressure"]
+    expected = 50.0 * np.sin(2.0 * np.pi * 2.0 * times)[:, None] * (1.0 - np.arange(101) / 100.0)
+    np.testing.assert_allclose(pressure, expected, rtol=0, atol=1e-12 * 50.0)
+    assert len(times) == 10 and np.ptp(pressure) > 50.0       # the signal did go through the coupling
