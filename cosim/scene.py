@@ -344,6 +344,11 @@ def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) ->
                   translated=frozenset(translated))
     scene.resolve_paths([f"components.{name}.{key}" for name in scene["components"]
                          for key in file_paths(COMPONENT)])
+    # the files a component says it reads (its parameters' ``inputs`` table, as a Kratos case's solvers give it)
+    scene.file_keys.update(f"components.{name}.parameters.inputs.{label}"
+                           for name, spec in scene["components"].items()
+                           if isinstance(spec["parameters"].get("inputs"), dict)
+                           for label in spec["parameters"]["inputs"])
     if overrides:
         scene.text += "\n# --set " + "\n# --set ".join(overrides) + "\n"
     return scene

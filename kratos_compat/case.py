@@ -65,7 +65,8 @@ def scene_of(params: CoSimParameters, solvers: dict[str, dict[str, Any]] | None 
             "entry": ENTRY, "record": spec["record"], "timeout": spec["timeout"],
             "startup_timeout": spec["startup_timeout"], "threads": solver.threads or 1,
             "parameters": {"solver": solver_name, "analysis": solver.analysis, "project": str(solver.project),
-                           "folder": str(params.folder), "threads": 0, "fields": list(fields[solver_name].values())}}
+                           "folder": str(params.folder), "threads": 0, "fields": list(fields[solver_name].values()),
+                           "inputs": solver_inputs(solver.project, params.folder)}}
     coupling: dict[str, Any] = {"scheme": params.scheme, "participants": list(params.sequence),
                                 "max_iterations": params.max_iterations, "on_max_iterations": "accept"}
     if params.scheme.endswith("implicit"):
@@ -81,6 +82,19 @@ def scene_of(params: CoSimParameters, solvers: dict[str, dict[str, Any]] | None 
             "time": {"start": start, "end": start + windows * dt, "dt": dt},
             "components": components, "exchange": [spec for spec, _ in exchanges], "coupling": coupling,
             "output": {"plot_field": exchanges[0][0]["data"] if exchanges else ""}}
+
+
+def solver_inputs(project: Path, folder: Path) -> dict[str, str]:
+    """The files a solver reads (its ProjectParameters, its materials, its .mdpa mesh), by label: the scene names
+    them, so a resumed run checks that none changed (``components.<name>.parameters.inputs``)."""
+    source = JsonSource(project)
+    at: tuple[str, ...] = ("solver_settings",)
+    if source.typed((*at, "solver_type"), str, "") == "ale_fluid":
+        at = (*at, "fluid_solver_settings")
+    files = {"project": project,
+             "materials": folder / source.typed((*at, "material_import_settings", "materials_filename"), str, ""),
+             "mesh": folder / (source.typed((*at, "model_import_settings", "input_filename"), str, "") + ".mdpa")}
+    return {label: str(path.resolve()) for label, path in files.items() if path.is_file()}
 
 
 def _time_step(params: CoSimParameters) -> float:

@@ -23,7 +23,7 @@ import numpy as np
 
 from cosim.component import Variable, check_inputs
 from cosim.errors import ComponentError
-from cosim.schema import Choice, Required, Value, validate
+from cosim.schema import AnyTable, Choice, Required, Value, validate
 from kratos_compat.json_source import JsonSource
 from kratos_solvers.stage import KratosComponent, SteppedStage, kratos_parameters, node_coordinates, quiet, set_threads
 
@@ -31,7 +31,8 @@ FIELD = {"name": Required(str), "data": Required(str), "model_part": Required(st
          "dimension": Value(1, low=1, high=3), "location": "node_historical",
          "role": Choice("input", ("input", "output", "local"))}
 SCHEMA = {"solver": Required(str), "analysis": Choice("fluid_dynamics", ("fluid_dynamics", "structural_mechanics")),
-          "project": Required(str), "folder": Required(str), "threads": 0, "fields": Required(list)}
+          "project": Required(str), "folder": Required(str), "threads": 0, "fields": Required(list),
+          "inputs": AnyTable()}      # the files it reads, by label: named in the scene for a resume's checks
 
 
 class KratosStage(KratosComponent):
