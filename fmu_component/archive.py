@@ -74,6 +74,10 @@ def read_description(path: Path):
         raise FmuArchiveError(f"is FMI {md.fmiVersion}; FMI {' or '.join(FMI_VERSIONS)} is needed")
     if md.coSimulation is None:
         raise FmuArchiveError(f"is FMI {md.fmiVersion} without Co-Simulation; a Co-Simulation FMU is needed")
+    identifier = md.coSimulation.modelIdentifier
+    if not isinstance(identifier, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", identifier):
+        raise FmuArchiveError(f"has the modelIdentifier {str(identifier)[:60]!r}, not a C name: its binary would be "
+                              "looked for outside binaries/")
     return md
 
 

@@ -270,6 +270,9 @@ def bad_fmus(good: Path, folder: Path) -> dict[str, tuple[Path, str]]:
         "missing resource": (rewritten(good, folder / "noresource.fmu",
                                        lambda n, d: [] if n == "resources/rom.bin" else [(n, d)]),
                              "cannot open resource file"),
+        "identifier leaving the folder": (rewritten(good, folder / "identifier.fmu", description_edit(
+            b'modelIdentifier="solid_rom"', b'modelIdentifier="../../../tmp/escaped"')),
+            "has the modelIdentifier '../../../tmp/escaped', not a C name"),
         "wrong token": (rewritten(good, folder / "token.fmu", description_edit(b'instantiationToken="{',
                                                                                b'instantiationToken="{0')),
                         "does not match the resource"),
@@ -277,7 +280,7 @@ def bad_fmus(good: Path, folder: Path) -> dict[str, tuple[Path, str]]:
 
 
 def test_bad_fmi3_fmus_are_refused_in_one_line(models, tmp_path):  # noqa: F811
-    """Thirteen bad FMI 3.0 FMUs, each in the tube's scene: exit 2, one line naming what is wrong, no traceback,
+    """Fourteen bad FMI 3.0 FMUs, each in the tube's scene: exit 2, one line naming what is wrong, no traceback,
     nothing unpacked outside its folder."""
     model_path, _, _ = models["rbf"]
     good = fmi3(model_path, tmp_path)
