@@ -30,7 +30,7 @@ from cosim.component import Variable
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimError, ProtocolError
 from cosim.launcher import ComponentProcess
 from cosim.proxy import checked_outputs
-from cosim.rundir import alive
+from cosim.rundir import alive, command_line
 from cosim.subcycling import MAX_SUBSTEPS, Spline
 
 SLICE_SECONDS = 0.05
@@ -58,6 +58,13 @@ class ParticipantHub:
         the owner may read it); it is removed when the hub closes."""
         import json
         import os
+        try:
+            other = json.loads(path.read_text()).get("pid")
+        except (OSError, ValueError, AttributeError):
+            other = None
+        if isinstance(other, int) and other != os.getpid() and alive(other) and "cosim" in command_line(other):
+            raise CosimError(f"another coupler (pid {other}) serves the participants started by hand of this "
+                             f"configuration ({path}): stop it, or wait for its run to end")
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_name(f".{path.name}.{os.getpid()}")
         descriptor = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)

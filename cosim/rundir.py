@@ -198,7 +198,7 @@ def _well_formed(status: dict[str, Any]) -> dict[str, Any]:
 
 
 def alive(pid: Any) -> bool:
-    """Whether a process of this pid runs on this machine."""
+    """Whether a process of this pid runs on this machine (a zombie, dead and not yet reaped, does not)."""
     if not isinstance(pid, int) or pid <= 0:
         return False
     try:
@@ -207,7 +207,24 @@ def alive(pid: Any) -> bool:
         return False
     except PermissionError:
         return True
-    return True
+    return not zombie(pid)
+
+
+def command_line(pid: int) -> str:
+    """The command line ``pid`` runs (Linux's /proc; "cosim" where it cannot be told, so as to trust it)."""
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return "cosim"
+
+
+def zombie(pid: int) -> bool:
+    """Whether ``pid`` has exited and waits for its parent to reap it (Linux's /proc; False where there is none)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat[stat.rfind(")") + 2:][:1] == "Z"
 
 
 def describe_run(path: str | Path) -> str:

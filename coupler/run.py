@@ -114,42 +114,47 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
     hub = ParticipantHub() if any(b.command or b.rendezvous for b in backends) else None
     if hub is not None:
         hub.expected = {b.name for b in backends if b.command or b.rendezvous}
-    for b in backends:
-        if b.command and hub is not None:
-            processes[b.name] = launcher.spawn_command(
-                b.name, b.command, b.cwd, {**component_environment(components[b.participant]), **hub.environment()},
-                components[b.participant]["cores"])
-        elif b.rendezvous and hub is not None:
-            hub.announce(Path(b.rendezvous))
-    if while_starting is not None:
-        while_starting()
-    for backend in backends:
-        spec = scene["components"][backend.participant]
-        process = processes.get(backend.name)
-        if (backend.command or backend.rendezvous) and hub is not None:
-            participant = ParticipantProxy(backend.name, hub, process, timeout=spec["timeout"],
-                                           startup_timeout=spec["startup_timeout"])
-            backend.proxy = participant
-            participant.connect()
-            continue
-        if process is not None:
-            launcher.startup_timeout = spec["startup_timeout"]
-            endpoint = launcher.handshake(process)
-        else:
-            endpoint = backend.address
-        curve = spec["curve"] if process is None else ""    # a launched component is on loopback, never CURVE
-        backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"], curve=curve)
-        backend.proxy.substep_count = spec["substeps"]
-        if process is None:
-            deadline = spec["startup_timeout"] if address_deadline is None else address_deadline
-            try:
-                backend.client.pid = int(backend.client.call("ping", timeout=deadline)[0]["pid"])
-            except ComponentTimeout:
-                keys = (f"and that '{curve}' holds this client's key and the server's public key" if curve else
-                        f"and whether it serves with --curve (then set components.{backend.participant}.curve)")
-                raise ComponentError(backend.name, f"no reply from {endpoint} within {deadline:g} s: check that "
-                                     f"`cosim serve` runs there and serves this component, that the address is the "
-                                     f"one it printed, {keys}") from None
+    try:         # a failure before the run takes the hub leaves no rendezvous file behind
+        for b in backends:
+            if b.command and hub is not None:
+                processes[b.name] = launcher.spawn_command(
+                    b.name, b.command, b.cwd, {**component_environment(components[b.participant]), **hub.environment()},
+                    components[b.participant]["cores"])
+            elif b.rendezvous and hub is not None:
+                hub.announce(Path(b.rendezvous))
+        if while_starting is not None:
+            while_starting()
+        for backend in backends:
+            spec = scene["components"][backend.participant]
+            process = processes.get(backend.name)
+            if (backend.command or backend.rendezvous) and hub is not None:
+                participant = ParticipantProxy(backend.name, hub, process, timeout=spec["timeout"],
+                                               startup_timeout=spec["startup_timeout"])
+                backend.proxy = participant
+                participant.connect()
+                continue
+            if process is not None:
+                launcher.startup_timeout = spec["startup_timeout"]
+                endpoint = launcher.handshake(process)
+            else:
+                endpoint = backend.address
+            curve = spec["curve"] if process is None else ""    # a launched component is on loopback, never CURVE
+            backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"], curve=curve)
+            backend.proxy.substep_count = spec["substeps"]
+            if process is None:
+                deadline = spec["startup_timeout"] if address_deadline is None else address_deadline
+                try:
+                    backend.client.pid = int(backend.client.call("ping", timeout=deadline)[0]["pid"])
+                except ComponentTimeout:
+                    keys = (f"and that '{curve}' holds this client's key and the server's public key" if curve else
+                            f"and whether it serves with --curve (then set components.{backend.participant}.curve)")
+                    raise ComponentError(backend.name, f"no reply from {endpoint} within {deadline:g} s: check that "
+                                         f"`cosim serve` runs there and serves this component, that the address is the "
+                                         f"one it printed, {keys}") from None
+    except BaseException:
+        if hub is not None:
+            hub.close()
+        raise
     return hub
 
 

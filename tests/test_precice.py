@@ -3,6 +3,7 @@ configuration read or refused line by line, the API's misuses named, subcycling,
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -685,3 +686,81 @@ def test_a_participants_message_is_one_short_line_and_close_numbers_read_apart(t
     code, _ = run_fluid_variant(tmp_path, "close", 'vertex_ids, dt)', 'vertex_ids, dt * (1 + 1e-6))')
     err = capsys.readouterr().err.strip()
     assert code == 2 and "relative_read_time 0.1000001" in err and "(0 to 0.1, what is left" in err, err
+
+
+def find_coupler_in(config: Path, env: dict | None = None) -> subprocess.CompletedProcess:
+    """The participant package's search for the coupler of ``config``, in a process of its own."""
+    code = "import sys, pathlib; from precice._connection import find_coupler; find_coupler(pathlib.Path(sys.argv[1]))"
+    return subprocess.run([sys.executable, "-c", code, str(config)], capture_output=True, text=True, timeout=60,
+                          env={"PYTHONPATH": str(SHIM), "PATH": "/usr/bin:/bin", **(env or {})})
+
+
+def test_a_rendezvous_file_that_another_could_have_written_is_not_trusted(tmp_path):
+    """A participant started by hand sends its hello, mesh and data only to a coupler named by a file of its own
+    user that no one else can write (a planted coupler.json in a shared folder made it talk to whoever listened)."""
+    config = tmp_path / "precice-config.xml"
+    config.write_text("<precice-configuration/>")
+    rendezvous = tmp_path / "cosim-run" / "coupler.json"
+    rendezvous.parent.mkdir()
+    rendezvous.write_text('{"endpoint": "tcp://127.0.0.1:9", "token": "planted", "pid": 1}')
+    rendezvous.chmod(0o666)
+    done = find_coupler_in(config)
+    assert done.returncode != 0 and "is not trusted: it can be written by others" in done.stderr, done.stderr
+    if os.getuid() == 0:
+        rendezvous.chmod(0o644)
+        os.chown(rendezvous, 65534, 65534)
+        done = find_coupler_in(config)
+        assert done.returncode != 0 and "is not trusted: it belongs to another user" in done.stderr, done.stderr
+
+
+def test_a_rendezvous_naming_a_live_program_that_is_no_coupler_or_a_zombie_is_stale(tmp_path):
+    """A pid that now runs another program, or a coupler that died unreaped (a zombie), is no coupler: the
+    participant does not wait on it (here it looks for the cosim command to start one, and says it has none);
+    the coupler's own liveness test sees the zombie as gone too."""
+    from cosim.rundir import alive
+    config = tmp_path / "precice-config.xml"
+    config.write_text("<precice-configuration/>")
+    (tmp_path / "cosim-run").mkdir()
+    sleeper = subprocess.Popen(["sleep", "60"])
+    dead = subprocess.Popen(["true"])
+    try:
+        wait_for(lambda: Path(f"/proc/{dead.pid}/stat").read_text().rpartition(")")[2][1:2] == "Z",
+                 "the child to be a zombie")
+        assert alive(sleeper.pid) and not alive(dead.pid)
+        for pid in (sleeper.pid, dead.pid):
+            (tmp_path / "cosim-run" / "coupler.json").write_text(
+                json.dumps({"endpoint": "tcp://127.0.0.1:9", "token": "t", "pid": pid}))
+            (tmp_path / "cosim-run" / "coupler.json").chmod(0o600)
+            done = find_coupler_in(config)
+            assert done.returncode != 0 and "no `cosim` command starts one" in done.stderr, done.stderr
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+        dead.wait()
+
+
+def test_a_second_coupler_for_the_same_configuration_is_refused_not_overwriting_the_first(tmp_path):
+    """The rendezvous of a live coupler is not replaced by a second run's (the first run then failed with 'did not
+    call its hello')."""
+    from cosim.errors import CosimError
+    from cosim.participant import ParticipantHub
+    path = tmp_path / "cosim-run" / "coupler.json"
+    first, second = ParticipantHub(), ParticipantHub()
+    try:
+        first.announce(path)
+        written = path.read_text()
+        document = json.loads(written)
+        other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", "cosim"])
+        try:
+            path.write_text(json.dumps({**document, "pid": other.pid}))      # as another coupler's process wrote it
+            with pytest.raises(CosimError, match=rf"another coupler \(pid {other.pid}\) serves the participants"):
+                second.announce(path)
+            assert json.loads(path.read_text())["pid"] == other.pid
+        finally:
+            other.kill()
+            other.wait()
+        second.announce(path)            # its coupler gone: the file is stale, and replaced
+        assert json.loads(path.read_text())["pid"] == os.getpid()
+    finally:
+        first.close()
+        second.close()

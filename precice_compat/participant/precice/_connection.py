@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -34,23 +35,43 @@ class Error(RuntimeError):
 
 
 def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, exited and not yet reaped by its parent, does not)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
         return True
-    return True
+    return _proc(pid, "stat").rpartition(")")[2][1:2] != "Z"
+
+
+def _proc(pid: int, what: str) -> str:
+    """``/proc/<pid>/<what>`` ('' where there is none: another system, or the process is gone)."""
+    try:
+        return Path(f"/proc/{pid}/{what}").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return ""
 
 
 def _running(path: Path) -> tuple[str, str, int] | None:
-    """(endpoint, token, pid) of the live coupler ``path`` names, or None."""
+    """(endpoint, token, pid) of the live cosim coupler ``path`` names, or None (no file, or a stale one). A file
+    that another user could have written is not trusted: an error says so."""
+    try:
+        status = path.lstat()
+    except OSError:
+        return None
+    if not stat.S_ISREG(status.st_mode) or status.st_uid != os.getuid() or status.st_mode & 0o022:
+        raise Error(f"{path} is not trusted: it {'is not a regular file' if not stat.S_ISREG(status.st_mode) else 'belongs to another user' if status.st_uid != os.getuid() else 'can be written by others'}, "
+                    "so it may name another's coupler; remove it, or run in a folder of your own")
     try:
         found = json.loads(path.read_text())
         pid = int(found["pid"])
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    return (str(found["endpoint"]), str(found.get("token", "")), pid) if _alive(pid) else None
+    command = _proc(pid, "cmdline")
+    if not _alive(pid) or (command and "cosim" not in command):     # gone, or the pid is another program's now
+        return None
+    return str(found["endpoint"]), str(found.get("token", "")), pid
 
 
 def find_coupler(config: Path) -> tuple[str, str, int]:
