@@ -76,10 +76,10 @@ class ComponentTimeout(ComponentError):
 class NonFiniteOutput(ComponentError):
     """A component returned NaN or Inf."""
 
-    def __init__(self, component: str, variable: str, values) -> None:
+    def __init__(self, component: str, variable: str, values, where: str = "") -> None:
         import numpy as np
         bad = np.flatnonzero(~np.isfinite(values))
-        super().__init__(component, f"output '{variable}' is not finite: {values[bad[0]]} at index {bad[0]} "
+        super().__init__(component, f"output '{variable}'{where} is not finite: {values.flat[bad[0]]} at index {bad[0]} "
                                     f"({len(bad)} of {values.size} values)", kind="NonFiniteOutput")
         self.variable = variable
 

@@ -278,6 +278,10 @@ class ComponentProxy:
             raise ComponentError(self.name, f"returned {', '.join(str(len(v)) for v in steps.values())} steps of "
                                             f"outputs for {len(times) + 1} steps")
         outputs = self.check_outputs({**arrays, **{name: value[-1] for name, value in steps.items()}})
+        for name, value in steps.items():        # the steps inside the window go into waveforms: checked as well
+            if value.dtype.kind == "f" and not np.isfinite(value).all():
+                k = int(np.flatnonzero(~np.all(np.isfinite(value.reshape(len(value), -1)), axis=1))[0])
+                raise NonFiniteOutput(self.name, name, value[k], f" at its step {k + 1} of {len(value)} in the window")
         samples = {name: value[:-1] for name, value in steps.items()}
         self.substeps = (times, samples) if len(times) else None
         self.substep_calls = [({name: value[k] for name, value in given.items()},

@@ -462,3 +462,42 @@ def test_the_waveforms_matrices_kept_per_time_grid_hold_a_bounded_number_of_byte
         waveform.resampling(np.concatenate([[0.0], inner, [1.0]]), 3, np.array([0.5]))
     for cache in (waveform._interpolation, waveform._resampling):
         assert 0 < cache.held[0] <= 20 << 20
+
+
+NAN_MASS = '''
+import numpy as np
+from mass_component import Mass
+
+
+class NanMass(Mass):
+    """The example's mass, whose displacement is NaN at its tenth step: the second of a window's four."""
+
+    calls = 0
+
+    def do_step(self, t, dt):
+        super().do_step(t, dt)
+        NanMass.calls += 1
+
+    def get_values(self, names):
+        values = super().get_values(names)
+        return {k: v * np.nan for k, v in values.items()} if NanMass.calls == 10 else values
+'''
+
+
+def test_a_non_finite_value_at_a_step_inside_the_window_is_named_at_its_sender(tmp_path):
+    """A subcycling component's NaN at an inner step went into the receiver's waveform, and the error blamed the
+    receiver; it is refused at the sender, naming the step."""
+    import subprocess
+    import sys
+    shutil.copytree(ROOT / "examples" / "oscillator", tmp_path / "case")
+    (tmp_path / "case" / "nan_mass.py").write_text(NAN_MASS)
+    scene = (tmp_path / "case" / "scene.toml").read_text()
+    (tmp_path / "case" / "scene.toml").write_text(scene.replace('entry = "mass_component:Mass"\nparameters = { side '
+                                                                '= "Left"', 'entry = "nan_mass:NanMass"\nparameters '
+                                                                '= { side = "Left"', 1))
+    done = subprocess.run([sys.executable, "-m", "cosim", "run", str(tmp_path / "case" / "scene.toml"), "--out",
+                           str(tmp_path / "run"), "--quiet"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    err = done.stderr.strip()
+    assert done.returncode == 2 and "\n" not in err, err
+    assert "component 'Mass-Left'" in err and "output 'Displacement-Left' at its step 2 of 4 in the window is not " \
+                                              "finite" in err, err
