@@ -16,6 +16,7 @@ from typing import Any
 
 from cosim.errors import SceneError
 from cosim.watch_points import file_name_part
+from coupler.accelerations.preconditioners import PRECONDITIONERS
 from precice_compat.xml_tree import Element, parse
 
 SCHEMES = {"serial-explicit": "serial-explicit", "parallel-explicit": "parallel-explicit",
@@ -489,10 +490,14 @@ def _acceleration(reader: _Reader, element: Element, kind: str) -> dict[str, Any
             reader.done(child)
         elif child.tag == "preconditioner" and kind.startswith("IQN"):
             preconditioner = reader.required(child, "type")
-            child.get("freeze-after")
+            if preconditioner not in PRECONDITIONERS:
+                raise reader.fail(child, f"'type' is {preconditioner!r}; allowed: {', '.join(PRECONDITIONERS)}")
+            freeze = reader.number(child, "freeze-after", default=-1, integer=True, low=-1)
             reader.done(child)
             settings["preconditioner"] = preconditioner      # checked against the accelerated data below
             settings["preconditioner_line"] = child.line
+            if freeze > 0:
+                settings["freeze_after"] = int(freeze)
         elif child.tag == "imvj-restart-mode" and kind == "IQN-IMVJ":
             mode = reader.required(child, "type")
             if mode == "RS-ZERO":
@@ -587,11 +592,13 @@ def _check(reader: _Reader, config: Config) -> None:
             if data not in {e.data for e in config.exchanges}:
                 raise SceneError(f"{config.path}, line {acceleration['line']}: the accelerated data '{data}' is not "
                                  "exchanged by the coupling scheme")
-        preconditioner = acceleration.pop("preconditioner", None)
         line = acceleration.pop("preconditioner_line", acceleration["line"])
-        if preconditioner is not None and len(acceleration["data"]) > 1 and preconditioner != "value":
-            raise SceneError(f"{config.path}, line {line}: the preconditioner {preconditioner!r} is not supported "
-                             "with several accelerated data: cosim scales each by its values' norm (type \"value\")")
+        if acceleration["type"] == "iqn-imvj":       # cosim's IQN-IMVJ works on the data unscaled
+            preconditioner = acceleration.pop("preconditioner", "constant")
+            if len(acceleration["data"]) > 1 and (preconditioner != "constant" or acceleration.pop("freeze_after", 0)):
+                raise SceneError(f"{config.path}, line {line}: the preconditioner {preconditioner!r}: cosim's "
+                                 "IQN-IMVJ does not scale its data (type \"constant\"); use IQN-ILS to scale them")
+            acceleration.pop("freeze_after", None)
     if scheme.get("min_iterations", 1) > scheme.get("max_iterations", 100):
         raise SceneError(f"{where}: <min-iterations value=\"{scheme['min_iterations']}\"/> is above "
                          f"<max-iterations value=\"{scheme.get('max_iterations', 100)}\"/>: no window could converge")

@@ -426,3 +426,60 @@ def test_an_rbf_mapping_from_collinear_vertices_drops_the_dead_axis(line):
                         (59,), (20,), "test")(2.0 + 5.0 * along)
     assert np.isfinite(mapped).all()
     np.testing.assert_allclose(back, expected, atol=1e-9)
+
+
+# --- the quasi-Newton preconditioners: a weight per data block --------------------------------------------------
+def two_block_problem(scale):
+    """x = A x + b for two blocks of 4 unknowns, the second in units ``scale`` times smaller."""
+    rng = np.random.default_rng(3)
+    Q, _ = np.linalg.qr(rng.standard_normal((8, 8)))
+    A = Q @ np.diag(np.linspace(-2.0, 0.5, 8)) @ Q.T
+    S = np.diag([1.0] * 4 + [scale] * 4)
+    return (lambda x: S @ (A @ np.linalg.solve(S, x)) + S @ np.arange(8.0)), S
+
+
+@pytest.mark.parametrize("preconditioner", ["value", "residual"])
+def test_a_preconditioned_iqn_ils_does_not_see_the_units_of_each_data_block(preconditioner):
+    """Weights one over each block's norm make the least squares, hence every iterate, the same whatever unit a block
+    is in; with no weights ('constant') the block in the large unit dominates and the iterates differ."""
+    def iterates(kind, scale):
+        H, S = two_block_problem(scale)
+        acceleration = IQNILS(0.5, filter="none", preconditioner=kind, block_sizes=[4, 4])
+        x, seen = np.zeros(8), []
+        acceleration.start_window()
+        for _ in range(6):
+            acceleration.observe(x, H(x))
+            x = acceleration.next_iterate()
+            seen.append(np.linalg.solve(S, x))
+        return np.array(seen)
+    np.testing.assert_allclose(iterates(preconditioner, 1e-6), iterates(preconditioner, 1.0), rtol=1e-6, atol=1e-9)
+    assert not np.allclose(iterates("constant", 1e-6), iterates("constant", 1.0), rtol=1e-3)
+
+
+def test_the_residual_sum_preconditioner_sums_each_blocks_share_of_the_residual_over_the_window():
+    """Weights 1 / sum over the window's iterations of |r_i| / |r|; replaced only when one changes by an order of
+    magnitude, and summed afresh each window."""
+    from coupler.accelerations.preconditioners import Preconditioner
+    p = Preconditioner("residual-sum", [2, 1])
+    p.start_window()
+    r = np.array([3.0, 0.0, 4.0])                      # shares 0.6 and 0.8
+    np.testing.assert_allclose(p.update(r, r), [1 / 0.6, 1 / 0.6, 1 / 0.8])
+    for _ in range(8):                                 # sums 0.6 k, 0.8 k: within an order of magnitude to k = 9
+        np.testing.assert_allclose(p.update(r, r), [1 / 0.6, 1 / 0.6, 1 / 0.8])
+    p.update(r, r)
+    np.testing.assert_allclose(p.update(r, r), [1 / 6.6, 1 / 6.6, 1 / 8.8])      # k = 11: eleven times, taken
+    p.end_window()
+    p.start_window()                                   # summed afresh: 0.6 is a eleventh of 6.6, taken
+    np.testing.assert_allclose(p.update(r, r), [1 / 0.6, 1 / 0.6, 1 / 0.8])
+    zero = np.zeros(3)                                 # no residual: the weights stay
+    np.testing.assert_allclose(p.update(zero, zero), [1 / 0.6, 1 / 0.6, 1 / 0.8])
+
+
+def test_frozen_preconditioner_weights_stay_those_of_the_window_it_froze_at():
+    from coupler.accelerations.preconditioners import Preconditioner
+    p = Preconditioner("residual", [1, 1], freeze_after=1)
+    p.start_window()
+    np.testing.assert_allclose(p.update(np.ones(2), np.array([2.0, 4.0])), [0.5, 0.25])
+    p.end_window()
+    p.start_window()
+    np.testing.assert_allclose(p.update(np.ones(2), np.array([8.0, 1.0])), [0.5, 0.25])

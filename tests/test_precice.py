@@ -764,3 +764,46 @@ def test_a_second_coupler_for_the_same_configuration_is_refused_not_overwriting_
     finally:
         first.close()
         second.close()
+
+
+def test_a_parallel_scheme_accelerating_both_data_takes_each_preconditioner(tmp_path):
+    """The perpendicular flap's configuration: parallel-implicit, IQN-ILS on both data, preconditioner residual-sum
+    (refused before). Each preconditioner weighs the two data differently, and all find the same coupled solution
+    to the measures' limit."""
+    scheme = TUBE_CONFIG.replace("coupling-scheme:serial-implicit", "coupling-scheme:parallel-implicit")
+    scheme = scheme.replace('<max-time value="120" />', '<max-time value="1.0" />')
+    fields, iterations = {}, {}
+    for kind in ("value", "residual", "residual-sum", "constant"):
+        config = scheme.replace('<data name="CrossSectionLength" mesh="Solid-Nodes" />',
+                                '<data name="CrossSectionLength" mesh="Solid-Nodes" /><data name="Pressure" '
+                                f'mesh="Fluid-Nodes" /><preconditioner type="{kind}" freeze-after="-1" />')
+        case = tmp_path / kind
+        shutil.copytree(EXAMPLE, case, ignore=shutil.ignore_patterns("*.npz", "*.fmu"))
+        (case / "precice-config.xml").write_text(config)
+        acceleration = load_scene(case / "case.toml")["coupling"]["acceleration"]
+        assert (acceleration["preconditioner"], acceleration["data"]) == (kind, ["CrossSectionLength", "Pressure"])
+        run_scene(load_scene(case / "case.toml"), case / "out", progress=False)
+        with RunResults(case / "out") as results:
+            assert results.windows.converged.all(), kind
+            fields[kind] = results.fields()["CrossSectionLength"][-1]
+            iterations[kind] = tuple(results.windows.iterations)
+    for kind in fields:
+        np.testing.assert_allclose(fields[kind], fields["value"], rtol=1e-4)
+    assert len(set(iterations.values())) > 1, iterations
+
+
+def test_a_preconditioner_cosim_cannot_apply_is_refused_in_one_line(tmp_path, capsys):
+    """cosim's IQN-IMVJ works on unscaled data: several data scaled by it are refused, as an unknown type is."""
+    for config, message in (
+            (TUBE_CONFIG.replace('<filter type="QR2" limit="1e-3" />', '<preconditioner type="norm" />'),
+             "'type' is 'norm'; allowed: value, constant, residual, residual-sum"),
+            (TUBE_CONFIG.replace("IQN-ILS>", "IQN-IMVJ>").replace("coupling-scheme:serial-implicit",
+                                                                  "coupling-scheme:parallel-implicit")
+             .replace('<time-windows-reused value="8" />', '<data name="Pressure" mesh="Fluid-Nodes" />'
+                                                          '<preconditioner type="residual-sum" />'),
+             "the preconditioner 'residual-sum': cosim's IQN-IMVJ does not scale its data")):
+        shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu"), dirs_exist_ok=True)
+        (tmp_path / "case" / "precice-config.xml").write_text(config)
+        assert main(["check", str(tmp_path / "case" / "case.toml")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and message in err and "precice-config.xml, line" in err, err

@@ -2,7 +2,8 @@
 
 - ``IQNILS``: interface quasi-Newton with an inverse Jacobian from least squares (Degroote et al. 2009), columns
   of reused time windows, a cap on used columns, QR1 / QR1-absolute / QR2 filtering of nearly dependent columns.
-  With several data blocks the least-squares norm is scaled per block (``block_sizes``).
+  With several data blocks the least-squares norm is scaled per block (``block_sizes``) by a preconditioner
+  (``coupler.accelerations.preconditioners``).
 - ``IQNIMVJ``: interface quasi-Newton with a multi-vector Jacobian kept across windows (Lindner et al. 2015).
 """
 
@@ -15,6 +16,7 @@ import numpy as np
 
 from cosim.schema import Choice, Positive, Value
 from coupler.accelerations.base import ACCELERATIONS, FILTERS, MAP_CHANGES, RELAXATION, Acceleration
+from coupler.accelerations.preconditioners import PRECONDITIONERS, Preconditioner
 from coupler.linalg import QR, column_norms, norm
 
 
@@ -43,7 +45,8 @@ class IQNILS(Acceleration):
                 "reused_time_windows": Value(0, low=0), "filter": Choice("qr2", FILTERS),
                 "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
                 "stale_step_ratio": Value(2.0, low=0.0),
-                "on_map_change": Choice("drop-span", MAP_CHANGES)}
+                "on_map_change": Choice("drop-span", MAP_CHANGES),
+                "preconditioner": Choice("value", PRECONDITIONERS), "freeze_after": Value(0, low=0)}
     HELP = {
         "initial_relaxation": "the relaxation of a window's first update, before any column exists",
         "max_used_iterations": "the most columns (differences of iterates) the least squares keeps",
@@ -56,11 +59,17 @@ class IQNILS(Acceleration):
                             "the residual worse (0: never)",
         "on_map_change": "a participant's backend changed (ROM and solid FOM): 'drop-span' drops the difference "
                          "that spans the change, 'drop-all' every column too",
+        "preconditioner": "with several data items, the weight of each in the least squares: one over the norm of "
+                          "its values at the window's start ('value'), none ('constant'), one over its residual's "
+                          "norm ('residual') or over the sum of its residual's shares in the window ('residual-sum'; "
+                          "replaced when a weight changes by an order of magnitude)",
+        "freeze_after": "the weights stay those of this window from then on (0: never)",
     }
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
-                 on_map_change: str = "drop-span", block_sizes: list[int] | None = None) -> None:
+                 on_map_change: str = "drop-span", preconditioner: str = "value", freeze_after: int = 0,
+                 block_sizes: list[int] | None = None) -> None:
         super().__init__()
         if filter not in FILTERS:
             raise ValueError(f"filter {filter!r} not in {FILTERS}")
@@ -77,6 +86,7 @@ class IQNILS(Acceleration):
         self._drop_previous = False   # reuse 0: the previous window's columns go after the first update
         self._r_previous: np.ndarray | None = None
         self._xt_previous: np.ndarray | None = None
+        self.preconditioner = Preconditioner(preconditioner, block_sizes, freeze_after)
         self._weights: np.ndarray | None = None
         self.columns_used = 0
         self.columns_filtered = 0
@@ -90,13 +100,12 @@ class IQNILS(Acceleration):
         self._windows.appendleft(([], []))
         self._drop_previous = self.reused == 0 and len(self._windows) > 1
         self._r_previous = self._xt_previous = None
-        self._weights = None
+        self.preconditioner.start_window()
 
     def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
         super().observe(x, x_tilde)
         r = x_tilde - x
-        if self._weights is None:
-            self._weights = self._block_weights(x_tilde)
+        self._weights = self.preconditioner.update(x_tilde, r)
         size = norm(r)
         if self.iteration > 1 and self.stale_step_ratio > 0 and size > self._last_norm:
             self._forget_old_windows()   # an update built on reused columns made the residual worse
@@ -115,7 +124,7 @@ class IQNILS(Acceleration):
             V[:] = [transform(v) for v in V]
             W[:] = [transform(w) for w in W]
         self._r_previous = self._xt_previous = None
-        self._weights = None
+        self.preconditioner.regrid(block_sizes)
         self._cap(min(self.max_columns, sum(block_sizes)))     # no more columns than unknowns
 
     def _cap(self, limit: int) -> None:
@@ -126,18 +135,6 @@ class IQNILS(Acceleration):
                 V.pop()
                 W.pop()
                 excess -= 1
-
-    def _block_weights(self, x: np.ndarray) -> np.ndarray | None:
-        if not self.block_sizes or len(self.block_sizes) < 2:
-            return None
-        weights = np.empty_like(x)
-        start = 0
-        for size in self.block_sizes:
-            block = x[start:start + size]
-            size_norm = norm(block)
-            weights[start:start + size] = 1.0 / size_norm if size_norm > 0 else 1.0
-            start += size
-        return weights
 
     def _columns(self) -> tuple[list[np.ndarray], list[np.ndarray], list[tuple[int, int]]]:
         """All columns newest first, and where each is kept (window, index)."""
@@ -249,6 +246,7 @@ class IQNILS(Acceleration):
         return int(hits[0]) if hits.size else None
 
     def end_window(self) -> None:
+        self.preconditioner.end_window()
         keep = max(self.reused, 1)   # reuse 0 keeps the last window for the next window's first update
         while len(self._windows) > keep:
             self._windows.pop()
