@@ -12,7 +12,8 @@ r = new - old, n = the number of values. Measures are plug-ins chosen by name:
   inherited), met when any / all of them are met. Kratos's
   ``relative_norm_previous_residual`` is ``any-of`` an ``absolute-rms`` and a ``relative``.
 
-The scene's list of measures must all be met (``all-of``, as in preCICE).
+The scene's list of measures must all be met (``all-of``, as in preCICE), unless one with ``suffices = true`` is
+met: that one alone ends the window (preCICE's suffices). ``window_converged`` says which.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from cosim.schema import Required, Value
 from coupler.linalg import norm
 
 MEASURES: Registry[ConvergenceMeasure] = Registry("convergence measure")
-COMMON = {"data": Required(str)}
+COMMON = {"data": Required(str), "suffices": Value(False)}
 LIMIT = Value(low=0.0, low_open=True)
 
 
@@ -43,6 +44,7 @@ class ConvergenceMeasure:
         self.data = data
         self.limit = limit
         self.value = math.inf
+        self.suffices = False
 
     def start_window(self) -> None:
         """A new time window begins."""
@@ -192,4 +194,11 @@ def resolve_measure(table: Any, where: str, source: str = "") -> dict[str, Any]:
 
 def make_measure(settings: dict[str, Any]) -> ConvergenceMeasure:
     """A measure from resolved settings."""
-    return MEASURES.create(settings)
+    measure = MEASURES.create({k: v for k, v in settings.items() if k != "suffices"})
+    measure.suffices = bool(settings.get("suffices", False))
+    return measure
+
+
+def window_converged(measures: list[ConvergenceMeasure], met: list[bool]) -> bool:
+    """A window's measures, each met or not: all are met, or one that suffices is."""
+    return all(met) or any(m and measure.suffices for measure, m in zip(measures, met))

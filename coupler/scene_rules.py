@@ -55,8 +55,9 @@ MEANINGS = {
     "coupling.surrogate": "the online interface surrogate: a table with start_window turns it on (its keys below)",
     "coupling.acceleration": "the acceleration: a registered acceleration's name or table (below), with `data`, "
                              "the exchanged data it accelerates",
-    "coupling.convergence": "`[[coupling.convergence]]`: one convergence measure per table (below); a window has "
-                            "converged when all of them are met",
+    "coupling.convergence": "`[[coupling.convergence]]`: one convergence measure per table (below), each on the "
+                            "exchanged variable `data`; a window has converged when all of them are met, or one "
+                            "with `suffices = true` is (preCICE's suffices)",
     "exchange.data": "the exchanged variable's name (an output of `from`, an input of `to`)",
     "exchange.from": "the component that sends it",
     "exchange.to": "the component that receives it",

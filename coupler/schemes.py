@@ -34,7 +34,7 @@ from cosim.errors import (
 )
 from cosim.registry import Registry
 from coupler.accelerations import Acceleration
-from coupler.convergence import ConvergenceMeasure
+from coupler.convergence import ConvergenceMeasure, window_converged
 from coupler.coupled import Coupled, SavesState
 from coupler.coupling_model import CouplingModel
 from coupler.extrapolation import Extrapolation
@@ -564,8 +564,9 @@ class SerialImplicit(CouplingScheme):
             self._take_series(self.second, out_series)
             self._stepped(self.second, iteration)
             self._record(self.second, iteration, inputs_second, out_second)
-            converged = all([m.measure(values[m.data], out_first[m.data] if m.data in forward else out_second[m.data])
-                             for m in self.measures])
+            converged = window_converged(self.measures, [
+                m.measure(values[m.data], out_first[m.data] if m.data in forward else out_second[m.data])
+                for m in self.measures])
             values.update({k: out_first[k] for k in forward})
             x, x_tilde = self._iterates(values, series, out_second, out_series, accelerated)
             if self.model is not None:
@@ -616,7 +617,7 @@ class ParallelImplicit(CouplingScheme):
                 outputs.update(returned)
                 self._take_series(p, out_series)
             new = {k: outputs[k] for k in names}
-            converged = all([m.measure(values[m.data], new[m.data]) for m in self.measures])
+            converged = window_converged(self.measures, [m.measure(values[m.data], new[m.data]) for m in self.measures])
             self._observe(*self._iterates(values, series, new, out_series, accelerated))
             values.update(new)
             series = out_series

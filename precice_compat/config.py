@@ -429,9 +429,7 @@ def _measure(reader: _Reader, element: Element) -> dict[str, Any]:
     data = reader.required(element, "data")
     element.get("mesh")
     strict = reader.flag(element, "strict")
-    if reader.flag(element, "suffices"):
-        raise reader.fail(element, "suffices=\"true\" is not supported: every measure of the scheme must be met, "
-                                   "as in a cosim scene")
+    suffices = reader.flag(element, "suffices")
     if kind in MEASURES:
         measure = {"data": data, "type": MEASURES[kind], "limit": reader.number(element, "limit", low=0.0)}
     elif kind == "absolute-or-relative-convergence-measure":
@@ -445,6 +443,8 @@ def _measure(reader: _Reader, element: Element) -> dict[str, Any]:
         raise reader.fail(element, "unknown convergence measure; cosim reads relative-, absolute-, "
                                    "residual-relative-, absolute-or-relative- and min-iteration-convergence-measure")
     reader.done(element)
+    if suffices:
+        measure["suffices"] = True
     measure["strict"] = strict
     measure["line"] = element.line
     return measure

@@ -119,9 +119,6 @@ BAD_CONFIGS = [
                                   "<mapping:rbf direction=\"read\" from=\"Solid-Nodes\""), "an RBF mapping holds one"),
     ("a multi coupling scheme", ("coupling-scheme:serial-implicit>", "coupling-scheme:multi>"),
      "the coupling scheme 'multi' is not supported"),
-    ("suffices", ('limit="1e-4" strict="true" />\n    <relative-convergence-measure data="CrossSectionLength"',
-                  'limit="1e-4" suffices="true" />\n    <relative-convergence-measure data="CrossSectionLength"'),
-     "suffices=\"true\" is not supported"),
     ("the QR3 filter", ('<filter type="QR2"', '<filter type="QR3"'), "the filter 'QR3' is not supported"),
     ("a waveform degree of 4", ('<data:scalar name="Pressure" />', '<data:scalar name="Pressure" waveform-degree="4" />'),
      "'waveform-degree' is 4; allowed: 0 to 3"),
@@ -807,3 +804,38 @@ def test_a_preconditioner_cosim_cannot_apply_is_refused_in_one_line(tmp_path, ca
         assert main(["check", str(tmp_path / "case" / "case.toml")]) == 2
         err = capsys.readouterr().err.strip()
         assert "\n" not in err and message in err and "precice-config.xml, line" in err, err
+
+
+def test_a_measure_that_suffices_ends_the_window_alone(tmp_path):
+    """preCICE's suffices="true": the pressure's measure met at 1e-2 ends a window though the cross-section's 1e-4 is
+    not met yet; without suffices both must be met."""
+    loose = TUBE_CONFIG.replace('<max-time value="120" />', '<max-time value="1.0" />').replace(
+        '<relative-convergence-measure data="Pressure" mesh="Fluid-Nodes" limit="1e-4" strict="true" />',
+        '<relative-convergence-measure data="Pressure" mesh="Fluid-Nodes" limit="1e-2" strict="true" SUFFICES/>')
+    iterations = {}
+    for name, attribute in (("all", ""), ("suffices", 'suffices="true" ')):
+        case = tmp_path / name
+        shutil.copytree(EXAMPLE, case, ignore=shutil.ignore_patterns("*.npz", "*.fmu"))
+        (case / "precice-config.xml").write_text(loose.replace("SUFFICES", attribute))
+        measures = load_scene(case / "case.toml")["coupling"]["convergence"]
+        assert [m.get("suffices", False) for m in measures] == [bool(attribute), False]
+        run_scene(load_scene(case / "case.toml"), case / "out", progress=False)
+        with RunResults(case / "out") as results:
+            assert results.windows.converged.all()
+            iterations[name] = results.windows.iterations
+            pressure = results.calls("Fluid").outputs["Pressure"]
+            window = results.calls("Fluid").window
+        last = np.cumsum(iterations[name]) - 1                  # each window's converged call (one call an iteration)
+        change = np.linalg.norm(pressure[last] - pressure[last - 1], axis=1) / np.linalg.norm(pressure[last], axis=1)
+        assert np.array_equal(window[last], np.arange(1, len(last) + 1)) and np.all(change < 1e-2)
+    assert np.all(iterations["suffices"] <= iterations["all"]) and iterations["suffices"].sum() < \
+        iterations["all"].sum(), iterations
+
+
+def test_window_converged_takes_all_measures_or_one_that_suffices():
+    from coupler.convergence import make_measure, window_converged
+    strict = make_measure({"type": "relative", "data": "a", "limit": 1e-4})
+    enough = make_measure({"type": "relative", "data": "b", "limit": 1e-2, "suffices": True})
+    assert window_converged([strict, enough], [False, True])
+    assert not window_converged([strict, enough], [True, False])
+    assert window_converged([strict, enough], [True, True])
