@@ -54,6 +54,18 @@ def test_without_a_surrogate_it_is_iqn_ils_to_the_last_bit():
     assert k1 == k2 and np.array_equal(x1, x2)
 
 
+def test_without_a_surrogate_and_two_data_blocks_it_is_preconditioned_iqn_ils_to_the_last_bit():
+    """The surrogate passes IQN-ILS's preconditioner and the data blocks on (the blocks were once taken for it)."""
+    A, b, _ = linear_problem()
+    blocks = [len(b) // 2, len(b) - len(b) // 2]
+    plain = IQNILS(0.1, filter="none", preconditioner="residual-sum", block_sizes=blocks)
+    prior_free = IQNSurrogate(0.1, filter="none", preconditioner="residual-sum", block_sizes=blocks)
+    x1, k1 = iterate(plain, lambda x: A @ x + b, np.zeros(len(b)))
+    x2, k2 = iterate(prior_free, lambda x: A @ x + b, np.zeros(len(b)))
+    assert prior_free.preconditioner.active and prior_free.preconditioner.kind == "residual-sum"
+    assert k1 == k2 and np.array_equal(x1, x2)
+
+
 @pytest.mark.parametrize("wrong", [lambda A: -3.0 * A, lambda A: A + 2.0 * np.eye(len(A)), lambda A: A.T @ A])
 def test_a_wrong_surrogate_costs_iterations_never_the_solution(wrong):
     """A deliberately wrong Jacobian: the window falls back to IQN-ILS and still converges to the fixed point."""

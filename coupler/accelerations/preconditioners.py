@@ -38,7 +38,7 @@ class Preconditioner:
     def regrid(self, block_sizes: list[int] | None) -> None:
         """The blocks changed size (a producer's substeps changed): the weights are taken afresh."""
         self.block_sizes = block_sizes
-        self.active = bool(block_sizes) and len(block_sizes) > 1 and self.kind != "constant"
+        self.active = len(block_sizes or ()) > 1 and self.kind != "constant"
         self._block_weights = np.ones(len(block_sizes or ()))
         self._sums = np.zeros(len(block_sizes or ()))
         self.weights: np.ndarray | None = None
