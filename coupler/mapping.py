@@ -10,23 +10,27 @@ components). Mappings are plug-ins chosen by name (``MAPPINGS``):
   goes to its nearest target node, so totals are preserved).
 - ``nearest-element``: on 2-D interfaces, each target node interpolated at its projection onto the nearest of the
   sender's line elements (``Component.lines``), or the transpose of that the other way (``conservative``).
-- ``rbf``: radial basis functions with compact support (Wendland C2, radius
-  ``support_radius``) plus a linear polynomial, so constant and linear fields are
-  reproduced exactly; ``conservative`` is the transpose of the consistent mapping in the
-  other direction, so it preserves the total force to round-off.
+- ``rbf``: radial basis functions (each basis preCICE lists, compact or global) with a linear
+  polynomial fitted separately (preCICE's default), in the same system, or none; with the
+  polynomial, constant and linear fields are reproduced exactly. ``conservative`` is the
+  transpose of the consistent mapping in the other direction, so it preserves the total
+  force to round-off.
 
-The operators are sparse matrices built once at set-up; mapping is one product.
+The operators are built once at set-up (sparse where they can be); mapping is a product or a
+factorised solve.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from cosim.errors import SceneError
 from cosim.registry import Registry
-from cosim.schema import Choice, Positive, Value
+from cosim.schema import Choice, Value
 
 if TYPE_CHECKING:
     import scipy.sparse as sp  # imported where a mapping is built: a scene of matching meshes needs no SciPy
@@ -166,72 +170,175 @@ def _projection(nodes: np.ndarray, points: np.ndarray, lines: np.ndarray, tolera
                          shape=(len(points), len(nodes)))
 
 
-# Wendland's compactly supported functions of r = distance / support radius < 1 (preCICE's compact-polynomial-cN)
-COMPACT_BASES = {
+def _r_log_r(r: np.ndarray, power: int) -> np.ndarray:
+    """r**power * log(r), 0 at r = 0."""
+    safe = np.where(r > 0.0, r, 1.0)
+    return np.where(r > 0.0, safe ** power * np.log(safe), 0.0)
+
+
+# The basis functions of preCICE's configuration reference, of the distance r. Compact ones take r / support radius
+# and vanish beyond 1 (Wendland's compact-polynomial-cN, the compact thin-plate spline).
+COMPACT_BASES: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "compact-polynomial-c0": lambda r: (1.0 - r) ** 2,
     "compact-polynomial-c2": lambda r: (1.0 - r) ** 4 * (4.0 * r + 1.0),
     "compact-polynomial-c4": lambda r: (1.0 - r) ** 6 * (35.0 * r * r + 18.0 * r + 3.0),
     "compact-polynomial-c6": lambda r: (1.0 - r) ** 8 * (32.0 * r ** 3 + 25.0 * r * r + 8.0 * r + 1.0),
+    "compact-polynomial-c8": lambda r: (1.0 - r) ** 10 * (429.0 * r ** 4 + 450.0 * r ** 3 + 210.0 * r * r + 50.0 * r
+                                                          + 5.0),
+    "compact-tps-c2": lambda r: (1.0 - 30.0 * r * r - 10.0 * r ** 3 + 45.0 * r ** 4 - 6.0 * r ** 5
+                                 - 60.0 * _r_log_r(r, 3)),
 }
+GLOBAL_BASES: dict[str, Callable[[np.ndarray, float], np.ndarray]] = {     # of r and the shape parameter c
+    "thin-plate-splines": lambda r, c: _r_log_r(r, 2),
+    "volume-splines": lambda r, c: r,
+    "multiquadrics": lambda r, c: np.sqrt(c * c + r * r),
+    "inverse-multiquadrics": lambda r, c: 1.0 / np.sqrt(c * c + r * r),
+    "gaussian": lambda r, c: np.exp(-(c * r) ** 2),
+}
+BASES = (*COMPACT_BASES, *GLOBAL_BASES)
+SHAPED = ("multiquadrics", "inverse-multiquadrics", "gaussian")     # take a shape parameter
+GAUSSIAN_DECAY = 1e-9    # a Gaussian given a support radius decays to this there, and is cut off beyond
+POLYNOMIALS = ("separate", "on", "off")
+DEAD_AXES = ("", "x", "y", "z", "xy", "xz", "yz")
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """One basis function with its parameters: ``matrix(points, centres)`` its values between two node sets."""
+
+    basis: str
+    support_radius: float = 0.0     # compact bases and a cut-off Gaussian; 0: none
+    shape_parameter: float = 0.0
+
+    def matrix(self, points: np.ndarray, centres: np.ndarray) -> Any:
+        """Phi(|points_i - centres_j|): sparse where the kernel has a support radius, dense otherwise."""
+        if self.basis in COMPACT_BASES:
+            return _within(points, centres, self.support_radius, lambda d: COMPACT_BASES[self.basis](
+                d / self.support_radius))
+        if self.basis == "gaussian" and self.support_radius > 0.0:
+            shape = np.sqrt(-np.log(GAUSSIAN_DECAY)) / self.support_radius
+            return _within(points, centres, self.support_radius, lambda d: np.exp(-(shape * d) ** 2))
+        from scipy.spatial.distance import cdist
+        return GLOBAL_BASES[self.basis](cdist(points, centres), self.shape_parameter)
 
 
 @MAPPINGS.register("rbf")
 class RadialBasisFunctions(Mapping):
-    """Radial basis functions with compact support and a linear polynomial, as a sparse operator."""
+    """Radial basis function interpolation with a linear polynomial, in each of preCICE's forms."""
 
-    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS), "support_radius": Positive(),
-                "basis": Choice("compact-polynomial-c2", tuple(COMPACT_BASES))}
-    HELP = {**NearestNeighbour.HELP, "support_radius": "the compact kernel's support radius",
-            "basis": "Wendland's compactly supported function of that smoothness (preCICE's compact-polynomial-c0 "
-                     "to -c6)"}
+    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS), "basis": Choice("compact-polynomial-c2", BASES),
+                "support_radius": Value(0.0, low=0.0), "shape_parameter": Value(0.0, low=0.0),
+                "polynomial": Choice("separate", POLYNOMIALS), "dead_axes": Choice("", DEAD_AXES)}
+    HELP = {**NearestNeighbour.HELP,
+            "basis": "the basis function (preCICE's names): Wendland's compact-polynomial-c0 to -c8 and "
+                     "compact-tps-c2 need a support radius; thin-plate-splines and volume-splines take no "
+                     "parameter; multiquadrics and inverse-multiquadrics a shape parameter; gaussian either",
+            "support_radius": "a compact basis's support radius (a Gaussian's cut-off, where it has decayed to 1e-9); "
+                              "0: none",
+            "shape_parameter": "the shape parameter c of sqrt(c^2 + r^2), its inverse, or exp(-(c r)^2); 0: none",
+            "polynomial": "the linear polynomial: 'separate' fitted first by least squares, the basis interpolating "
+                          "the rest (preCICE's default), 'on' in one system with the basis, 'off' none",
+            "dead_axes": "coordinates the mapping ignores, in distances and polynomial (preCICE's x-dead, y-dead, "
+                         "z-dead): 'y' maps a 2-D interface that lies along x as a 1-D one"}
+
+    @staticmethod
+    def check_settings(settings: dict[str, Any], where: str, source: str = "", **_: Any) -> None:
+        """A basis's parameters: a support radius for the compact ones, a shape parameter for the shaped ones."""
+        basis, radius, shape = settings["basis"], settings["support_radius"], settings["shape_parameter"]
+        at = f"{source}: " if source else ""
+        if basis in COMPACT_BASES and radius <= 0.0:
+            raise SceneError(f"{at}missing key '{where}.support_radius' (the {basis} basis needs a support radius)")
+        if basis == "gaussian" and (radius > 0.0) == (shape > 0.0):
+            raise SceneError(f"{at}'{where}': the gaussian basis takes a shape_parameter or a support_radius, one of "
+                             "them")
+        if basis in ("multiquadrics", "inverse-multiquadrics") and shape <= 0.0:
+            raise SceneError(f"{at}missing key '{where}.shape_parameter' (the {basis} basis needs one)")
 
     def build(self, source: np.ndarray, target: np.ndarray,  # type: ignore[override]  # a mapping's own settings
-              constraint: str = "consistent", support_radius: float = 1.0,
-              basis: str = "compact-polynomial-c2") -> Any:
+              constraint: str = "consistent", support_radius: float = 0.0, shape_parameter: float = 0.0,
+              basis: str = "compact-polynomial-c2", polynomial: str = "separate", dead_axes: str = "") -> Any:
+        self.check_settings({"basis": basis, "support_radius": support_radius, "shape_parameter": shape_parameter},
+                            "rbf")
+        live = [axis for axis in range(source.shape[1]) if "xyz"[axis] not in dead_axes]
+        source, target = source[:, live], target[:, live]
+        kernel = Kernel(basis, support_radius, shape_parameter)
         if constraint == "consistent":
-            return _RbfOperator(source, target, support_radius, transpose=False, basis=basis)
-        return _RbfOperator(target, source, support_radius, transpose=True, basis=basis)
+            return _RbfOperator(source, target, kernel, polynomial, transpose=False)
+        return _RbfOperator(target, source, kernel, polynomial, transpose=True)
 
 
 class _RbfOperator:
-    """Consistent RBF interpolation from ``centres`` to ``points`` (or its transpose), factorised once.
+    """RBF interpolation from ``centres`` to ``points`` (consistent), or its transpose (conservative), factorised once.
 
-    With A = [[Phi, P], [P^T, 0]] on the centres and B = [Phi(points, centres), P(points)],
-    the consistent map is B A^-1 [I; 0]; its transpose is [I 0] A^-1 B^T (A is symmetric).
+    With K the kernel between the centres, B between the points and the centres, and P_c, P_p the linear polynomial
+    at the centres and at the points, the consistent map of values f at the centres is
+    - ``separate``: B K^-1 (f - P_c beta) + P_p beta, beta = P_c^+ f (the polynomial's least-squares fit);
+    - ``on``: [B P_p] A^-1 [f; 0], A = [[K, P_c], [P_c^T, 0]];
+    - ``off``: B K^-1 f.
+    The conservative map is its transpose (K and A are symmetric), so it keeps the sum of what it maps.
     """
 
-    def __init__(self, centres: np.ndarray, points: np.ndarray, radius: float, transpose: bool,
-                 basis: str = "compact-polynomial-c2"):
-        n = len(centres)
-        columns = _polynomial_columns(centres)        # the centres decide the polynomial: the points follow
-        polynomial_centres, polynomial_points = _linear_basis(centres, columns), _linear_basis(points, columns)
+    def __init__(self, centres: np.ndarray, points: np.ndarray, kernel: Kernel, polynomial: str, transpose: bool):
         import scipy.sparse as sp
-        from scipy.sparse.linalg import splu
-        kernel = COMPACT_BASES[basis]
-        A = sp.bmat([[_compact(centres, centres, radius, kernel), sp.csr_matrix(polynomial_centres)],
-                     [sp.csr_matrix(polynomial_centres.T), None]], format="csc")
-        self.B = sp.hstack([_compact(points, centres, radius, kernel), sp.csr_matrix(polynomial_points)],
-                           format="csr")
-        self.lu = splu(A)
-        self.n, self.m = n, polynomial_centres.shape[1]
-        self.transpose = transpose
-        self.shape = (n, len(points)) if transpose else (len(points), n)
+        columns = _polynomial_columns(centres)        # the centres decide the polynomial: the points follow
+        P_c, P_p = _linear_basis(centres, columns), _linear_basis(points, columns)
+        K, B = kernel.matrix(centres, centres), kernel.matrix(points, centres)
+        self.n, self.m = len(centres), P_c.shape[1]
+        self.polynomial, self.transpose = polynomial, transpose
+        self.shape = (self.n, len(points)) if transpose else (len(points), self.n)
+        if polynomial == "on":
+            K = sp.bmat([[sp.csr_matrix(K), sp.csr_matrix(P_c)], [sp.csr_matrix(P_c.T), None]], format="csc")
+            B = sp.hstack([sp.csr_matrix(B), sp.csr_matrix(P_p)], format="csr")
+        self.solve = _factorised(K)
+        self.B = B
+        if polynomial == "separate":
+            self.Q, self.R = np.linalg.qr(P_c)         # P_c^+ = R^-1 Q^T
+            self.P_p = P_p
 
     def __matmul__(self, values: np.ndarray) -> np.ndarray:
         values = np.asarray(values, float)
         if self.transpose:
-            return self.lu.solve(np.asarray(self.B.T @ values))[:self.n]
-        padded = np.concatenate([values, np.zeros((self.m,) + values.shape[1:])])
-        return self.B @ self.lu.solve(padded)
+            return self._conservative(values)
+        if self.polynomial == "on":
+            return np.asarray(self.B @ self.solve(np.concatenate([values, np.zeros((self.m,) + values.shape[1:])])))
+        if self.polynomial == "off":
+            return np.asarray(self.B @ self.solve(values))
+        beta = np.linalg.solve(self.R, self.Q.T @ values)
+        return np.asarray(self.B @ self.solve(values - self.Q @ (self.R @ beta))) + self.P_p @ beta
+
+    def _conservative(self, values: np.ndarray) -> np.ndarray:
+        spread = np.asarray(self.B.T @ values)
+        if self.polynomial == "on":
+            return self.solve(spread)[:self.n]
+        if self.polynomial == "off":
+            return self.solve(spread)
+        inner = self.solve(spread)
+        inner = inner - self.Q @ (self.Q.T @ inner)       # (I - P_c P_c^+), a symmetric projector
+        return inner + self.Q @ np.linalg.solve(self.R.T, self.P_p.T @ values)
 
 
-def _compact(points: np.ndarray, centres: np.ndarray, radius: float, kernel: Any) -> sp.csr_matrix:
-    """A compact kernel of r = distance / radius < 1 between ``points`` and ``centres``, as a sparse matrix."""
+def _factorised(matrix: Any) -> Callable[[np.ndarray], np.ndarray]:
+    """A solver of ``matrix`` x = b, factorised once: sparse LU, or dense LU."""
+    import scipy.sparse as sp
+    if sp.issparse(matrix):
+        from scipy.sparse.linalg import splu
+        lu = splu(sp.csc_matrix(matrix))
+        return lambda b: lu.solve(np.asarray(b, float))
+    from scipy.linalg import lu_factor, lu_solve
+    factors = lu_factor(np.asarray(matrix, float))
+    return lambda b: lu_solve(factors, b)
+
+
+def _within(points: np.ndarray, centres: np.ndarray, radius: float,
+            kernel: Callable[[np.ndarray], np.ndarray]) -> sp.csr_matrix:
+    """``kernel`` of the distance between ``points`` and ``centres`` closer than ``radius``, as a sparse matrix."""
     import scipy.sparse as sp
     from scipy.spatial import cKDTree
     distances = cKDTree(points).sparse_distance_matrix(cKDTree(centres), radius, output_type="coo_matrix")
-    values = kernel(distances.data / radius)
-    return sp.coo_matrix((values, (distances.row, distances.col)), shape=(len(points), len(centres))).tocsr()
+    inside = distances.data < radius
+    values = kernel(distances.data[inside])
+    return sp.coo_matrix((values, (distances.row[inside], distances.col[inside])),
+                         shape=(len(points), len(centres))).tocsr()
 
 
 def _polynomial_columns(centres: np.ndarray) -> list[int]:

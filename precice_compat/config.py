@@ -17,6 +17,7 @@ from typing import Any
 from cosim.errors import SceneError
 from cosim.watch_points import file_name_part
 from coupler.accelerations.preconditioners import PRECONDITIONERS
+from coupler.mapping import BASES, COMPACT_BASES
 from precice_compat.xml_tree import Element, parse
 
 SCHEMES = {"serial-explicit": "serial-explicit", "parallel-explicit": "parallel-explicit",
@@ -24,9 +25,9 @@ SCHEMES = {"serial-explicit": "serial-explicit", "parallel-explicit": "parallel-
 MEASURES = {"relative-convergence-measure": "relative", "absolute-convergence-measure": "absolute",
             "residual-relative-convergence-measure": "residual-relative"}
 FILTERS = {"QR1": "qr1", "QR2": "qr2", "QR1-absolute": "qr1-absolute"}
-# Wendland's compact functions, which cosim's RBF mapping holds (coupler.mapping.COMPACT_BASES)
-RBF_BASES = ("compact-polynomial-c0", "compact-polynomial-c2", "compact-polynomial-c4", "compact-polynomial-c6")
-V2_RBF = {f"rbf-{basis}": basis for basis in RBF_BASES}
+V2_RBF = {f"rbf-{basis}": basis for basis in BASES}     # v2's mapping:rbf-<basis>, the basis's parameters on it
+V3_RBF = ("rbf", "rbf-global-direct", "rbf-global-iterative", "rbf-pum-direct")     # v3's, with <basis-function:...>
+INTEGRATED_POLYNOMIAL = ("thin-plate-splines", "multiquadrics", "volume-splines")   # where preCICE takes polynomial="on"
 
 
 @dataclass
@@ -321,33 +322,8 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
     settings: dict[str, Any] = {"constraint": constraint}
     if kind == "nearest-neighbor":
         mapped = "nearest-neighbour"
-    elif kind in V2_RBF or kind == "rbf" or kind.startswith("rbf-"):
-        basis = V2_RBF.get(kind)
-        radius = element.get("support-radius")
-        for attribute in ("polynomial", "solver-rtol", "use-qr-decomposition", "preallocation", "x-dead", "y-dead",
-                          "z-dead", "executor", "vertices-per-cluster", "relative-overlap", "project-to-input"):
-            if element.get(attribute) is not None and attribute not in ("solver-rtol", "preallocation"):
-                if not (attribute == "polynomial" and element.attributes[attribute] == "separate"):
-                    raise reader.fail(element, f"'{attribute}' is not supported by cosim's RBF mapping (a compact "
-                                               "Wendland basis with a separate linear polynomial)")
-        if kind in ("rbf", "rbf-global-direct", "rbf-global-iterative", "rbf-pum-direct"):
-            bases = [c for c in element.children if c.kind()[0] == "basis-function"]
-            if len(bases) != 1 or len(element.children) != 1:
-                raise reader.fail(element, "an RBF mapping holds one <basis-function:...> element")
-            basis = bases[0].kind()[1]
-            radius = bases[0].get("support-radius")
-            bases[0].get("shape-parameter")
-            reader.done(bases[0])
-        if basis not in RBF_BASES:
-            raise reader.fail(element, f"the RBF basis {basis or kind!r} is not supported: cosim's RBF mapping holds "
-                                       f"{', '.join(RBF_BASES)} (Wendland's functions) with a support radius")
-        if radius is None:
-            raise reader.fail(element, f"{basis} needs a 'support-radius'")
-        settings["basis"] = basis
-        try:
-            settings["support_radius"] = float(radius)
-        except ValueError:
-            raise reader.fail(element, f"'support-radius' is {radius!r}, not a number") from None
+    elif kind in V2_RBF or kind in V3_RBF:
+        settings.update(_rbf_settings(reader, config, element, kind))
         mapped = "rbf"
     elif kind in ("nearest-projection", "linear-cell-interpolation", "nearest-neighbor-gradient", "axial-geometric-"
                   "multiscale", "radial-geometric-multiscale"):
@@ -356,10 +332,53 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
     else:
         raise reader.fail(element, f"unknown mapping kind {kind!r}")
     reader.done(element)
-    if kind not in ("rbf", "rbf-global-direct", "rbf-global-iterative", "rbf-pum-direct"):
+    if kind not in V3_RBF:
         for child in element.children:
             raise reader.fail(child, "no element goes here")
     return Mapping(mapped, direction, source, target, constraint, settings, element.line)
+
+
+def _rbf_settings(reader: _Reader, config: Config, element: Element, kind: str) -> dict[str, Any]:
+    """An RBF mapping's basis, its parameters, polynomial and dead axes, as cosim's ``rbf`` mapping's settings."""
+    if kind in V3_RBF:
+        bases = [c for c in element.children if c.kind()[0] == "basis-function"]
+        if len(bases) != 1 or len(element.children) != 1:
+            raise reader.fail(element, "an RBF mapping holds one <basis-function:...> element")
+        holder, basis = bases[0], bases[0].kind()[1]
+        if basis not in BASES:
+            raise reader.fail(holder, f"unknown basis function {basis!r}; preCICE's: {', '.join(BASES)}")
+    else:
+        holder, basis = element, V2_RBF[kind]
+    settings: dict[str, Any] = {"basis": basis}
+    for attribute, key in (("support-radius", "support_radius"), ("shape-parameter", "shape_parameter")):
+        if holder.get(attribute) is not None:
+            settings[key] = reader.number(holder, attribute, low=0.0)
+    needs = ("support-radius" if basis in COMPACT_BASES else "shape-parameter or a support-radius"
+             if basis == "gaussian" else "shape-parameter" if basis in ("multiquadrics", "inverse-multiquadrics")
+             else None)
+    given = [key for key in ("support_radius", "shape_parameter") if key in settings]
+    if needs and (not given or (basis == "gaussian" and len(given) == 2)):
+        raise reader.fail(holder, f"the {basis} basis needs a {needs}")
+    polynomial = element.get("polynomial", "separate")
+    if kind == "rbf" and polynomial != "separate":
+        raise reader.fail(element, "<mapping:rbf> takes no 'polynomial': name the solver, mapping:rbf-global-direct")
+    if polynomial not in ("separate", "on", "off"):
+        raise reader.fail(element, f"'polynomial' is {polynomial!r}; allowed: separate, on, off")
+    if polynomial == "on" and basis not in INTEGRATED_POLYNOMIAL:
+        raise reader.fail(element, f"polynomial=\"on\" is not supported for the {basis} basis (preCICE's rule: "
+                                   f"only {', '.join(INTEGRATED_POLYNOMIAL)}); use separate or off")
+    settings["polynomial"] = polynomial
+    dead = "".join(axis for axis in "xyz" if reader.flag(element, f"{axis}-dead"))
+    if dead:
+        settings["dead_axes"] = dead
+    ignored = [name for name in ("solver-rtol", "preallocation", "use-qr-decomposition", "executor", "vertices-per-"
+                                 "cluster", "relative-overlap", "project-to-input") if element.get(name) is not None]
+    if kind in ("rbf-pum-direct", "rbf-global-iterative") or ignored:
+        config.notes.append(f"<{element.tag}> (line {element.line}): cosim solves the global RBF system directly "
+                            + ("(a partition of unity's clusters approximate that interpolant) " if kind ==
+                               "rbf-pum-direct" else "")
+                            + (f"; {', '.join(ignored)} do not apply" if ignored else ""))
+    return settings
 
 
 def _m2n(reader: _Reader, config: Config, element: Element) -> None:

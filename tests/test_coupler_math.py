@@ -1,5 +1,9 @@
 """Acceleration, convergence measures, extrapolation and mapping on known problems."""
 
+import json
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -9,7 +13,7 @@ from coupler.accelerations.quasi_newton import IQNILS
 from coupler.accelerations.relaxation import Aitken, ConstantRelaxation
 from coupler.convergence import make_measure, resolve_measure
 from coupler.extrapolation import Extrapolation
-from coupler.mapping import make_mapping
+from coupler.mapping import MAPPINGS, make_mapping
 
 
 def iterate(acceleration, H, x0, tol=1e-10, max_iterations=200):
@@ -406,6 +410,70 @@ def test_each_compact_rbf_basis_reproduces_linear_fields_and_its_transpose_conse
     forces = rng.standard_normal(60)
     conservative = make_mapping({**settings, "constraint": "conservative"}, source, target, (60,), (45,), "test")
     assert conservative(forces).sum() == pytest.approx(forces.sum(), rel=1e-10)
+
+
+def test_an_rbf_with_a_dead_axis_maps_as_on_the_other_axes_alone():
+    """preCICE's y-dead on a 2-D interface: the mapping of the x coordinates alone (preCICE 3.4.1's own values
+    agree with it to 2e-12, thin-plate splines on these vertices)."""
+    a, b, field = rbf_probe(False)
+    dead = make_mapping({"type": "rbf", "basis": "thin-plate-splines", "dead_axes": "y"}, a, b, (25,), (15,), "t")
+    alone = make_mapping({"type": "rbf", "basis": "thin-plate-splines"}, a[:, :1], b[:, :1], (25,), (15,), "t")
+    both = make_mapping({"type": "rbf", "basis": "thin-plate-splines"}, a, b, (25,), (15,), "t")
+    np.testing.assert_array_equal(dead(field), alone(field))
+    assert np.abs(dead(field) - both(field)).max() > 0.1
+
+
+def rbf_probe(collinear: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The vertices and field of tests/data/precice_rbf_reference.json (25 -> 15 vertices, on a line if asked)."""
+    rng = np.random.default_rng(4)
+    a, b = rng.uniform(0, 1, (25, 2)), rng.uniform(0.1, 0.9, (15, 2))
+    if collinear:
+        a[:, 1] = b[:, 1] = 0.5
+    return a, b, np.sin(3 * a[:, 0]) + a[:, 1] ** 2 + 0.3
+
+
+PRECICE_RBF = json.loads((Path(__file__).parent / "data" / "precice_rbf_reference.json").read_text())["cases"]
+
+
+@pytest.mark.parametrize("case", PRECICE_RBF, ids=lambda c: "-".join(
+    [c["basis"], c["polynomial"], c["constraint"]] + ["collinear"] * c["collinear"]))
+def test_each_rbf_basis_and_polynomial_maps_as_precice_does(case):
+    """Every basis function preCICE lists, with its polynomial separate, on or off, consistent and conservative:
+    the values preCICE 3.4.1 itself mapped (its Gaussian cut off at a support radius, its compact thin-plate spline,
+    Wendland's C8), to round-off."""
+    a, b, field = rbf_probe(case["collinear"])
+    settings = {key: case[key] for key in ("basis", "polynomial", "constraint", "support_radius", "shape_parameter")
+                if key in case}
+    mapping = make_mapping({"type": "rbf", **settings}, a, b, (25,), (15,), "test")
+    np.testing.assert_allclose(mapping(field), case["mapped"], rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("polynomial", ["separate", "on"])
+@pytest.mark.parametrize("basis", ["thin-plate-splines", "gaussian", "compact-tps-c2", "compact-polynomial-c8"])
+def test_an_rbf_with_its_polynomial_is_exact_on_linear_fields_and_conserves_sums(basis, polynomial):
+    rng = np.random.default_rng(11)
+    source, target = rng.random((40, 3)), rng.random((30, 3))
+    settings = {"type": "rbf", "basis": basis, "polynomial": polynomial,
+                **({"shape_parameter": 3.0} if basis == "gaussian" else {}),
+                **({"support_radius": 0.9} if basis.startswith("compact") else {})}
+    linear = 1.0 - source @ [2.0, 0.5, 3.0]
+    mapped = make_mapping(settings, source, target, (40,), (30,), "test")(linear)
+    np.testing.assert_allclose(mapped, 1.0 - target @ [2.0, 0.5, 3.0], atol=1e-8)
+    forces = rng.standard_normal((40, 3))
+    conservative = make_mapping({**settings, "constraint": "conservative"}, source, target, (40, 3), (30, 3), "test")
+    np.testing.assert_allclose(conservative(forces).sum(axis=0), forces.sum(axis=0), rtol=1e-10)
+
+
+@pytest.mark.parametrize(("settings", "message"), [
+    ({"basis": "compact-tps-c2"}, "missing key 'm.support_radius' (the compact-tps-c2 basis needs a support radius)"),
+    ({"basis": "multiquadrics"}, "missing key 'm.shape_parameter'"),
+    ({"basis": "gaussian"}, "takes a shape_parameter or a support_radius, one of them"),
+    ({"basis": "gaussian", "shape_parameter": 1.0, "support_radius": 1.0}, "one of them"),
+    ({"basis": "cubic"}, "'m.basis' is 'cubic'"),
+])
+def test_an_rbf_basis_without_its_parameter_is_refused_naming_the_key(settings, message):
+    with pytest.raises(SceneError, match=re.escape(message)):
+        MAPPINGS.settings({"type": "rbf", **settings}, "m")
 
 
 @pytest.mark.parametrize("line", ["axis", "diagonal"])

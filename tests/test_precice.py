@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -15,10 +16,12 @@ import pytest
 
 from cosim import protocol
 from cosim.cli import main
+from cosim.errors import SceneError
 from cosim.results import RunResults
 from cosim.rundir import read_status
 from cosim.scene import load_scene
 from coupler.run import run_scene
+from precice_compat.config import read_config
 from tests.conftest import ROOT, TUBE_SCENE, children_of, participant_module, wait_for
 
 EXAMPLE = ROOT / "examples" / "precice_tube"
@@ -115,8 +118,9 @@ BAD_CONFIGS = [
                                   '<write-data name="Velocity" mesh="Fluid-Nodes" />'), "no data 'Velocity'"),
     ("a mapping between unknown meshes", ('from="Solid-Nodes" to="Fluid-Nodes"', 'from="Beam-Nodes" to="Fluid-Nodes"'),
      "no mesh 'Beam-Nodes' is defined"),
-    ("an RBF basis cosim lacks", ("<mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
-                                  "<mapping:rbf direction=\"read\" from=\"Solid-Nodes\""), "an RBF mapping holds one"),
+    ("an RBF mapping without its basis", ("<mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
+                                          "<mapping:rbf direction=\"read\" from=\"Solid-Nodes\""),
+     "an RBF mapping holds one"),
     ("a multi coupling scheme", ("coupling-scheme:serial-implicit>", "coupling-scheme:multi>"),
      "the coupling scheme 'multi' is not supported"),
     ("the QR3 filter", ('<filter type="QR2"', '<filter type="QR3"'), "the filter 'QR3' is not supported"),
@@ -164,6 +168,58 @@ def test_a_bad_configuration_is_one_line_with_its_file_and_line(tmp_path, capsys
     assert code == 2 and "\n" not in err and "Traceback" not in err, err
     assert message in err and "precice-config.xml" in err, err
     assert not (tmp_path / "out" / "results.h5").exists()
+
+
+RBF_READ = '<mapping:nearest-neighbor direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent" />'
+
+
+def rbf_config(tmp_path: Path, mapping: str) -> Path:
+    path = tmp_path / "precice-config.xml"
+    path.write_text(TUBE_CONFIG.replace(RBF_READ, mapping))
+    return path
+
+
+@pytest.mark.parametrize(("mapping", "settings"), [
+    ('<mapping:rbf direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent">'
+     '<basis-function:thin-plate-splines /></mapping:rbf>',
+     {"basis": "thin-plate-splines", "polynomial": "separate"}),
+    ('<mapping:rbf-global-direct direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent" '
+     'polynomial="off" y-dead="true"><basis-function:gaussian shape-parameter="4.5" /></mapping:rbf-global-direct>',
+     {"basis": "gaussian", "shape_parameter": 4.5, "polynomial": "off", "dead_axes": "y"}),
+    ('<mapping:rbf-pum-direct direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent" '
+     'vertices-per-cluster="20"><basis-function:compact-tps-c2 support-radius="0.2" /></mapping:rbf-pum-direct>',
+     {"basis": "compact-tps-c2", "support_radius": 0.2, "polynomial": "separate"}),
+    ('<mapping:rbf-multiquadrics direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent" '
+     'shape-parameter="0.5" polynomial="on" />', {"basis": "multiquadrics", "shape_parameter": 0.5, "polynomial": "on"}),
+])
+def test_each_rbf_form_of_a_configuration_becomes_cosims_rbf_mapping(tmp_path, mapping, settings):
+    """preCICE's v3 RBF mappings (the alias, global-direct, partition of unity) and v2's rbf-<basis>, with their
+    basis, its parameter, the polynomial and dead axes, read into the rbf mapping's settings."""
+    read = next(m for m in read_config(rbf_config(tmp_path, mapping)).participants["Fluid"].mappings
+                if m.direction == "read")
+    assert read.kind == "rbf" and read.settings == {"constraint": "consistent", **settings}
+
+
+@pytest.mark.parametrize(("mapping", "message"), [
+    ('<mapping:rbf-global-direct direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent" '
+     'polynomial="on"><basis-function:compact-polynomial-c6 support-radius="1" /></mapping:rbf-global-direct>',
+     'polynomial="on" is not supported for the compact-polynomial-c6 basis'),
+    ('<mapping:rbf direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent">'
+     '<basis-function:compact-polynomial-c2 /></mapping:rbf>', "the compact-polynomial-c2 basis needs a support-radius"),
+    ('<mapping:rbf direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent">'
+     '<basis-function:gaussian shape-parameter="1" support-radius="1" /></mapping:rbf>',
+     "the gaussian basis needs a shape-parameter or a support-radius"),
+    ('<mapping:rbf direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent">'
+     '<basis-function:cubic /></mapping:rbf>', "unknown basis function 'cubic'"),
+    ('<mapping:rbf direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent" polynomial="on">'
+     '<basis-function:thin-plate-splines /></mapping:rbf>', "<mapping:rbf> takes no 'polynomial'"),
+    ('<mapping:rbf-global-direct direction="read" from="Solid-Nodes" to="Fluid-Nodes" constraint="consistent" '
+     'x-dead="maybe"><basis-function:thin-plate-splines /></mapping:rbf-global-direct>', "'x-dead' is 'maybe'"),
+])
+def test_an_rbf_mapping_preCICE_would_refuse_is_refused_in_one_line(tmp_path, mapping, message):
+    with pytest.raises(SceneError, match=re.escape(message)) as refused:
+        read_config(rbf_config(tmp_path, mapping))
+    assert "precice-config.xml" in str(refused.value) and "\n" not in str(refused.value)
 
 
 # --- participants that misuse the API, or fail -----------------------------------------------------------------
