@@ -6,9 +6,10 @@ their folders), runs it twice, under ``cosim run CASE.toml`` and with the partic
 ``run.sh`` starts them (the first starts the coupler), and prints a table: windows, converged windows, the
 coupling iterations (in all, and in the first window), the exit codes, and the last line each participant printed.
 
-Usage: python -m scripts.precice_tutorials TUTORIALS --out DIR [--case NAME ...] [--python PY] [--mode cosim-run]
-``--python`` runs the participants with another interpreter (a venv with the participants' own needs, nutils 7
-say, and ``pip install ./precice_compat/participant``); by default the coupler's. Results go to
+Usage: python -m scripts.precice_tutorials TUTORIALS --out DIR [--case NAME ...] [--python STACK=PY ...]
+[--mode cosim-run]. ``--python nutils7=/venv/bin/python`` runs the participants that need nutils 7 with that
+interpreter (a venv with their own needs and ``pip install ./precice_compat/participant``); stacks: python, nutils7,
+nutils9 (the perpendicular flap's nutils solid), fenics (Debian's python3-dolfin with fenicsprecice); default python3. Results go to
 ``DIR/<case>-<mode>/`` and ``DIR/table.json`` as each run ends; a rerun goes on with the runs it lacks.
 """
 
@@ -29,35 +30,56 @@ import numpy as np
 from cosim.results import RunResults
 
 NUTILS = {"NUTILS_RICHOUTPUT": "no"}
-# case -> (its folder, {participant: (folder, command, environment)})
-CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str]]]]] = {
+FENICS = {"OMP_NUM_THREADS": "1"}
+# case -> (its folder, {participant: (folder, command, environment, stack)}); a stack is the software a participant
+# needs beyond pyprecice ("python": NumPy alone; "nutils7", "nutils9", "fenics"), whose Python --python names
+CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str], str]]]] = {
     "elastic-tube-1d": ("elastic-tube-1d", {
-        "Fluid": ("fluid-python", "python3 ./FluidSolver.py ../precice-config.xml", {}),
-        "Solid": ("solid-python", "python3 ./SolidSolver.py ../precice-config.xml", {})}),
+        "Fluid": ("fluid-python", "python3 ./FluidSolver.py ../precice-config.xml", {}, "python"),
+        "Solid": ("solid-python", "python3 ./SolidSolver.py ../precice-config.xml", {}, "python")}),
     "perpendicular-flap (fake)": ("perpendicular-flap", {
-        "Fluid": ("fluid-fake", "python3 fake.py", {}),
-        "Solid": ("solid-fake", "python3 fake.py", {})}),
+        "Fluid": ("fluid-fake", "python3 fake.py", {}, "python"),
+        "Solid": ("solid-fake", "python3 fake.py", {}, "python")}),
     "perpendicular-flap (fake fluid, nutils solid)": ("perpendicular-flap", {
-        "Fluid": ("fluid-fake", "python3 fake.py", {}),
-        "Solid": ("solid-nutils", "python3 solid.py", NUTILS)}),
+        "Fluid": ("fluid-fake", "python3 fake.py", {}, "python"),
+        "Solid": ("solid-nutils", "python3 solid.py", NUTILS, "nutils9")}),
+    "perpendicular-flap (fake fluid, FEniCS solid)": ("perpendicular-flap", {
+        "Fluid": ("fluid-fake", "python3 fake.py", {}, "python"),
+        "Solid": ("solid-fenics", "python3 solid.py", FENICS, "fenics")}),
     "resonant-circuit": ("resonant-circuit", {
-        "Coil": ("coil-python", "python3 coil.py", {}),
-        "Capacitor": ("capacitor-python", "python3 capacitor.py", {})}),
+        "Coil": ("coil-python", "python3 coil.py", {}, "python"),
+        "Capacitor": ("capacitor-python", "python3 capacitor.py", {}, "python")}),
     "oscillator": ("oscillator", {
-        "Mass-Left": ("mass-left-python", "python3 ../solver-python/oscillator.py Mass-Left", {}),
-        "Mass-Right": ("mass-right-python", "python3 ../solver-python/oscillator.py Mass-Right", {})}),
+        "Mass-Left": ("mass-left-python", "python3 ../solver-python/oscillator.py Mass-Left", {}, "python"),
+        "Mass-Right": ("mass-right-python", "python3 ../solver-python/oscillator.py Mass-Right", {}, "python")}),
     "oscillator-overlap": ("oscillator-overlap", {
-        "Mass-Left": ("mass-left-python", "python3 ../solver-python/oscillator.py Mass-Left", {}),
-        "Mass-Right": ("mass-right-python", "python3 ../solver-python/oscillator.py Mass-Right", {})}),
+        "Mass-Left": ("mass-left-python", "python3 ../solver-python/oscillator.py Mass-Left", {}, "python"),
+        "Mass-Right": ("mass-right-python", "python3 ../solver-python/oscillator.py Mass-Right", {}, "python")}),
     "partitioned-heat-conduction (nutils)": ("partitioned-heat-conduction", {
-        "Dirichlet": ("dirichlet-nutils", "python3 heat.py", NUTILS),
-        "Neumann": ("neumann-nutils", "python3 heat.py", NUTILS)}),
+        "Dirichlet": ("dirichlet-nutils", "python3 heat.py", NUTILS, "nutils7"),
+        "Neumann": ("neumann-nutils", "python3 heat.py", NUTILS, "nutils7")}),
+    "partitioned-heat-conduction (FEniCS)": ("partitioned-heat-conduction", {
+        "Dirichlet": ("dirichlet-fenics", "python3 ../solver-fenics/heat.py Dirichlet", FENICS, "fenics"),
+        "Neumann": ("neumann-fenics", "python3 ../solver-fenics/heat.py Neumann", FENICS, "fenics")}),
+    "partitioned-heat-conduction-overlap (FEniCS)": ("partitioned-heat-conduction-overlap", {
+        "Left": ("left-fenics", "python3 ../solver-fenics/heat.py Left", FENICS, "fenics"),
+        "Right": ("right-fenics", "python3 ../solver-fenics/heat.py Right", FENICS, "fenics")}),
+    "partitioned-heat-conduction-complex (FEniCS)": ("partitioned-heat-conduction-complex", {
+        "Dirichlet": ("dirichlet-fenics", "python3 ../solver-fenics/heat.py -d -i complex", FENICS, "fenics"),
+        "Neumann": ("neumann-fenics", "python3 ../solver-fenics/heat.py -n -i complex", FENICS, "fenics")}),
     "partitioned-heat-conduction-direct (nutils)": ("partitioned-heat-conduction-direct", {
-        "Dirichlet": ("dirichlet-nutils", "python3 heat.py", NUTILS),
-        "Neumann": ("neumann-nutils", "python3 heat.py", NUTILS)}),
+        "Dirichlet": ("dirichlet-nutils", "python3 heat.py", NUTILS, "nutils7"),
+        "Neumann": ("neumann-nutils", "python3 heat.py", NUTILS, "nutils7")}),
+    "volume-coupled-diffusion (FEniCS)": ("volume-coupled-diffusion", {
+        "Source": ("source-fenics", "python3 ../solver-fenics/volume-coupled-diffusion.py --source", FENICS,
+                   "fenics"),
+        "Drain": ("drain-fenics", "python3 ../solver-fenics/volume-coupled-diffusion.py --drain", FENICS, "fenics")}),
     "channel-transport (nutils)": ("channel-transport", {
-        "Fluid": ("fluid-nutils", "python3 fluid.py", {}),
-        "Transport": ("transport-nutils", "python3 transport.py", {})}),
+        "Fluid": ("fluid-nutils", "python3 fluid.py", NUTILS, "nutils7"),
+        "Transport": ("transport-nutils", "python3 transport.py", NUTILS, "nutils7")}),
+    "channel-transport-reaction (FEniCS)": ("channel-transport-reaction", {
+        "Fluid": ("fluid-fenics", "python3 fluid.py", FENICS, "fenics"),
+        "Chemical": ("chemical-fenics", "python3 chemical-reaction-advection-diffusion.py", FENICS, "fenics")}),
 }
 MODES = ("cosim-run", "by-hand")
 TIMEOUT = 1800.0
@@ -67,17 +89,19 @@ def slug(name: str) -> str:
     return "".join(c if c.isalnum() or c == "-" else "-" for c in name).strip("-").replace("--", "-")
 
 
-def command_of(command: str, python: str | None) -> str:
+def command_of(command: str, stack: str, pythons: dict[str, str]) -> str:
+    """The tutorial's command with the Python of the participant's stack (python3 as in run.sh if none given)."""
+    python = pythons.get(stack)
     return command.replace("python3 ", f"{python} ", 1) if python else command
 
 
-def write_case(tutorials: Path, name: str, python: str | None, where: Path) -> Path:
+def write_case(tutorials: Path, name: str, pythons: dict[str, str], where: Path) -> Path:
     """The case file of one tutorial, its paths absolute (the tutorials' checkout is left as it is)."""
     folder, participants = CASES[name]
     lines = [f"# preCICE's tutorial {name}, its participants unmodified", "[precice]",
              f'config = "{tutorials / folder / "precice-config.xml"}"']
-    for participant, (cwd, command, environment) in participants.items():
-        lines += [f'[participants.{participant}]', f'command = "{command_of(command, python)}"',
+    for participant, (cwd, command, environment, stack) in participants.items():
+        lines += [f'[participants.{participant}]', f'command = "{command_of(command, stack, pythons)}"',
                   f'cwd = "{tutorials / folder / cwd}"', "timeout = 600"]
         if environment:
             lines.append("environment = { " + ", ".join(f'{k} = "{v}"' for k, v in environment.items()) + " }")
@@ -102,8 +126,8 @@ def summary(results_file: Path) -> dict:
                 "first_window": int(windows.iterations[0]) if len(windows) else 0}
 
 
-def run_cosim(tutorials: Path, name: str, python: str | None, out: Path) -> dict:
-    case = write_case(tutorials, name, python, out)
+def run_cosim(tutorials: Path, name: str, pythons: dict[str, str], out: Path) -> dict:
+    case = write_case(tutorials, name, pythons, out)
     if (out / "run").exists():
         shutil.rmtree(out / "run")         # a run the table does not hold: cut off before it was written
     started = time.perf_counter()
@@ -117,7 +141,7 @@ def run_cosim(tutorials: Path, name: str, python: str | None, out: Path) -> dict
     return row
 
 
-def run_by_hand(tutorials: Path, name: str, python: str | None, out: Path) -> dict:
+def run_by_hand(tutorials: Path, name: str, pythons: dict[str, str], out: Path) -> dict:
     """Each participant started in its folder as run.sh starts it; the first starts the coupler."""
     folder, participants = CASES[name]
     runs = tutorials / folder / "cosim-run"
@@ -128,9 +152,9 @@ def run_by_hand(tutorials: Path, name: str, python: str | None, out: Path) -> di
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     processes = {}
-    for participant, (cwd, command, extra) in participants.items():
+    for participant, (cwd, command, extra, stack) in participants.items():
         log = (out / f"{participant}.log").open("w")
-        processes[participant] = subprocess.Popen(command_of(command, python), shell=True, cwd=tutorials / folder / cwd,
+        processes[participant] = subprocess.Popen(command_of(command, stack, pythons), shell=True, cwd=tutorials / folder / cwd,
                                                   env={**environment, **extra}, stdout=log, stderr=subprocess.STDOUT,
                                                   start_new_session=True)
     deadline = time.monotonic() + TIMEOUT
@@ -170,8 +194,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--case", action="append", choices=list(CASES), help="only these cases (default: all)")
     parser.add_argument("--mode", action="append", choices=MODES, help="only these ways to start (default: both)")
-    parser.add_argument("--python", help="the participants' Python (default: the coupler's)")
+    parser.add_argument("--python", action="append", default=[], metavar="STACK=PY",
+                        help="the Python of the participants of a stack (python, nutils7, nutils9, fenics): a venv "
+                             "with what they need and this project's pyprecice (pip install "
+                             "./precice_compat/participant); default python3")
     args = parser.parse_args(argv)
+    pythons = dict(item.split("=", 1) for item in args.python)
     store = args.out / "table.json"
     rows = json.loads(store.read_text()) if store.exists() else {}
     for name in args.case or list(CASES):
@@ -181,7 +209,7 @@ def main(argv: list[str] | None = None) -> None:
                 continue
             where = args.out / f"{slug(name)}-{mode}"
             run = run_cosim if mode == "cosim-run" else run_by_hand
-            rows[key] = run(args.tutorials.resolve(), name, args.python, where)
+            rows[key] = run(args.tutorials.resolve(), name, pythons, where)
             store.write_text(json.dumps(rows, indent=1))
             print(table({key: rows[key]}).splitlines()[-1], flush=True)
     print(table(rows))
