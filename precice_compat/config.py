@@ -476,6 +476,8 @@ def _acceleration(reader: _Reader, element: Element, kind: str) -> dict[str, Any
                                    "IQN-IMVJ)")
     settings: dict[str, Any] = {"type": {"constant": "constant", "aitken": "aitken", "IQN-ILS": "iqn-ils",
                                          "IQN-IMVJ": "iqn-imvj"}[kind], "data": []}
+    if kind == "IQN-ILS":     # preCICE keeps reused columns whatever the residual does, and reuses windows with columns
+        settings.update(stale_step_ratio=0.0, count_emptied_windows=False)
     for child in element.children:
         if child.tag == "data":
             settings["data"].append(reader.required(child, "name"))

@@ -148,7 +148,7 @@ def run_by_hand(tutorials: Path, name: str, pythons: dict[str, str], out: Path) 
     if runs.exists():
         shutil.rmtree(runs)           # an earlier run's coupler.json and runs: this run starts afresh
     shim = Path(__file__).resolve().parents[1] / "precice_compat" / "participant"
-    environment = {**os.environ, "PYTHONPATH": str(shim), "COSIM": f"{sys.executable} -m cosim"}
+    environment = {**os.environ, "PYTHONPATH": str(shim), "COSIM": str(Path(sys.executable).with_name("cosim"))}
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     processes = {}

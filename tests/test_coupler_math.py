@@ -394,6 +394,26 @@ def test_a_changed_map_starts_the_quasi_newton_afresh(kind):
         IQNILS(0.1, on_map_change="forget")
 
 
+@pytest.mark.parametrize(("count_emptied_windows", "used"), [(True, 1), (False, 2)])
+def test_a_window_the_filter_emptied_counts_among_the_reused_unless_asked_as_precice(count_emptied_windows, used):
+    """Windows A, B, C of one column each, B's a multiple of C's: the filter empties B. Reusing two windows, the
+    fourth window's first update takes C's column alone, or (as preCICE, which drops emptied windows) C's and A's."""
+    acceleration = IQNILS(0.1, reused_time_windows=2, stale_step_ratio=0.0, filter="qr2",
+                          count_emptied_windows=count_emptied_windows)
+    x = np.zeros(3)
+    for first, second in ([1, 0, 0], [1, 1, 0]), ([0, 0, 1], [0, 0, 2]), ([5, 0, 0], [5, 0, 3]):
+        acceleration.start_window()
+        acceleration.observe(x, np.array(first, float))
+        acceleration.next_iterate()
+        acceleration.observe(x, np.array(second, float))
+        acceleration.next_iterate()
+        acceleration.end_window()
+    acceleration.start_window()
+    acceleration.observe(x, np.array([1.0, 2.0, 3.0]))
+    acceleration.next_iterate()
+    assert acceleration.columns_used == used and acceleration.columns_filtered == 1
+
+
 RBF_BASES = ["compact-polynomial-c0", "compact-polynomial-c2", "compact-polynomial-c4", "compact-polynomial-c6"]
 
 

@@ -46,7 +46,8 @@ class IQNILS(Acceleration):
                 "filter_limit": Value(1e-3, low=0.0, high=1.0, low_open=True, high_open=True),
                 "stale_step_ratio": Value(2.0, low=0.0),
                 "on_map_change": Choice("drop-span", MAP_CHANGES),
-                "preconditioner": Choice("value", PRECONDITIONERS), "freeze_after": Value(0, low=0)}
+                "preconditioner": Choice("value", PRECONDITIONERS), "freeze_after": Value(0, low=0),
+                "count_emptied_windows": True}
     HELP = {
         "initial_relaxation": "the relaxation of a window's first update, before any column exists",
         "max_used_iterations": "the most columns (differences of iterates) the least squares keeps",
@@ -64,12 +65,15 @@ class IQNILS(Acceleration):
                           "norm ('residual') or over the sum of its residual's shares in the window ('residual-sum'; "
                           "replaced when a weight changes by an order of magnitude)",
         "freeze_after": "the weights stay those of this window from then on (0: never)",
+        "count_emptied_windows": "an earlier window whose columns the filter or max_used_iterations all removed "
+                                 "still counts among reused_time_windows (false: it is dropped, so the windows "
+                                 "reused are those with columns, as preCICE's IQN-ILS)",
     }
 
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
                  on_map_change: str = "drop-span", preconditioner: str = "value", freeze_after: int = 0,
-                 block_sizes: list[int] | None = None) -> None:
+                 count_emptied_windows: bool = True, block_sizes: list[int] | None = None) -> None:
         super().__init__()
         if filter not in FILTERS:
             raise ValueError(f"filter {filter!r} not in {FILTERS}")
@@ -79,6 +83,7 @@ class IQNILS(Acceleration):
         self.initial = initial_relaxation
         self.max_columns = max_used_iterations
         self.reused = reused_time_windows
+        self.count_emptied_windows = count_emptied_windows
         self.filter, self.limit = filter, filter_limit
         self.block_sizes = block_sizes
         # columns per window, newest window first; each window's columns newest first
@@ -135,6 +140,13 @@ class IQNILS(Acceleration):
                 V.pop()
                 W.pop()
                 excess -= 1
+        self._drop_emptied()
+
+    def _drop_emptied(self) -> None:
+        """Earlier windows left without columns go, unless they count among the reused ones."""
+        if not self.count_emptied_windows:
+            current, *earlier = self._windows
+            self._windows = deque([current, *(window for window in earlier if window[0])])
 
     def _columns(self) -> tuple[list[np.ndarray], list[np.ndarray], list[tuple[int, int]]]:
         """All columns newest first, and where each is kept (window, index)."""
@@ -150,6 +162,7 @@ class IQNILS(Acceleration):
         V, W = self._windows[window]
         del V[j], W[j]
         self.columns_filtered += 1
+        self._drop_emptied()
 
     def next_iterate(self) -> np.ndarray:
         r = self.x_tilde - self.x
@@ -192,11 +205,9 @@ class IQNILS(Acceleration):
             if bad is None:
                 self.columns_used = len(W)
                 return qr, Vm, np.stack(W, axis=1)
-            window, j = origin.pop(bad)
-            self._remove((window, j))
-            origin = [(w, i - 1 if w == window and i > j else i) for w, i in origin]
-            del W[bad]
-            Vm = np.delete(Vm, bad, axis=1) if W else None
+            self._remove(origin[bad])
+            V, W, origin = self._columns()        # the removal may have dropped an emptied window
+            Vm = np.stack(V, axis=1) if V else None
         self.columns_used = 0
         return None
 

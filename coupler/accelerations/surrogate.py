@@ -40,10 +40,11 @@ class IQNSurrogate(IQNILS):
     def __init__(self, initial_relaxation: float, max_used_iterations: int = 50, reused_time_windows: int = 0,
                  filter: str = "qr2", filter_limit: float = 1e-3, stale_step_ratio: float = 2.0,
                  on_map_change: str = "drop-span", preconditioner: str = "value", freeze_after: int = 0,
-                 correction: str = "secant", max_step_ratio: float = 5.0,
+                 count_emptied_windows: bool = True, correction: str = "secant", max_step_ratio: float = 5.0,
                  block_sizes: list[int] | None = None) -> None:
         super().__init__(initial_relaxation, max_used_iterations, reused_time_windows, filter, filter_limit,
-                         stale_step_ratio, on_map_change, preconditioner, freeze_after, block_sizes=block_sizes)
+                         stale_step_ratio, on_map_change, preconditioner, freeze_after, count_emptied_windows,
+                         block_sizes=block_sizes)
         self.correction = correction
         self.max_step_ratio = max_step_ratio
         self.rejected_steps = 0
