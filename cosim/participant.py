@@ -165,6 +165,7 @@ class ParticipantProxy:
         self.pid: int | None = process.pid if process else None
         self.variables: dict[str, Variable] = {}
         self.meshes: dict[str, np.ndarray] = {}
+        self.elements: dict[str, dict[str, np.ndarray]] = {}     # mesh -> edges, triangles, tetrahedra
         self.warnings: list[str] = []
         self.compute_seconds: list[float] = []
         self.cpu_seconds: list[float] = []
@@ -260,6 +261,7 @@ class ParticipantProxy:
                                                 f"{dimensions or 'dim'})")
             if not np.isfinite(vertices).all():
                 raise ComponentError(self.name, f"gave vertices of mesh '{mesh}' that are not finite")
+        self.elements = self._elements(arrays)
         self._initial = {name[len("data:"):]: value for name, value in arrays.items() if name.startswith("data:")}
         variables = []
         for causality, key in (("output", "write"), ("input", "read")):
@@ -449,7 +451,30 @@ class ParticipantProxy:
         return self.meshes[variable.mesh] if variable.mesh else np.zeros((0, 1))
 
     def lines_of(self, name: str) -> np.ndarray | None:
-        return None          # a participant's meshes carry no connectivity here
+        """The edges the participant gave on that variable's mesh (a triangle's and a tetrahedron's among them)."""
+        return self.elements.get(self.variables[name].mesh, {}).get("edges")
+
+    def cells_of(self, name: str) -> np.ndarray | None:
+        """Its cells: triangles on a 2-D mesh, tetrahedra on a 3-D one."""
+        mesh = self.variables[name].mesh
+        kind = "triangles" if self.meshes[mesh].shape[1] == 2 else "tetrahedra"
+        return self.elements.get(mesh, {}).get(kind)
+
+    def _elements(self, arrays: Mapping[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
+        """The edges, triangles and tetrahedra sent with the vertices (``edges:MESH``, ...), checked."""
+        elements: dict[str, dict[str, np.ndarray]] = {}
+        for key, ids in arrays.items():
+            kind, _, mesh = key.partition(":")
+            if kind not in ELEMENTS:
+                continue
+            width = ELEMENTS[kind]
+            count = len(self.meshes.get(mesh, ()))
+            if mesh not in self.meshes or ids.dtype != np.int64 or ids.ndim != 2 or ids.shape[1] != width \
+                    or (ids.size and (ids.min() < 0 or ids.max() >= count)):
+                raise ComponentError(self.name, f"gave {kind} of mesh '{mesh}' as {ids.dtype} of shape {ids.shape}; "
+                                                f"expected int64 rows of {width} ids of its {count} vertices")
+            elements.setdefault(mesh, {})[kind] = ids
+        return elements
 
 
 def _seconds(value: Any, default: float) -> float:
@@ -459,6 +484,7 @@ def _seconds(value: Any, default: float) -> float:
     return default
 
 
+ELEMENTS = {"edges": 2, "triangles": 3, "tetrahedra": 4}     # the connectivity a participant sends: ids per element
 MAX_MESSAGE = 400      # characters of a participant's message that an error line carries
 
 

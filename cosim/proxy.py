@@ -357,6 +357,10 @@ class ComponentProxy:
         """The line elements of that mesh, if the component declares them."""
         return self.lines.get(self.variables[name].mesh)
 
+    def cells_of(self, name: str) -> np.ndarray | None:
+        """None: a component declares no cells."""
+        return None
+
     # --- checks -------------------------------------------------------------
     def check_outputs(self, arrays: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Outputs as declared by ``describe``; a wrong name or length (naming both shapes), NaN or Inf is an error."""

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
 
 MAPPINGS: Registry[Mapping] = Registry("mapping")
 CONSTRAINTS = ("consistent", "conservative")
+WITHOUT_ELEMENTS = ("refuse", "nearest-node")
 
 
 class Mapping:
@@ -112,21 +113,109 @@ class NearestElement(Mapping):
     are kept."""
 
     SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS),
-                "local_coordinate_tolerance": Value(0.25, low=0.0)}
+                "local_coordinate_tolerance": Value(0.25, low=0.0),
+                "without_elements": Choice("refuse", WITHOUT_ELEMENTS)}
     HELP = {"constraint": "'consistent' interpolates on the sender's elements, 'conservative' transposes the "
                           "interpolation of the other direction (on the receiver's elements)",
             "local_coordinate_tolerance": "how far beyond a line's ends (in its local coordinate, -1 to 1) a "
-                                          "projection is still taken, extrapolated, before the nearest node is"}
+                                          "projection is still taken, extrapolated, before the nearest node is",
+            "without_elements": "a mesh that gives no elements: 'refuse' it, or map to the nearest node "
+                                "(preCICE's fallback)"}
     needs_lines = True
 
-    def __init__(self, source: np.ndarray, target: np.ndarray, lines: np.ndarray,  # noqa: D107
-                 constraint: str = "consistent", local_coordinate_tolerance: float = 0.25):
+    def __init__(self, source: np.ndarray, target: np.ndarray, lines: np.ndarray | None,  # noqa: D107
+                 constraint: str = "consistent", local_coordinate_tolerance: float = 0.25,
+                 without_elements: str = "refuse", cells: np.ndarray | None = None):
         source, target = np.asarray(source, float), np.asarray(target, float)
-        lines = np.asarray(lines, np.int64)
-        if constraint == "consistent":
-            self.matrix = _projection(source, target, lines, local_coordinate_tolerance)
-        else:
-            self.matrix = _projection(target, source, lines, local_coordinate_tolerance).T.tocsr()
+        if constraint == "conservative":
+            source, target = target, source
+        matrix = _on_lines(source, target, lines, local_coordinate_tolerance)
+        self.matrix = matrix if constraint == "consistent" else matrix.T.tocsr()
+
+
+@MAPPINGS.register("cell-interpolation")
+class CellInterpolation(Mapping):
+    """Linear interpolation in the sender's cells (triangles on 2-D meshes, tetrahedra on 3-D ones; preCICE's
+    linear-cell-interpolation): ``consistent``, each target node takes the barycentric interpolation in the cell
+    that holds it; a node in no cell is projected onto the nearest line element, or else takes the nearest node
+    (preCICE's fallback to nearest-projection). ``conservative``, the transpose of the other direction."""
+
+    SETTINGS = {"constraint": Choice("consistent", CONSTRAINTS),
+                "without_elements": Choice("refuse", WITHOUT_ELEMENTS)}
+    HELP = {"constraint": NearestElement.HELP["constraint"].replace("elements", "cells"),
+            "without_elements": NearestElement.HELP["without_elements"]}
+    needs_lines = True
+
+    def __init__(self, source: np.ndarray, target: np.ndarray, lines: np.ndarray | None,  # noqa: D107
+                 constraint: str = "consistent", without_elements: str = "refuse", cells: np.ndarray | None = None):
+        source, target = np.asarray(source, float), np.asarray(target, float)
+        if constraint == "conservative":
+            source, target = target, source
+        matrix = _in_cells(source, target, cells, lines)
+        self.matrix = matrix if constraint == "consistent" else matrix.T.tocsr()
+
+
+def _nearest_node(nodes: np.ndarray, points: np.ndarray) -> sp.csr_matrix:
+    """Each point takes its nearest node's value."""
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+    _, nearest = cKDTree(nodes).query(points)
+    return sp.csr_matrix((np.ones(len(points)), (np.arange(len(points)), nearest)), shape=(len(points), len(nodes)))
+
+
+def _on_lines(nodes: np.ndarray, points: np.ndarray, lines: np.ndarray | None, tolerance: float) -> sp.csr_matrix:
+    """Interpolation at each point's projection onto the nearest line element; the nearest node without lines."""
+    if lines is None or len(lines) == 0:
+        return _nearest_node(nodes, points)
+    return _projection(nodes, points, np.asarray(lines, np.int64), tolerance)
+
+
+def _in_cells(nodes: np.ndarray, points: np.ndarray, cells: np.ndarray | None, lines: np.ndarray | None,
+              candidates: int = 16, chunk: int = 64) -> sp.csr_matrix:
+    """The (len(points), len(nodes)) barycentric interpolation in the simplex cell holding each point; points in no
+    cell go to the lines (``_on_lines``, no extrapolation)."""
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+    if cells is None or len(cells) == 0:
+        return _on_lines(nodes, points, lines, 0.0)
+    cells = np.asarray(cells, np.int64)
+    corners = nodes[cells]                                        # (cells, d + 1, d)
+    edges = np.swapaxes(corners[:, 1:] - corners[:, :1], 1, 2)    # (cells, d, d): columns v_k - v_0
+    volume = np.abs(np.linalg.det(edges))
+    usable = volume > 1e-12 * np.max(volume, initial=0.0)         # degenerate cells hold no point
+    inverse = np.zeros_like(edges)
+    inverse[usable] = np.linalg.inv(edges[usable])
+
+    def weights(p: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Barycentric coordinates (..., d + 1) of points p (..., d) in cells c (...)."""
+        local = np.einsum("...ij,...j->...i", inverse[c], p - corners[c, 0])
+        return np.concatenate([1.0 - local.sum(axis=-1, keepdims=True), local], axis=-1)
+
+    tolerance = 1e-10
+    k = min(candidates, len(cells))
+    _, near = cKDTree(corners.mean(axis=1)).query(points, k=k)
+    near = near.reshape(len(points), k)
+    lam = weights(points[:, None, :], near)
+    inside = (lam.min(axis=-1) >= -tolerance) & usable[near]
+    found = inside.any(axis=1)
+    cell = near[np.arange(len(points)), np.argmax(inside, axis=1)]
+    pending = np.flatnonzero(~found)
+    for start in range(0, len(pending), chunk):                   # the rest: every cell, a chunk of points at a time
+        batch = pending[start:start + chunk]
+        every = np.broadcast_to(np.arange(len(cells)), (len(batch), len(cells)))
+        held = (weights(points[batch, None, :], every).min(axis=-1) >= -tolerance) & usable[None, :]
+        hit = held.any(axis=1)
+        cell[batch[hit]] = np.argmax(held[hit], axis=1)
+        found[batch[hit]] = True
+    rows = np.flatnonzero(found)
+    lam = weights(points[rows], cell[rows])
+    matrix = sp.csr_matrix((lam.ravel(), (np.repeat(rows, lam.shape[1]), cells[cell[rows]].ravel())),
+                           shape=(len(points), len(nodes)))
+    if found.all():
+        return matrix
+    outside = np.flatnonzero(~found)
+    rest = _on_lines(nodes, points[outside], lines, 0.0).tocoo()
+    return matrix + sp.csr_matrix((rest.data, (outside[rest.row], rest.col)), shape=matrix.shape)
 
 
 def _projection(nodes: np.ndarray, points: np.ndarray, lines: np.ndarray, tolerance: float,
@@ -377,9 +466,11 @@ class ScaledMapping(Mapping):
 
 def make_mapping(settings: dict[str, Any], source_nodes: np.ndarray, target_nodes: np.ndarray,
                  source_shape: tuple[int, ...], target_shape: tuple[int, ...], where: str,
-                 source_lines: np.ndarray | None = None, target_lines: np.ndarray | None = None) -> Mapping:
+                 source_lines: np.ndarray | None = None, target_lines: np.ndarray | None = None,
+                 source_cells: np.ndarray | None = None, target_cells: np.ndarray | None = None) -> Mapping:
     """The mapping ``settings`` names, between two variables of the given shapes on the given nodes (and, for an
-    element mapping, the line elements of the sender's mesh, or the receiver's for the conservative form)."""
+    element mapping, the line elements and cells of the sender's mesh, or the receiver's for the conservative
+    form)."""
     cls = MAPPINGS.classes[settings["type"]]
     if not cls.needs_meshes:
         if tuple(source_shape) != tuple(target_shape):
@@ -398,10 +489,12 @@ def make_mapping(settings: dict[str, Any], source_nodes: np.ndarray, target_node
         raise SceneError(f"{where}: meshes of dimension {np.shape(source_nodes)[1]} and {np.shape(target_nodes)[1]}")
     if getattr(cls, "needs_lines", False):
         conservative = settings.get("constraint") == "conservative"
-        lines = target_lines if conservative else source_lines
+        lines, cells = (target_lines, target_cells) if conservative else (source_lines, source_cells)
         side = "receiver" if conservative else "sender"
-        if lines is None or len(lines) == 0:
+        has = [kind for kind, elements in (("lines", lines), ("cells", cells)) if elements is not None and len(elements)]
+        if not has and settings.get("without_elements", "refuse") == "refuse":
             raise SceneError(f"{where}: {settings['type']} mapping ({settings.get('constraint')}) needs the line "
-                             f"elements of the {side}'s mesh, which its component does not declare (Component.lines)")
-        return MAPPINGS.create(settings, source=source_nodes, target=target_nodes, lines=lines)
+                             f"elements{' or cells' if cls is CellInterpolation else ''} of the {side}'s mesh, "
+                             "which its component does not declare (Component.lines)")
+        return MAPPINGS.create(settings, source=source_nodes, target=target_nodes, lines=lines, cells=cells)
     return MAPPINGS.create(settings, source=source_nodes, target=target_nodes)

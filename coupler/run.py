@@ -219,7 +219,8 @@ def build_scheme(scene: Scene, proxies: dict[str, Coupled],
         out_var, in_var = source.variables[data], target.variables[data]
         mapping = make_mapping(spec["mapping"], source.mesh_of(data), target.mesh_of(data),
                                out_var.shape, in_var.shape, f"exchange.{i} ({data})",
-                               source.lines_of(data), target.lines_of(data))
+                               source.lines_of(data), target.lines_of(data), source.cells_of(data),
+                               target.cells_of(data))
         if spec["scale"] != 1.0:
             mapping = ScaledMapping(mapping, spec["scale"])
         if spec["at_window_end"] and not isinstance(target, ComponentProxy | BackendSchedule):

@@ -113,6 +113,9 @@ class BackendSchedule:
     def lines_of(self, name: str) -> np.ndarray | None:
         return self.stages[0][1].lines_of(name)
 
+    def cells_of(self, name: str) -> np.ndarray | None:
+        return self.stages[0][1].cells_of(name)
+
     def output_names(self) -> list[str]:
         return self.stages[0][1].output_names()
 

@@ -52,8 +52,11 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
     """What a participant is told when it says hello: its meshes, the data it writes and reads, the window."""
     participant = config.participants[name]
     scheme = config.scheme
+    with_elements = {mesh for p in config.participants.values() for m in p.mappings
+                     if m.kind in ("nearest-element", "cell-interpolation") for mesh in (m.source, m.target)}
     meshes = {mesh: {"dimensions": config.meshes[mesh]["dimensions"], "provided": mesh in participant.provides,
-                     "connectivity": False} for mesh in [*participant.provides, *participant.receives]}
+                     "connectivity": mesh in with_elements}
+              for mesh in [*participant.provides, *participant.receives]}
 
     def dimensions(data: str, mesh: str) -> int:
         return config.meshes[mesh]["dimensions"] if config.data[data]["vector"] else 1

@@ -325,10 +325,18 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
     elif kind in V2_RBF or kind in V3_RBF:
         settings.update(_rbf_settings(reader, config, element, kind))
         mapped = "rbf"
-    elif kind in ("nearest-projection", "linear-cell-interpolation", "nearest-neighbor-gradient", "axial-geometric-"
-                  "multiscale", "radial-geometric-multiscale"):
-        raise reader.fail(element, f"the mapping {kind!r} is not supported by cosim: use nearest-neighbor, or rbf "
-                                   "with basis-function:compact-polynomial-c2")
+    elif kind == "nearest-projection":
+        if config.meshes[source]["dimensions"] == 3:
+            raise reader.fail(element, "nearest-projection on a 3-D mesh (onto its triangles) is not supported by "
+                                       "cosim: use rbf, or linear-cell-interpolation on tetrahedra")
+        mapped = "nearest-element"
+        settings.update(local_coordinate_tolerance=0.0, without_elements="nearest-node")
+    elif kind == "linear-cell-interpolation":
+        mapped = "cell-interpolation"
+        settings["without_elements"] = "nearest-node"
+    elif kind in ("nearest-neighbor-gradient", "axial-geometric-multiscale", "radial-geometric-multiscale"):
+        raise reader.fail(element, f"the mapping {kind!r} is not supported by cosim: use nearest-neighbor, "
+                                   "nearest-projection, linear-cell-interpolation or rbf")
     else:
         raise reader.fail(element, f"unknown mapping kind {kind!r}")
     reader.done(element)

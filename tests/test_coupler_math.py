@@ -443,6 +443,55 @@ def test_an_rbf_with_a_dead_axis_maps_as_on_the_other_axes_alone():
     assert np.abs(dead(field) - both(field)).max() > 0.1
 
 
+@pytest.mark.parametrize("dimensions", [2, 3])
+def test_cell_interpolation_is_exact_on_linear_fields_inside_the_cells_and_conserves_sums(dimensions):
+    """Triangles (2-D) or tetrahedra (3-D) of a Delaunay mesh: a linear field interpolated exactly at points inside
+    them, whatever cell the search meets first; points outside take the nearest node; the conservative form keeps
+    the total."""
+    from scipy.spatial import Delaunay
+    rng = np.random.default_rng(3)
+    source = rng.random((80, dimensions))
+    cells = Delaunay(source).simplices
+    inside = 0.2 + 0.6 * rng.random((50, dimensions))
+    outside = np.full((1, dimensions), 1.5)
+    target = np.vstack([inside, outside])
+    slope = np.arange(1.0, dimensions + 1.0)
+    settings = {"type": "cell-interpolation", "constraint": "consistent"}
+    mapping = make_mapping(settings, source, target, (80,), (51,), "t", source_cells=cells)
+    mapped = mapping(2.0 + source @ slope)
+    np.testing.assert_allclose(mapped[:50], 2.0 + inside @ slope, atol=1e-12)
+    corner = np.argmin(np.linalg.norm(source - outside, axis=1))
+    assert mapped[50] == 2.0 + source[corner] @ slope
+    forces = rng.standard_normal(51)
+    conservative = make_mapping({**settings, "constraint": "conservative"}, target, source, (51,), (80,), "t",
+                                target_cells=cells)
+    assert conservative(forces).sum() == pytest.approx(forces.sum(), rel=1e-12)
+
+
+def test_element_mappings_without_elements_refuse_or_take_the_nearest_node_as_asked():
+    rng = np.random.default_rng(4)
+    source, target = rng.random((20, 2)), rng.random((7, 2))
+    for kind in ("nearest-element", "cell-interpolation"):
+        with pytest.raises(SceneError, match="needs the line elements"):
+            make_mapping({"type": kind, "constraint": "consistent"}, source, target, (20,), (7,), "t")
+        mapped = make_mapping({"type": kind, "constraint": "consistent", "without_elements": "nearest-node"},
+                              source, target, (20,), (7,), "t")(np.arange(20.0))
+        nearest = np.argmin(np.linalg.norm(target[:, None] - source[None], axis=2), axis=1)
+        np.testing.assert_array_equal(mapped, nearest)
+
+
+def test_cell_interpolation_outside_the_cells_projects_onto_the_lines():
+    """A unit square of two triangles and its four edges; a point beside it takes the interpolation at its
+    projection onto the nearest edge (preCICE's fallback to nearest-projection)."""
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    cells = np.array([[0, 1, 2], [0, 2, 3]])
+    lines = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+    target = np.array([[0.25, 0.5], [1.5, 0.25]])
+    mapped = make_mapping({"type": "cell-interpolation"}, square, target, (4,), (2,), "t", source_lines=lines,
+                          source_cells=cells)(square @ [1.0, 10.0])
+    np.testing.assert_allclose(mapped, [0.25 + 5.0, 1.0 + 2.5], atol=1e-12)
+
+
 def rbf_probe(collinear: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The vertices and field of tests/data/precice_rbf_reference.json (25 -> 15 vertices, on a line if asked)."""
     rng = np.random.default_rng(4)

@@ -139,9 +139,9 @@ BAD_CONFIGS = [
     ("an undefined participant", ('<participants first="Fluid" second="Solid" />',
                                   '<participants first="Fluid" second="Structure" />'),
      "participant 'Structure' is not defined"),
-    ("nearest-projection", ("mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
-                            "mapping:nearest-projection direction=\"read\" from=\"Solid-Nodes\""),
-     "the mapping 'nearest-projection' is not supported"),
+    ("nearest-neighbor-gradient", ("mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
+                                   "mapping:nearest-neighbor-gradient direction=\"read\" from=\"Solid-Nodes\""),
+     "the mapping 'nearest-neighbor-gradient' is not supported"),
     ("an action", ('<write-data name="Pressure" mesh="Fluid-Nodes" />',
                    '<write-data name="Pressure" mesh="Fluid-Nodes" />\n    <action:multiply-by-area timing="write-mapping-post" mesh="Fluid-Nodes"/>'),
      "actions are not supported"),
@@ -435,6 +435,109 @@ def test_a_subcycling_participant_reads_the_window_end_value_at_every_step_at_de
                 x = x + dt * (inputs[call] - x)
                 elapsed += dt
             assert np.array_equal(x, outputs[call])
+
+
+FIELD_SOURCE = '''
+import json
+import numpy as np
+import precice
+participant = precice.Participant("Source", "../config.xml", 0, 1)
+x, y = np.meshgrid(np.linspace(0.0, 1.0, 5), np.linspace(0.0, 1.0, 4))
+grid = np.column_stack([x.ravel(), y.ravel()])
+ids = participant.set_mesh_vertices("Source-Mesh", grid)
+CONNECT
+participant.initialize()
+t = 0.0
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    t += dt
+    participant.write_data("Source-Mesh", "T", ids, t + 2.0 * grid[:, 0] + 3.0 * grid[:, 1] ** 2)
+    participant.advance(dt)
+participant.finalize()
+'''
+FIELD_TARGET = '''
+import json
+import numpy as np
+import precice
+participant = precice.Participant("Target", "../config.xml", 0, 1)
+points = np.array([[0.1, 0.1], [0.55, 0.4], [0.9, 0.95], [1.2, 0.45]])
+ids = participant.set_mesh_vertices("Target-Mesh", points)
+participant.initialize()
+seen = []
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    seen.append(participant.read_data("Target-Mesh", "T", ids, dt).tolist())
+    participant.advance(dt)
+participant.finalize()
+json.dump(seen, open("seen.json", "w"))
+'''
+FIELD_CONFIG = '''<?xml version="1.0"?>
+<precice-configuration>
+  <data:scalar name="T"/>
+  <mesh name="Source-Mesh" dimensions="2"><use-data name="T"/></mesh>
+  <mesh name="Target-Mesh" dimensions="2"><use-data name="T"/></mesh>
+  <participant name="Source"><provide-mesh name="Source-Mesh"/><write-data name="T" mesh="Source-Mesh"/></participant>
+  <participant name="Target">
+    <provide-mesh name="Target-Mesh"/><receive-mesh name="Source-Mesh" from="Source"/>
+    <read-data name="T" mesh="Target-Mesh"/>
+    <mapping:MAPPING direction="read" from="Source-Mesh" to="Target-Mesh" constraint="consistent"/>
+  </participant>
+  <m2n:sockets acceptor="Source" connector="Target" exchange-directory=".."/>
+  <coupling-scheme:serial-explicit>
+    <participants first="Source" second="Target"/>
+    <max-time-windows value="2"/>
+    <time-window-size value="1.0"/>
+    <exchange data="T" mesh="Source-Mesh" from="Source" to="Target"/>
+  </coupling-scheme:serial-explicit>
+</precice-configuration>
+'''
+QUADS = """if participant.requires_mesh_connectivity_for("Source-Mesh"):
+    corner = np.arange(20).reshape(4, 5)[:-1, :-1].ravel()
+    participant.set_mesh_quads("Source-Mesh", np.column_stack([corner, corner + 1, corner + 6, corner + 5]))"""
+EDGES = """if participant.requires_mesh_connectivity_for("Source-Mesh"):
+    top = np.arange(15, 20)
+    participant.set_mesh_edges("Source-Mesh", np.column_stack([top[:-1], top[1:]]))"""
+
+
+def exact_field(points: np.ndarray, t: float) -> np.ndarray:
+    return t + 2.0 * points[:, 0] + 3.0 * points[:, 1] ** 2
+
+
+@pytest.mark.parametrize(("mapping", "connect"), [("linear-cell-interpolation", QUADS),
+                                                  ("nearest-projection", EDGES), ("linear-cell-interpolation", "")])
+def test_element_mappings_take_the_connectivity_participants_give(tmp_path, mapping, connect):
+    """A participant that asks requires_mesh_connectivity_for and gives quads (split into triangles) or edges: a
+    linear-cell-interpolation reads, inside the cells, the barycentric interpolation of its grid's values (exact in
+    x, linear in y between rows); outside, the projection on the boundary edges; a nearest-projection onto the grid's
+    top edges interpolates along them (beyond their ends, the nearest vertex); with no connectivity, the nearest
+    vertex, as preCICE falls back."""
+    for name, text in (("Source/source.py", FIELD_SOURCE.replace("CONNECT", connect)),
+                       ("Target/target.py", FIELD_TARGET), ("config.xml", FIELD_CONFIG.replace("MAPPING", mapping)),
+                       ("case.toml", '[precice]\nconfig = "config.xml"\n[participants.Source]\ncommand = '
+                                     '"python3 source.py"\ncwd = "Source"\n[participants.Target]\ncommand = '
+                                     '"python3 target.py"\ncwd = "Target"\n')):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+    run_scene(load_scene(tmp_path / "case.toml"), tmp_path / "out", progress=False)
+    seen = np.array(json.loads((tmp_path / "Target" / "seen.json").read_text()))
+    points = np.array([[0.1, 0.1], [0.55, 0.4], [0.9, 0.95], [1.2, 0.45]])
+    rows = np.linspace(0.0, 1.0, 4)
+    if mapping == "linear-cell-interpolation" and connect:
+        # piecewise linear in y between the grid's rows; the last point, beyond x = 1, on the right edge
+        y = points[:, 1]
+        below = np.clip(np.searchsorted(rows, y) - 1, 0, 2)
+        square = 3.0 * (rows[below] ** 2 + (y - rows[below]) * (rows[below] + rows[below + 1]))
+        expected = 2.0 * np.minimum(points[:, 0], 1.0) + square
+    elif mapping == "nearest-projection":
+        expected = 2.0 * points[:, 0] + 3.0           # projected onto the top edges, y = 1 ...
+        expected[3] = 2.0 + 3.0 * rows[1] ** 2        # ... but beyond their end: the nearest vertex, (1, 1/3)
+    else:
+        x, y = np.meshgrid(np.linspace(0.0, 1.0, 5), rows)
+        grid = np.column_stack([x.ravel(), y.ravel()])
+        nearest = grid[np.argmin(np.linalg.norm(points[:, None] - grid[None], axis=2), axis=1)]
+        expected = 2.0 * nearest[:, 0] + 3.0 * nearest[:, 1] ** 2
+    for window, values in enumerate(seen, start=1):
+        np.testing.assert_allclose(values, expected + window, atol=1e-12)
 
 
 @pytest.fixture(scope="module")

@@ -51,6 +51,8 @@ class Core:
         self.write = {(d["mesh"], d["data"]): d for d in self.setup["write"]}
         self.read = {(d["mesh"], d["data"]): d for d in self.setup["read"]}
         self.vertices: dict[str, list[np.ndarray]] = {mesh: [] for mesh in self.meshes}
+        # a provided mesh's elements, for the coupler's projection and cell mappings: kind -> blocks of vertex ids
+        self.elements: dict[str, dict[str, list[np.ndarray]]] = {mesh: {} for mesh in self.meshes}
         self.written: dict[str, np.ndarray] = {}
         self.received: dict[str, np.ndarray] = {}
         self.waveforms: dict[str, Waveform] = {}       # read data of degree >= 1: its window's interpolant
@@ -104,6 +106,31 @@ class Core:
         first = sum(len(block) for block in self.vertices[mesh])
         self.vertices[mesh].append(points.copy())
         return np.arange(first, first + len(points))
+
+    def connect(self, call: str, mesh: str, vertices: Any, per_element: int) -> np.ndarray:
+        """Edges, triangles, quads and tetrahedra (``per_element`` vertex ids each; a quad when ``call`` names
+        one), checked against the mesh's vertices and sent with them at initialize for the mappings that project
+        or interpolate in cells. As preCICE, a triangle brings its edges, a quad its edges and two triangles, a
+        tetrahedron its edges. The rows of vertex ids."""
+        self.mesh(call, mesh, provided=True)
+        if self.state != "constructed":
+            raise self.fail(call, "connectivity is set before initialize, not after")
+        ids = np.asarray(vertices)
+        if ids.size % per_element:
+            raise self.fail(call, f"{ids.size} vertex ids do not make elements of {per_element}")
+        rows = self._ids(call, mesh, ids).reshape(-1, per_element)
+        if (np.diff(np.sort(rows, axis=1), axis=1) == 0).any():
+            raise self.fail(call, "an element repeats a vertex")
+        kinds = self.elements[mesh]
+        if per_element == 4 and "quad" in call:
+            kinds.setdefault("edges", []).append(rows[:, [0, 1, 1, 2, 2, 3, 3, 0]].reshape(-1, 2))
+            kinds.setdefault("triangles", []).append(rows[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3))
+            return rows
+        pairs = [(i, j) for i in range(per_element) for j in range(i + 1, per_element)]
+        kinds.setdefault("edges", []).append(rows[:, np.array(pairs).ravel()].reshape(-1, 2))
+        if per_element > 2:
+            kinds.setdefault("triangles" if per_element == 3 else "tetrahedra", []).append(rows)
+        return rows
 
     def vertex_count(self, mesh: str) -> int:
         return sum(len(block) for block in self.vertices[mesh])
@@ -193,6 +220,9 @@ class Core:
             if info["provided"] and not self.vertex_count(mesh):
                 raise self.fail(call, f"mesh '{mesh}' has no vertices: set them before initialize")
         arrays = {"mesh:" + mesh: self.coordinates(mesh) for mesh, info in self.meshes.items() if info["provided"]}
+        for mesh, kinds in self.elements.items():
+            for kind, blocks in kinds.items():
+                arrays[f"{kind}:{mesh}"] = np.unique(np.sort(np.concatenate(blocks), axis=1), axis=0)
         for (mesh, data), spec in self.write.items():
             if data in self.setup["initial"]:
                 arrays["data:" + data] = self._buffer(mesh, data, spec)

@@ -39,6 +39,7 @@ class Interface:
         pairs = sorted(set(self._core.write) | set(self._core.read))
         self._data_ids: dict[tuple[str, str], int] = {pair: i for i, pair in enumerate(pairs)}
         self._initialized = False       # initialize() done; the exchange itself waits for initialize_data()
+        self._edges: dict[str, list[tuple[int, int]]] = {}     # v2's edge ids, per mesh, for set_mesh_triangle
         self._pending = {WRITE_INITIAL_DATA: False, WRITE_ITERATION_CHECKPOINT: False,
                          READ_ITERATION_CHECKPOINT: False}
 
@@ -85,17 +86,34 @@ class Interface:
     def get_mesh_vertex_size(self, mesh_id: int) -> int:
         return self._core.vertex_count(self._mesh("get_mesh_vertex_size", mesh_id))
 
+    def is_mesh_connectivity_required(self, mesh_id: int) -> bool:
+        mesh = self._mesh("is_mesh_connectivity_required", mesh_id)
+        return bool(self._core.meshes[mesh].get("connectivity", False))
+
     def set_mesh_edge(self, mesh_id: int, first_vertex_id: int, second_vertex_id: int) -> int:
         mesh = self._mesh("set_mesh_edge", mesh_id)
-        self._core._ids("set_mesh_edge", mesh, [first_vertex_id, second_vertex_id])
-        return 0
+        self._core.connect("set_mesh_edge", mesh, [first_vertex_id, second_vertex_id], 2)
+        edges = self._edges.setdefault(mesh, [])
+        edges.append((int(first_vertex_id), int(second_vertex_id)))
+        return len(edges) - 1
 
     def set_mesh_triangle(self, mesh_id: int, first_edge_id: int, second_edge_id: int, third_edge_id: int) -> None:
-        self._mesh("set_mesh_triangle", mesh_id)
+        """A triangle of three edges (v2's ids, from set_mesh_edge)."""
+        mesh = self._mesh("set_mesh_triangle", mesh_id)
+        edges = self._edges.get(mesh, [])
+        ids = [first_edge_id, second_edge_id, third_edge_id]
+        for edge in ids:
+            if isinstance(edge, bool) or not isinstance(edge, int | np.integer) or not 0 <= edge < len(edges):
+                raise self._core.fail("set_mesh_triangle", f"edge id {edge!r} is not an edge of mesh '{mesh}' "
+                                      f"({len(edges)} edges)")
+        corners = sorted({vertex for edge in ids for vertex in edges[edge]})
+        if len(corners) != 3:
+            raise self._core.fail("set_mesh_triangle", f"edges {ids} do not close a triangle")
+        self._core.connect("set_mesh_triangle", mesh, corners, 3)
 
     def set_mesh_triangle_with_edges(self, mesh_id: int, *vertex_ids: int) -> None:
-        self._core._ids("set_mesh_triangle_with_edges", self._mesh("set_mesh_triangle_with_edges", mesh_id),
-                        list(vertex_ids))
+        self._core.connect("set_mesh_triangle_with_edges", self._mesh("set_mesh_triangle_with_edges", mesh_id),
+                           list(vertex_ids), 3)
 
     # --- steering ---------------------------------------------------------------------------------------------------
     def initialize(self) -> float:

@@ -73,13 +73,7 @@ class Participant:
         return bool(self._core.mesh("requires_mesh_connectivity_for", mesh_name).get("connectivity", False))
 
     def _connectivity(self, call: str, mesh_name: str, vertices: Any, per_element: int) -> None:
-        """Edges, triangles, quads and tetrahedra: checked against the mesh's vertices and kept (cosim's mappings
-        work on the vertices)."""
-        self._core.mesh(call, mesh_name, provided=True)
-        ids = np.asarray(vertices)
-        if ids.size % per_element:
-            raise self._core.fail(call, f"{ids.size} vertex ids do not make elements of {per_element}")
-        self._core._ids(call, mesh_name, ids)
+        self._core.connect(call, mesh_name, vertices, per_element)
 
     def set_mesh_edge(self, mesh_name: str, first_vertex_id: int, second_vertex_id: int) -> None:
         self._connectivity("set_mesh_edge", mesh_name, [first_vertex_id, second_vertex_id], 2)
