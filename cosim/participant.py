@@ -166,6 +166,7 @@ class ParticipantProxy:
         self.variables: dict[str, Variable] = {}
         self.meshes: dict[str, np.ndarray] = {}
         self.elements: dict[str, dict[str, np.ndarray]] = {}     # mesh -> edges, triangles, tetrahedra
+        self._received: list[str] = []      # received meshes it accesses directly (their vertices go with initialize)
         self.warnings: list[str] = []
         self.compute_seconds: list[float] = []
         self.cpu_seconds: list[float] = []
@@ -263,10 +264,18 @@ class ParticipantProxy:
                 raise ComponentError(self.name, f"gave vertices of mesh '{mesh}' that are not finite")
         self.elements = self._elements(arrays)
         self._initial = {name[len("data:"):]: value for name, value in arrays.items() if name.startswith("data:")}
+        self._declare()
+
+    def _declare(self) -> None:
+        """Its variables: the data it writes and reads, on the meshes it provides (and those it accesses directly,
+        once ``link`` gave their vertices)."""
         variables = []
+        meshes = self.setup.get("meshes") or {}
         for causality, key in (("output", "write"), ("input", "read")):
             for spec in self.setup.get(key, []):
                 nodes = self.meshes.get(spec["mesh"])
+                if nodes is None and meshes.get(spec["mesh"], {}).get("direct_access"):
+                    continue                        # a received mesh: declared when linked
                 if nodes is None:
                     raise ComponentError(self.name, f"gave no vertices of mesh '{spec['mesh']}', on which it "
                                                     f"{'writes' if causality == 'output' else 'reads'} "
@@ -277,6 +286,21 @@ class ParticipantProxy:
         self.variables = {v.name: v for v in variables}
         self.check_outputs(self._initial)
         self._written = sorted(v.name for v in variables if v.causality == "output")
+
+    def link(self, providers: Mapping[str, ParticipantProxy]) -> None:
+        """The received meshes it accesses directly, from the participants that provide them: their vertices are
+        sent with the answer to its initialize, and the data it writes or reads on them declared."""
+        for mesh, info in (self.setup.get("meshes") or {}).items():
+            if info.get("provided") or not info.get("direct_access"):
+                continue
+            provider = providers.get(info.get("from", ""))
+            if provider is None or mesh not in provider.meshes:
+                raise ComponentError(self.name, f"accesses mesh '{mesh}' directly, which participant "
+                                                f"'{info.get('from')}' does not give")
+            self.meshes[mesh] = provider.meshes[mesh]
+            self._received.append(mesh)
+        if self._received:
+            self._declare()
 
     def enter_initialization_mode(self, start: float, stop: float) -> None:
         pass
@@ -303,6 +327,8 @@ class ParticipantProxy:
         self._sent_at = time.perf_counter()
         self._sent = (dict(inputs), dict(waveforms or {}))
         arrays = {f"data:{name}": np.asarray(value) for name, value in inputs.items()}
+        if first:
+            arrays.update({f"mesh:{mesh}": self.meshes[mesh] for mesh in self._received})
         knots, lines = {}, []
         for name, (knot_vector, coefficients) in (waveforms or {}).items():
             if len(coefficients) == 2:      # the line from the window's start to its end: the start goes once a

@@ -186,6 +186,13 @@ def component_environment(spec: dict) -> dict[str, str]:
     return environment
 
 
+def link_participants(backends: list[Backend]) -> None:
+    """Each preCICE participant that accesses a received mesh directly takes its vertices from the one providing it."""
+    providers = {b.participant: b.client for b in backends if isinstance(b.client, ParticipantProxy)}
+    for proxy in providers.values():
+        proxy.link(providers)
+
+
 def participants_of(backends: list[Backend]) -> dict[str, Coupled]:
     """Each scene component as the scheme sees it: a proxy, or a schedule of backends."""
     grouped: dict[str, list[Backend]] = {}
@@ -402,6 +409,8 @@ class Run:
                 b.client.receive_instantiate()
             else:
                 b.client.instantiate(b.parameters)
+        link_participants(backends)
+        for b in backends:
             if self.saved is None:
                 store.write_description(b.name, [asdict(v) for v in b.client.variables.values()], b.client.meshes)
             b.client.enter_initialization_mode(self.time.start, self.time.window_start(self.n_windows))

@@ -55,7 +55,8 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
     with_elements = {mesh for p in config.participants.values() for m in p.mappings
                      if m.kind in ("nearest-element", "cell-interpolation") for mesh in (m.source, m.target)}
     meshes = {mesh: {"dimensions": config.meshes[mesh]["dimensions"], "provided": mesh in participant.provides,
-                     "connectivity": mesh in with_elements}
+                     "connectivity": mesh in with_elements, "direct_access": mesh in participant.direct,
+                     "from": participant.receives.get(mesh, name)}
               for mesh in [*participant.provides, *participant.receives]}
 
     def dimensions(data: str, mesh: str) -> int:

@@ -47,6 +47,7 @@ class Participant:
     line: int
     provides: list[str] = field(default_factory=list)
     receives: dict[str, str] = field(default_factory=dict)      # mesh -> the participant it comes from
+    direct: set[str] = field(default_factory=set)               # received meshes it accesses directly (no mapping)
     writes: dict[str, str] = field(default_factory=dict)        # data -> mesh
     reads: dict[str, str] = field(default_factory=dict)
     mappings: list[Mapping] = field(default_factory=list)
@@ -143,6 +144,8 @@ def read_config(path: str | Path) -> Config:
     reader = _Reader(path)
     if root.tag != "precice-configuration":
         raise reader.fail(root, "the root element of a preCICE configuration is <precice-configuration>")
+    reader.flag(root, "experimental")       # v3's gate on experimental features: cosim's are what it reads
+    reader.flag(root, "allow-remeshing")    # a participant's reset_mesh is refused when called
     reader.done(root)
     children = root.children
     version = 3
@@ -244,8 +247,7 @@ def _participant(reader: _Reader, config: Config, element: Element) -> None:
             child.get("safety-factor")
             child.get("geometric-filter")
             if reader.flag(child, "direct-access") or reader.flag(child, "api-access"):
-                raise reader.fail(child, "direct access to a received mesh is not supported by cosim: read the data "
-                                         "on a mesh of your own, through a mapping")
+                participant.direct.add(mesh)
             reader.done(child)
         elif child.tag == "use-mesh":        # v2
             mesh = _mesh_of(reader, config, child, reader.required(child, "name"))
@@ -575,6 +577,10 @@ def _check(reader: _Reader, config: Config) -> None:
             if mesh not in participant.provides and mesh not in participant.receives:
                 raise SceneError(f"{config.path}, line {participant.line}: participant '{name}' writes or reads "
                                  f"'{data}' on mesh '{mesh}', which it neither provides nor receives")
+            if mesh in participant.receives and mesh not in participant.direct:
+                raise SceneError(f"{config.path}, line {participant.line}: participant '{name}' writes or reads "
+                                 f"'{data}' on mesh '{mesh}', which it receives without direct-access=\"true\" "
+                                 "(map the data onto a mesh of its own, or access this one directly)")
         for mapping in participant.mappings:
             own = mapping.target if mapping.direction == "read" else mapping.source
             other = mapping.source if mapping.direction == "read" else mapping.target

@@ -16,7 +16,7 @@ import pytest
 
 from cosim import protocol
 from cosim.cli import main
-from cosim.errors import SceneError
+from cosim.errors import CosimError, SceneError
 from cosim.results import RunResults
 from cosim.rundir import read_status
 from cosim.scene import load_scene
@@ -538,6 +538,113 @@ def test_element_mappings_take_the_connectivity_participants_give(tmp_path, mapp
         expected = 2.0 * nearest[:, 0] + 3.0 * nearest[:, 1] ** 2
     for window, values in enumerate(seen, start=1):
         np.testing.assert_allclose(values, expected + window, atol=1e-12)
+
+
+DIRECT_PROVIDER = '''
+import json
+import numpy as np
+import precice
+participant = precice.Participant("Provider", "../config.xml", 0, 1)
+points = np.column_stack([np.linspace(0.0, 1.0, 11), np.zeros(11)])
+ids = participant.set_mesh_vertices("Provider-Mesh", points)
+participant.initialize()
+seen = []
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    seen.append(participant.read_data("Provider-Mesh", "D", ids, dt).tolist())
+    participant.advance(dt)
+participant.finalize()
+json.dump(seen, open("seen.json", "w"))
+'''
+DIRECT_ACCESSOR = '''
+import json
+import numpy as np
+import precice
+participant = precice.Participant("Accessor", "../config.xml", 0, 1)
+participant.set_mesh_vertices("Accessor-Mesh", np.zeros((1, 2)))
+participant.set_mesh_access_region("Provider-Mesh", [0.25, 0.75, -1.0, 1.0])
+participant.initialize()
+ids, coordinates = participant.get_mesh_vertex_ids_and_coordinates("Provider-Mesh")
+size = participant.get_mesh_vertex_size("Provider-Mesh")
+t = 0.0
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    t += dt
+    participant.write_data("Provider-Mesh", "D", ids, t + coordinates[:, 0] ** 2)
+    participant.advance(dt)
+participant.finalize()
+json.dump({"ids": ids.tolist(), "size": size}, open("region.json", "w"))
+'''
+DIRECT_CONFIG = '''<?xml version="1.0"?>
+<precice-configuration experimental="true">
+  <data:scalar name="D"/>
+  <mesh name="Provider-Mesh" dimensions="2"><use-data name="D"/></mesh>
+  <mesh name="Accessor-Mesh" dimensions="2"><use-data name="D"/></mesh>
+  <participant name="Accessor">
+    <provide-mesh name="Accessor-Mesh"/><receive-mesh name="Provider-Mesh" from="Provider" api-access="true"/>
+    <write-data name="D" mesh="Provider-Mesh"/>
+  </participant>
+  <participant name="Provider"><provide-mesh name="Provider-Mesh"/><read-data name="D" mesh="Provider-Mesh"/></participant>
+  <m2n:sockets acceptor="Accessor" connector="Provider" exchange-directory=".."/>
+  <coupling-scheme:serial-explicit>
+    <participants first="Accessor" second="Provider"/>
+    <max-time-windows value="2"/>
+    <time-window-size value="1.0"/>
+    <exchange data="D" mesh="Provider-Mesh" from="Accessor" to="Provider"/>
+  </coupling-scheme:serial-explicit>
+</precice-configuration>
+'''
+
+
+def write_case(folder: Path, participants: dict[str, str], config: str) -> Path:
+    """A case of participants written here, each in its folder beside ``config.xml``."""
+    lines = ['[precice]', 'config = "config.xml"']
+    for name, text in participants.items():
+        (folder / name).mkdir(parents=True, exist_ok=True)
+        (folder / name / "participant.py").write_text(text)
+        lines += [f"[participants.{name}]", 'command = "python3 participant.py"', f'cwd = "{name}"']
+    (folder / "config.xml").write_text(config)
+    (folder / "case.toml").write_text("\n".join(lines) + "\n")
+    return folder / "case.toml"
+
+
+def test_a_participant_writes_directly_on_the_received_mesh_in_its_access_region(tmp_path):
+    """preCICE's direct access: the accessor sees the provider's vertices in its box (ids 3 to 7 of 11), writes
+    its data there, and the provider reads it without a mapping (zero outside the box)."""
+    case_file = write_case(tmp_path, {"Provider": DIRECT_PROVIDER, "Accessor": DIRECT_ACCESSOR}, DIRECT_CONFIG)
+    run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    region = json.loads((tmp_path / "Accessor" / "region.json").read_text())
+    assert region == {"ids": [3, 4, 5, 6, 7], "size": 5}
+    seen = np.array(json.loads((tmp_path / "Provider" / "seen.json").read_text()))
+    x = np.linspace(0.0, 1.0, 11)
+    for window, values in enumerate(seen, start=1):
+        expected = np.where((x >= 0.25) & (x <= 0.75), window + x ** 2, 0.0)
+        np.testing.assert_allclose(values, expected, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (("api-access=\"true\"", ""), "which it receives without direct-access=\"true\""),
+])
+def test_data_on_a_received_mesh_without_direct_access_is_refused(tmp_path, change, message):
+    (tmp_path / "config.xml").write_text(DIRECT_CONFIG.replace(*change))
+    with pytest.raises(SceneError, match=re.escape(message)):
+        read_config(tmp_path / "config.xml")
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (('participant.set_mesh_access_region("Provider-Mesh", [0.25, 0.75, -1.0, 1.0])\n', ""),
+     "no access region is set on mesh 'Provider-Mesh' (set_mesh_access_region before initialize)"),
+    (("participant.initialize()\nids, coordinates", "ids, coordinates"),
+     "a received mesh's vertices are known after initialize"),
+    (("[0.25, 0.75, -1.0, 1.0]", "[0.25, 0.75]"), "the bounding box has 2 values; expected 4 finite ones"),
+])
+def test_direct_access_misused_is_named_in_one_line(tmp_path, change, message):
+    case_file = write_case(tmp_path, {"Provider": DIRECT_PROVIDER, "Accessor": DIRECT_ACCESSOR.replace(*change)},
+                           DIRECT_CONFIG)
+    with pytest.raises(CosimError) as failed:
+        run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert message in str(failed.value)
+    assert children_of(os.getpid()) == []
 
 
 @pytest.fixture(scope="module")

@@ -53,6 +53,8 @@ class Core:
         self.vertices: dict[str, list[np.ndarray]] = {mesh: [] for mesh in self.meshes}
         # a provided mesh's elements, for the coupler's projection and cell mappings: kind -> blocks of vertex ids
         self.elements: dict[str, dict[str, list[np.ndarray]]] = {mesh: {} for mesh in self.meshes}
+        self.received_vertices: dict[str, np.ndarray] = {}   # received meshes accessed directly: from initialize
+        self.regions: dict[str, np.ndarray] = {}             # their access regions, (dimensions, 2): min and max
         self.written: dict[str, np.ndarray] = {}
         self.received: dict[str, np.ndarray] = {}
         self.waveforms: dict[str, Waveform] = {}       # read data of degree >= 1: its window's interpolant
@@ -133,7 +135,44 @@ class Core:
         return rows
 
     def vertex_count(self, mesh: str) -> int:
+        if not self.meshes[mesh]["provided"]:
+            return len(self.received_vertices.get(mesh, ()))
         return sum(len(block) for block in self.vertices[mesh])
+
+    # --- direct access to a received mesh ---------------------------------------------------------------------------
+    def direct(self, call: str, mesh: Any) -> dict[str, Any]:
+        info = self.mesh(call, mesh)
+        if info["provided"] or not info.get("direct_access"):
+            raise self.fail(call, f"mesh '{mesh}' is not a received mesh with direct access (give its "
+                                  "<receive-mesh> api-access=\"true\")")
+        return info
+
+    def set_access_region(self, call: str, mesh: str, box: Any) -> None:
+        """The box (min and max of each coordinate in turn) of the received mesh's vertices this participant sees."""
+        info = self.direct(call, mesh)
+        if self.state != "constructed":
+            raise self.fail(call, "the access region is set before initialize")
+        dimensions = int(info["dimensions"])
+        flat = np.asarray(box, dtype=np.float64).ravel()
+        if flat.shape != (2 * dimensions,) or not np.isfinite(flat).all():
+            raise self.fail(call, f"the bounding box has {flat.size} values; expected {2 * dimensions} finite ones "
+                                  "(min and max of each coordinate)")
+        bounds = flat.reshape(dimensions, 2)
+        if (bounds[:, 0] > bounds[:, 1]).any():
+            raise self.fail(call, "the bounding box has a minimum above its maximum")
+        self.regions[mesh] = bounds
+
+    def region_vertices(self, call: str, mesh: str) -> tuple[np.ndarray, np.ndarray]:
+        """The ids and coordinates of the received mesh's vertices inside the access region."""
+        self.direct(call, mesh)
+        if self.state != "initialized":
+            raise self.fail(call, "a received mesh's vertices are known after initialize")
+        if mesh not in self.regions:
+            raise self.fail(call, f"no access region is set on mesh '{mesh}' (set_mesh_access_region before "
+                                  "initialize)")
+        points, bounds = self.received_vertices[mesh], self.regions[mesh]
+        inside = np.flatnonzero(((points >= bounds[:, 0]) & (points <= bounds[:, 1])).all(axis=1))
+        return inside, points[inside]
 
     def coordinates(self, mesh: str) -> np.ndarray:
         blocks = self.vertices[mesh]
@@ -159,6 +198,9 @@ class Core:
         if spec is None:
             writes = ", ".join(f"{d} on {m}" for m, d in sorted(self.write)) or "none"
             raise self.fail(call, f"participant '{self.name}' writes no data '{data}' on mesh '{mesh}' (it writes: {writes})")
+        if self.state == "constructed" and not self.meshes[mesh]["provided"]:
+            raise self.fail(call, f"data on the received mesh '{mesh}' is written after initialize (its vertices "
+                                  "come with it)")
         if self.state == "constructed" and data not in self.setup["initial"]:
             raise self.fail(call, f"'{data}' is written before initialize only as initial data, and the exchange of "
                             f"'{data}' has no initialize=\"true\"")
@@ -240,6 +282,9 @@ class Core:
         """Send the window's end (or the initialisation) and take the coupler's answer: the read data of the
         window to compute, and whether it is a new window, the same one again, or none (the end)."""
         result, received = self._request(op, args, arrays)
+        for name, value in received.items():
+            if name.startswith("mesh:"):           # a received mesh this participant accesses directly
+                self.received_vertices[name[len("mesh:"):]] = np.asarray(value, dtype=np.float64)
         self.received = {name[len("data:"):]: value for name, value in received.items() if name.startswith("data:")}
         self.waveforms = {name: Waveform(np.array(knots), received["coefficients:" + name])
                           for name, knots in (result.get("knots") or {}).items()}

@@ -66,7 +66,11 @@ class Participant:
         return self._core.add_vertices("set_mesh_vertices", mesh_name, positions)
 
     def get_mesh_vertex_size(self, mesh_name: str) -> int:
-        self._core.mesh("get_mesh_vertex_size", mesh_name)
+        info = self._core.mesh("get_mesh_vertex_size", mesh_name)
+        if not info["provided"]:        # a received mesh: its vertices in the access region, once initialized
+            if self._core.state != "initialized" or mesh_name not in self._core.regions:
+                return 0
+            return len(self._core.region_vertices("get_mesh_vertex_size", mesh_name)[0])
         return self._core.vertex_count(mesh_name)
 
     def requires_mesh_connectivity_for(self, mesh_name: str) -> bool:
@@ -105,12 +109,10 @@ class Participant:
         self._connectivity("set_mesh_tetrahedra", mesh_name, vertices, 4)
 
     def set_mesh_access_region(self, mesh_name: str, bounding_box: Any) -> None:
-        raise self._core.fail("set_mesh_access_region", "direct access to a received mesh is not supported by "
-                              "cosim: read the data on a mesh of your own, through a mapping")
+        self._core.set_access_region("set_mesh_access_region", mesh_name, bounding_box)
 
-    def get_mesh_vertex_ids_and_coordinates(self, mesh_name: str) -> Any:
-        raise self._core.fail("get_mesh_vertex_ids_and_coordinates", "direct access to a received mesh is not "
-                              "supported by cosim")
+    def get_mesh_vertex_ids_and_coordinates(self, mesh_name: str) -> tuple[np.ndarray, np.ndarray]:
+        return self._core.region_vertices("get_mesh_vertex_ids_and_coordinates", mesh_name)
 
     # --- data -------------------------------------------------------------------------------------------------------
     def write_data(self, mesh_name: str, data_name: str, vertex_ids: Any, values: Any) -> None:
