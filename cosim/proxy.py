@@ -29,8 +29,13 @@ class ComponentProxy:
     """Talks to one served component; raises typed errors that name it."""
 
     def __init__(self, name: str, endpoint: str, *, process: ComponentProcess | None = None,
-                 timeout: float = 60.0, context: zmq.Context | None = None, curve: str = ""):
+                 timeout: float = 60.0, context: zmq.Context | None = None, curve: str = "",
+                 names: Mapping[str, str] | None = None, mesh_dimensions: int = 0):
         self.name = name
+        # the scene's names of the component's variables (scene name -> the component's), translated on the wire
+        self._outer = {inner: outer for outer, inner in (names or {}).items()}
+        self._inner = dict(names or {})
+        self.mesh_dimensions = mesh_dimensions   # its meshes seen in this many dimensions, zero-padded (0: as given)
         self.endpoint = endpoint
         self.process = process
         self.timeout = timeout
@@ -89,6 +94,8 @@ class ComponentProxy:
             raise ComponentError(self.name, f"request '{op}' sent while '{self._pending[1]}' is unanswered")
         request_id = next(self._ids)
         args = dict(args or {})
+        if self._inner:
+            args, arrays = self._renamed(args, arrays, self._inner)
         if self._token and op != "step":     # the launched component serves the client that shows its run's token
             args["token"] = self._token
         frames = protocol.encode({"op": op, "id": request_id, "args": args}, arrays)
@@ -149,6 +156,12 @@ class ComponentProxy:
             raise ComponentError(self.name, f"malformed reply to '{op}': {exc}") from None
         if header.get("id") != request_id:
             raise ComponentError(self.name, f"reply id {header.get('id')} does not match request {request_id}")
+        if self._outer and header.get("ok"):
+            result = header.get("result")
+            if isinstance(result, dict) and isinstance(result.get("variables"), list):
+                result["variables"] = [{**v, "name": self._outer.get(str(v.get("name")), v.get("name"))}
+                                       if isinstance(v, dict) else v for v in result["variables"]]
+            _, arrays = self._renamed({}, arrays, self._outer)
         if not header.get("ok"):
             error = header.get("error") or {}
             kind = error.get("type", "ComponentError")
@@ -164,6 +177,22 @@ class ComponentProxy:
             self.cpu_seconds.append(float(header.get("cpu_seconds", compute)))
             self.roundtrip_seconds.append(roundtrip)
         return header.get("result") or {}, arrays, compute
+
+    @staticmethod
+    def _renamed(args: dict[str, Any], arrays: Mapping[str, np.ndarray] | None,
+                 table: Mapping[str, str]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """Variable names in a message translated by ``table``: array keys (``name`` or ``prefix:name``, meshes
+        aside) and the names and knots a request carries."""
+        def key(name: str) -> str:
+            prefix, colon, rest = name.rpartition(":")
+            if prefix in ("mesh", "lines"):
+                return name
+            return f"{prefix}{colon}{table.get(rest, rest)}"
+        if "names" in args:
+            args = {**args, "names": [table.get(n, n) for n in args["names"]]}
+        if isinstance(args.get("knots"), dict):
+            args = {**args, "knots": {table.get(n, n): k for n, k in args["knots"].items()}}
+        return args, {key(name): value for name, value in (arrays or {}).items()}
 
     def call(self, op: str, args: Mapping[str, Any] | None = None,
              arrays: Mapping[str, np.ndarray] | None = None, timeout: float | None = None) -> tuple[dict, dict]:
@@ -185,7 +214,8 @@ class ComponentProxy:
             self.variables = {v["name"]: Variable(**v) for v in result["variables"]}
         except (TypeError, ValueError) as exc:
             raise ComponentError(self.name, f"malformed variable description: {exc}") from None
-        self.meshes = {k[len(MESH_PREFIX):]: np.array(v) for k, v in arrays.items() if k.startswith(MESH_PREFIX)}
+        self.meshes = {k[len(MESH_PREFIX):]: self._embedded(np.array(v)) for k, v in arrays.items()
+                       if k.startswith(MESH_PREFIX)}
         self.lines = {k[len(LINES_PREFIX):]: np.array(v) for k, v in arrays.items() if k.startswith(LINES_PREFIX)}
         for variable in self.variables.values():
             if not variable.mesh:
@@ -207,6 +237,15 @@ class ComponentProxy:
         self.step_saves_state = bool(result.get("step_saves_state"))
         self.history_windows = int(result.get("history_windows", 0))
         return result
+
+    def _embedded(self, nodes: np.ndarray) -> np.ndarray:
+        """A mesh's nodes in ``mesh_dimensions`` dimensions: zero coordinates added (a 1-D tube in the plane)."""
+        if not self.mesh_dimensions or nodes.ndim != 2 or nodes.shape[1] == self.mesh_dimensions:
+            return nodes
+        if nodes.shape[1] > self.mesh_dimensions:
+            raise ComponentError(self.name, f"its mesh has {nodes.shape[1]} dimensions, more than the "
+                                            f"{self.mesh_dimensions} it is to be seen in")
+        return np.hstack([nodes, np.zeros((len(nodes), self.mesh_dimensions - nodes.shape[1]))])
 
     def instantiate(self, parameters: Mapping[str, Any]) -> None:
         self.send_instantiate(parameters)

@@ -16,6 +16,7 @@ import json
 import math
 import os
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,6 +54,8 @@ COMPONENT = {
     "threads": Positive(1),
     "cores": [],
     "environment": AnyTable(),
+    "names": AnyTable(),            # the scene's name of each variable it renames -> the component's own name
+    "mesh_dimensions": Value(0, low=0, high=3),
     "backend": Choice("fom", ("fom", "rom", "fmu")),
     # a backend's table: its class (default: the installed backend of that kind), when it takes over, and the
     # class's own parameters (checked against its parameter_schema before a run starts)
@@ -119,6 +122,11 @@ MEANINGS = {
     "component.threads": "OpenMP and BLAS threads of the component's process",
     "component.cores": "CPU cores the component's process may run on (Linux affinity; empty: any)",
     "component.environment": "extra environment variables of the component's process",
+    "component.names": "the scene's names of the component's variables, `{ SceneName = \"its_name\" }`: the "
+                       "exchanges, measures and results speak of the scene's names (a native component in a preCICE "
+                       "participant's place, under the configuration's data names)",
+    "component.mesh_dimensions": "the component's meshes seen in this many dimensions, their extra coordinates zero "
+                                 "(a 1-D tube's nodes on a plane's axis; 0: as the component gives them)",
     "component.backend": "what serves the component: its entry ('fom'), a trained ROM ('rom', table rom) or an "
                          "FMU ('fmu', table fmu)",
     "component.rom.entry": "the ROM component's class (empty: the installed `rom` backend, an entry point of the "
@@ -418,6 +426,15 @@ def _address(value: str, where: str, source: str) -> None:
                          "ipc://PATH, the address `cosim serve` printed")
 
 
+def _names(names: Mapping[str, Any], where: str, source: str) -> None:
+    """A renaming: distinct non-empty strings both ways."""
+    for outer, inner in names.items():
+        if not isinstance(inner, str) or not inner or not outer:
+            raise SceneError(f"{source}: '{where}.{outer}' is {inner!r}; it names the component's variable, a string")
+    if len(set(names.values())) != len(names):
+        raise SceneError(f"{source}: '{where}' gives one variable of the component two names")
+
+
 def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]:
     """Validated scene dict (defaults filled in); raises SceneError naming the key."""
     raw = dict(raw)
@@ -431,6 +448,7 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
             spec[kind]["entry"] = spec[kind]["entry"] or backend_entry(kind, f"components.{name}.{kind}.entry", source)
         string_list(spec["sections"], f"components.{name}.sections", source)
         _cores(spec["cores"], f"components.{name}.cores", source)
+        _names(spec["names"], f"components.{name}.names", source)
     # in the order the components name them: the resolved scene (and results.h5) is the same on every run
     sections = list(dict.fromkeys(s for spec in components.values() for s in spec["sections"]))
     rules = scene_rules()

@@ -139,7 +139,8 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
             else:
                 endpoint = backend.address
             curve = spec["curve"] if process is None else ""    # a launched component is on loopback, never CURVE
-            backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"], curve=curve)
+            backend.proxy = ComponentProxy(backend.name, endpoint, process=process, timeout=spec["timeout"], curve=curve,
+                                           names=spec["names"], mesh_dimensions=spec["mesh_dimensions"])
             backend.proxy.substep_count = spec["substeps"]
             if process is None:
                 deadline = spec["startup_timeout"] if address_deadline is None else address_deadline

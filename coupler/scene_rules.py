@@ -274,23 +274,20 @@ def check_described(scene: Scene, proxies: Mapping[str, Any]) -> None:
     an output of its sender and an input of its receiver, and, under implicit coupling, a participant that says
     how it repeats a window."""
     for i, spec in enumerate(scene["exchange"]):
-        if spec["from"] not in proxies or spec["to"] not in proxies:
-            continue          # cosim check: a component served by hand is not described before its run
-        source, target = proxies[spec["from"]], proxies[spec["to"]]
         data = spec["data"]
-        out_var, in_var = source.variables.get(data), target.variables.get(data)
-        for end, proxy, variable in (("from", source, out_var), ("to", target, in_var)):
+        for end, causality in (("from", "output"), ("to", "input")):
+            proxy = proxies.get(spec[end])
+            if proxy is None:
+                continue      # cosim check: a component served by hand, or a participant, is described by its run
+            variable = proxy.variables.get(data)
             why = getattr(proxy, "variable_notes", {}).get(data)
             if variable is None and why:
                 raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec[end]}' "
                                  f"cannot couple it: {why}")
-        if out_var is None or out_var.causality != "output":
-            raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['from']}' has "
-                             f"no output '{data}' (outputs: {', '.join(source.output_names()) or 'none'})")
-        if in_var is None or in_var.causality != "input":
-            inputs = [v.name for v in target.variables.values() if v.causality == "input"]
-            raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec['to']}' has "
-                             f"no input '{data}' (inputs: {', '.join(inputs) or 'none'})")
+            if variable is None or variable.causality != causality:
+                names = [v.name for v in proxy.variables.values() if v.causality == causality]
+                raise SceneError(f"{scene.source}: 'exchange.{i}.data' is '{data}', but component '{spec[end]}' has "
+                                 f"no {causality} '{data}' ({causality}s: {', '.join(names) or 'none'})")
     if is_explicit(scene["coupling"]["scheme"]):
         return
     for name in (n for n in scene["coupling"]["participants"] if n in proxies):

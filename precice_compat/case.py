@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
-from cosim.schema import AnyTable, Choice, OpenTable, Positive, unknown_key_message, validate
+from cosim.schema import AnyTable, Choice, OpenTable, Positive, Value, unknown_key_message, validate
 from precice_compat.config import Config, read_config
 
 PARTICIPANT_SHIM = Path(__file__).resolve().parent / "participant"    # the folder holding `import precice`
@@ -44,6 +44,8 @@ PARTICIPANT = {
     "fmu": OpenTable({"entry": ""}),
     "entry": "",
     "parameters": AnyTable(),
+    "names": AnyTable(),            # backend "component": the configuration's data -> the component's variables
+    "mesh_dimensions": Value(0, low=0, high=3),
 }
 CASE_KEYS = ("precice", "participants")      # --set on these reads the case anew; the others act on its scene
 
@@ -158,9 +160,12 @@ def _component(config: Config, name: str, spec: dict[str, Any], folder: Path) ->
     elif backend == "component":
         if not spec.get("entry"):
             raise SceneError(f"'{where}.backend' is 'component': name its class in '{where}.entry'")
+        dimensions = max((config.meshes[m]["dimensions"] for m in config.participants[name].provides), default=0)
         component = {"entry": spec["entry"], "parameters": spec.get("parameters", {}),
                      "record": component["record"], "timeout": component["timeout"],
-                     "startup_timeout": component["startup_timeout"]}
+                     "startup_timeout": component["startup_timeout"], "names": spec.get("names", {}),
+                     # its meshes on the configuration's: a 1-D component's nodes on the axis of a 2-D mesh
+                     "mesh_dimensions": spec.get("mesh_dimensions") or dimensions}
     return component
 
 

@@ -79,6 +79,41 @@ def test_tube_participants_on_the_v2_api_give_the_native_run_bit_for_bit(native_
     same_run(native_run, out)
 
 
+SWAPPED_SOLID = """[precice]
+config = "{example}/precice-config.xml"
+[participants.Fluid]
+command = "python3 FluidSolver.py ../precice-config.xml"
+cwd = "{example}/fluid-python"
+[participants.Solid]        # the native tube solid in the participant's place, under the configuration's names
+backend = "component"
+entry = "solid_component.tube:TubeSolid"
+parameters = {{ E_small = 12500.0, E_large = 2500.0, s0 = 20.0, eps0 = 2e-3, tube = {{ length = 10.0, cells = 100, a0 = 1.0 }} }}
+names = {{ Pressure = "pressure", CrossSectionLength = "section" }}
+"""
+
+
+def test_the_fluid_participant_with_the_native_solid_swapped_in_by_names_gives_the_native_run(native_run, tmp_path):
+    """The Solid participant swapped for solid_component.tube:TubeSolid by four lines: the configuration's data
+    named onto the component's variables, its 1-D axis on the configuration's 2-D mesh. Bit for bit the native run
+    (the exchanges under the configuration's names, the mapping between coinciding meshes the identity)."""
+    case_file = tmp_path / "case.toml"
+    case_file.write_text(SWAPPED_SOLID.format(example=EXAMPLE))
+    out = case(tmp_path / "swapped", case_file)
+    same_run(native_run, out)
+    with RunResults(out) as results:
+        assert set(results.calls("Solid").inputs) == {"Pressure"}
+        assert results.component("Solid").meshes["axis"].shape == (101, 2)
+
+
+def test_a_swapped_component_whose_names_miss_is_named_by_cosim_check(tmp_path, capsys):
+    """cosim check starts the swapped component as a run would: a data name it does not rename is refused."""
+    case_file = tmp_path / "case.toml"
+    case_file.write_text(SWAPPED_SOLID.format(example=EXAMPLE).replace(', CrossSectionLength = "section"', ""))
+    assert main(["check", str(case_file)]) == 2
+    err = capsys.readouterr().err
+    assert "'CrossSectionLength'" in err and "component 'Solid'" in err, err
+
+
 def test_a_participant_wire_message_is_cosims_both_ways():
     """The participant package's own codec and cosim.protocol read each other's messages."""
     _wire = participant_module("_wire")
