@@ -29,6 +29,7 @@ from cosim import protocol, stop
 from cosim.component import Variable
 from cosim.errors import ComponentDied, ComponentError, ComponentTimeout, CosimError, ProtocolError
 from cosim.launcher import ComponentProcess
+from cosim.participant_ranks import RankError, RankGroup
 from cosim.proxy import checked_outputs
 from cosim.rundir import alive, command_line
 from cosim.subcycling import MAX_SUBSTEPS, Spline
@@ -52,6 +53,7 @@ class ParticipantHub:
         self.queues: dict[str, deque] = {}               # name -> its requests not yet taken
         self.expected: set[str] = set()                  # the participants the run has (their proxies)
         self.announced: list[Path] = []                  # rendezvous files written for participants started by hand
+        self.groups: dict[str, RankGroup] = {}           # a parallel participant's ranks
 
     def announce(self, path: Path) -> None:
         """Write where the coupler listens, and the token, into ``path`` for participants started by hand (only
@@ -98,26 +100,90 @@ class ParticipantHub:
                 self.reply(identity, header.get("id"), error="refused: this coupler serves the participants of its "
                                                            "own run (a wrong or missing token)")
                 continue
-            name = next((n for n, known in self.identities.items() if known == identity), None)
+            name, rank = self._sender(identity)
             if header.get("op") == "error" and name is None:      # a participant's misuse before its hello
                 name = str(args.get("participant", ""))
                 self.queues.setdefault(name, deque()).append((header, arrays))
                 continue
             if header.get("op") == "hello" and name is None:
                 name = str(args.get("participant", ""))
-                if name not in self.expected:
-                    self.reply(identity, header.get("id"), error=f"this run has no participant '{name}' (its "
-                                                                 f"participants: {', '.join(sorted(self.expected))})")
+                refused = self._hello(name, identity, args)
+                if refused:
+                    self.reply(identity, header.get("id"), error=refused)
                     continue
-                if name in self.identities:
-                    self.reply(identity, header.get("id"), error=f"a participant named '{name}' is connected "
-                                                               "already")
-                    continue
-                self.identities[name] = identity
+                rank = self.groups[name].rank_of(identity) if name in self.groups else None
             if name is None:
                 self.reply(identity, header.get("id"), error="say hello first")
                 continue
-            self.queues.setdefault(name, deque()).append((header, arrays))
+            group = self.groups.get(name)
+            if group is None or rank is None:
+                self.queues.setdefault(name, deque()).append((header, arrays))
+                continue
+            if header.get("op") == "error":          # one rank's misuse stops the run with its line
+                message = f"rank {rank}: {args.get('message', 'failed')}"
+                self.queues.setdefault(name, deque()).append(({**header, "args": {**args, "message": message}}, {}))
+                continue
+            try:
+                whole = group.add(rank, header, arrays)
+            except RankError as exc:
+                whole = ({"op": "error", "args": {"message": str(exc)}}, {})
+            if whole is not None:
+                self.queues.setdefault(name, deque()).append(whole)
+
+    def _sender(self, identity: bytes) -> tuple[str | None, int | None]:
+        """The participant (and rank, of a parallel one) a connection belongs to."""
+        for name, group in self.groups.items():
+            rank = group.rank_of(identity)
+            if rank is not None:
+                return name, rank
+        return next((n for n, known in self.identities.items() if known == identity), None), None
+
+    def _hello(self, name: str, identity: bytes, args: Mapping[str, Any]) -> str:
+        """Admit a participant's (or a rank's) hello; the reason it is refused, if it is."""
+        if name not in self.expected:
+            return f"this run has no participant '{name}' (its participants: {', '.join(sorted(self.expected))})"
+        rank, size = args.get("rank", 0), args.get("size", 1)
+        if not all(isinstance(v, int) and not isinstance(v, bool) for v in (rank, size)) or not 0 <= rank < size:
+            return f"participant '{name}' said it is rank {rank!r} of {size!r}"
+        group = self.groups.get(name)
+        if size == 1 and group is None:
+            if name in self.identities:
+                return f"a participant named '{name}' is connected already"
+            self.identities[name] = identity
+            return ""
+        if group is None:
+            if name in self.identities:
+                return f"a participant named '{name}' is connected already"
+            group = self.groups[name] = RankGroup(name, size)
+        if group.size != size:
+            return f"rank {rank} of participant '{name}' says there are {size} ranks; rank 0 said {group.size}"
+        pid = args.get("pid", 0)
+        try:
+            group.join(rank, identity, pid if isinstance(pid, int) and not isinstance(pid, bool) else 0)
+        except RankError as exc:
+            return str(exc)
+        if rank == 0:
+            self.identities[name] = identity
+        return ""
+
+    def answer(self, name: str, request_id: Any, result: Mapping[str, Any] | None = None,
+               arrays: Mapping[str, np.ndarray] | None = None, error: str = "") -> None:
+        """Answer a participant's request: each of a parallel participant's ranks its own part."""
+        group = self.groups.get(name)
+        if group is None:
+            self.reply(self.identities[name], request_id, result, arrays, error)
+        elif error:
+            for identity, rank_id in zip(group.identities, group.ids):
+                if identity is not None:
+                    self.reply(identity, rank_id, error=error)
+        else:
+            for identity, rank_id, rank_result, part in group.split(result or {}, arrays):
+                self.reply(identity, rank_id, rank_result, part)
+
+    def rank_pids(self, name: str) -> list[int]:
+        """The processes of a parallel participant's ranks (none for a serial one)."""
+        group = self.groups.get(name)
+        return list(group.pids) if group is not None else []
 
     def take(self, name: str) -> tuple[dict[str, Any], dict[str, np.ndarray]] | None:
         queue = self.queues.get(name)
@@ -194,6 +260,14 @@ class ParticipantProxy:
                     raise ComponentError(self.name, one_line((header.get("args") or {}).get("message", "failed")))
                 return header, arrays
             stop.check()
+            gone = [(rank, pid) for rank, pid in enumerate(self.hub.rank_pids(self.name)) if pid and not alive(pid)]
+            if gone:
+                self.hub.poll(SLICE_SECONDS)
+                if self.hub.queues.get(self.name):
+                    continue
+                rank, pid = gone[0]
+                raise ComponentError(self.name, f"its rank {rank} (pid {pid}) is gone while the coupler waited for "
+                                                f"{what}")
             if self.process is None and self.pid and not alive(self.pid):     # started by hand, and gone
                 self.hub.poll(SLICE_SECONDS)
                 if self.hub.queues.get(self.name):
@@ -224,7 +298,7 @@ class ParticipantProxy:
         pending, self._pending = self._pending, None
         if pending is None:
             raise ComponentError(self.name, "no request of the participant waits for an answer")
-        self.hub.reply(self.hub.identities[self.name], pending.get("id"), result, arrays)
+        self.hub.answer(self.name, pending.get("id"), result, arrays)
 
     # --- the start ----------------------------------------------------------------------------------------------
     def connect(self) -> None:
@@ -449,8 +523,8 @@ class ParticipantProxy:
         """Wait for the participant's process to exit by itself (the launcher stops it after that)."""
         if self._pending is not None and self.hub.identities.get(self.name) is not None:
             try:        # a participant still waiting (the run failed): the coupling is over
-                self.hub.reply(self.hub.identities[self.name], self._pending.get("id"),
-                               error="the coupling stopped (the run failed or was interrupted)")
+                self.hub.answer(self.name, self._pending.get("id"),
+                                error="the coupling stopped (the run failed or was interrupted)")
             except zmq.ZMQError:
                 pass
             self._pending = None

@@ -114,6 +114,95 @@ def test_a_swapped_component_whose_names_miss_is_named_by_cosim_check(tmp_path, 
     assert "'CrossSectionLength'" in err and "component 'Solid'" in err, err
 
 
+RANKS = """\"\"\"Start N ranks of a participant as mpirun would (RANK and SIZE in each one's environment); the first
+that fails stops the others and gives its exit code.\"\"\"
+import os
+import subprocess
+import sys
+import time
+
+size, command = int(sys.argv[1]), sys.argv[2:]
+ranks = [subprocess.Popen([sys.executable, *command], env={**os.environ, "RANK": str(r), "SIZE": str(size)})
+         for r in range(size)]
+while True:
+    codes = [rank.poll() for rank in ranks]
+    failed = [code for code in codes if code not in (None, 0)]
+    if failed or all(code == 0 for code in codes):
+        for rank in ranks:
+            if rank.poll() is None:
+                rank.kill()
+                rank.wait()
+        sys.exit(failed[0] if failed else 0)
+    time.sleep(0.01)
+"""
+SOLID_RANKS = """\"\"\"The tube's wall as a parallel preCICE participant: rank RANK of SIZE owns a slice of the nodes.\"\"\"
+import os
+import sys
+
+import numpy as np
+import precice
+
+from solid_component.tube import TubeSolid
+
+rank, size = int(os.environ["RANK"]), int(os.environ["SIZE"])
+solid = TubeSolid()
+solid.instantiate({"tube": {"length": 10.0, "cells": 100, "a0": 1.0}, "E_small": 12500.0, "E_large": 2500.0,
+                   "s0": 20.0, "eps0": 2e-3})
+participant = precice.Participant("Solid", sys.argv[1], rank, size)
+axis = solid.meshes()["axis"][:, 0]
+mine = np.array_split(np.arange(len(axis)), size)[rank]
+ids = participant.set_mesh_vertices("Solid-Nodes", np.column_stack([axis[mine], np.zeros(len(mine))]))
+if participant.requires_initial_data():
+    participant.write_data("Solid-Nodes", "CrossSectionLength", ids, solid.get_values(["section"])["section"][mine])
+participant.initialize()
+window = 0
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    pressure = np.zeros(len(axis))
+    pressure[mine] = participant.read_data("Solid-Nodes", "Pressure", ids, dt)
+    solid.set_values({"pressure": pressure})
+    solid.do_step(window * dt, dt)
+    participant.write_data("Solid-Nodes", "CrossSectionLength", ids, solid.get_values(["section"])["section"][mine])
+    participant.advance(dt)
+    if not participant.requires_reading_checkpoint():
+        window += 1
+    if window == int(os.environ.get("DIE_AT_WINDOW", -1)) and rank == size - 1:
+        os._exit(3)
+participant.finalize()
+"""
+
+
+def ranks_case(folder: Path, size: int) -> Path:
+    """The tube example with its Solid as ``size`` ranks, each owning a slice of the wall's nodes."""
+    (folder / "solid").mkdir(parents=True, exist_ok=True)
+    (folder / "solid" / "ranks.py").write_text(RANKS)
+    (folder / "solid" / "solid_ranks.py").write_text(SOLID_RANKS)
+    case_file = folder / "case.toml"
+    case_file.write_text(f'[precice]\nconfig = "{EXAMPLE}/precice-config.xml"\n[participants.Fluid]\n'
+                         f'command = "python3 FluidSolver.py ../precice-config.xml"\ncwd = "{EXAMPLE}/fluid-python"\n'
+                         f'[participants.Solid]\ncommand = "python3 ranks.py {size} solid_ranks.py '
+                         f'{EXAMPLE}/precice-config.xml"\ncwd = "solid"\n')
+    return case_file
+
+
+@pytest.mark.parametrize("size", [2, 3])
+def test_a_participant_in_ranks_gives_the_serial_runs_iterations_and_fields(native_run, tmp_path, size):
+    """The Solid started as 2 and 3 ranks (Participant(name, config, rank, size) in each), each with its slice of
+    the vertices: the coupler joins them, and the run is the serial one's, bit for bit (the native run's)."""
+    out = case(tmp_path / "out", ranks_case(tmp_path, size))
+    same_run(native_run, out)
+    with RunResults(out) as results:
+        assert results.component("Solid").meshes["Solid-Nodes"].shape == (101, 2)
+    assert children_of(os.getpid()) == []
+
+
+def test_a_rank_that_dies_stops_the_run_naming_it(tmp_path, monkeypatch):
+    monkeypatch.setenv("DIE_AT_WINDOW", "3")
+    with pytest.raises(CosimError, match=r"component 'Solid' in window 4 .*: its rank 2 \(pid \d+\) is gone while"):
+        case(tmp_path / "out", ranks_case(tmp_path, 3))
+    assert children_of(os.getpid()) == []
+
+
 def test_a_participant_wire_message_is_cosims_both_ways():
     """The participant package's own codec and cosim.protocol read each other's messages."""
     _wire = participant_module("_wire")
@@ -274,8 +363,8 @@ MISUSES = [
      "Participant.write_data: values of shape (50,) for 101 vertices"),
     ("advance before initialize", "participant.initialize()", "participant.advance(0.1)",
      "Participant.advance: advance before initialize"),
-    ("a rank of a parallel run", 'precice.Participant("Fluid", config, 0, 1)', 'precice.Participant("Fluid", config, 1, 2)',
-     "a parallel participant (rank 1 of size 2) is not supported"),
+    ("a rank beyond the size", 'precice.Participant("Fluid", config, 0, 1)', 'precice.Participant("Fluid", config, 2, 2)',
+     "rank 2 of size 2: the rank goes from 0 to size - 1"),
     ("a step beyond the window", "participant.advance(dt)", "participant.advance(2 * dt)",
      "Participant.advance: the step 0.2 is longer than what is left of the window, 0.1"),
     ("a vertex id off the mesh", 'participant.write_data("Fluid-Nodes", "Pressure", vertex_ids, pressure)',

@@ -40,13 +40,13 @@ class Core:
         if isinstance(rank, bool) or not isinstance(rank, (int, np.integer)) or \
                 isinstance(size, bool) or not isinstance(size, (int, np.integer)):
             raise self.fail("__init__", f"rank and size must be integers, got {rank!r} and {size!r}")
-        if size != 1 or rank != 0:
-            raise self.fail("__init__", f"a parallel participant (rank {rank} of size {size}) is not supported: "
-                                        "cosim couples serial participants (rank 0, size 1)")
+        if size < 1 or not 0 <= rank < size:
+            raise self.fail("__init__", f"rank {rank} of size {size}: the rank goes from 0 to size - 1")
+        self.rank, self.size = int(rank), int(size)
         if not self.config.is_file():
             raise self.fail("__init__", f"the configuration '{config}' does not exist")
         self.setup, _ = self._request("hello", {"participant": name, "config": str(self.config), "api": api,
-                                                "pid": os.getpid()})
+                                                "pid": os.getpid(), "rank": self.rank, "size": self.size})
         self.meshes: dict[str, dict[str, Any]] = self.setup["meshes"]
         self.write = {(d["mesh"], d["data"]): d for d in self.setup["write"]}
         self.read = {(d["mesh"], d["data"]): d for d in self.setup["read"]}
@@ -145,6 +145,9 @@ class Core:
         if info["provided"] or not info.get("direct_access"):
             raise self.fail(call, f"mesh '{mesh}' is not a received mesh with direct access (give its "
                                   "<receive-mesh> api-access=\"true\")")
+        if self.size > 1:
+            raise self.fail(call, f"direct access from a parallel participant ({self.size} ranks) is not "
+                                  "supported by cosim")
         return info
 
     def set_access_region(self, call: str, mesh: str, box: Any) -> None:
