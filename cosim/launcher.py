@@ -172,20 +172,33 @@ class Launcher:
         return process.endpoint
 
     def stop_all(self, grace: float = 2.0) -> None:
-        """Terminate every child still running; kill those that do not exit within ``grace``."""
-        alive = [p for p in self.processes if p.poll() is None]
-        for p in alive:
+        """Terminate every child's process group that has a process left (the child's own children too, after
+        the child itself has exited); kill those that do not exit within ``grace``."""
+        for p in self.processes:
+            p.poll()                    # an exited child is reaped: its group is the processes it left behind
+        running = [p for p in self.processes if _group_alive(p.popen.pid)]
+        for p in running:
             _signal(p.popen, signal.SIGTERM)
         deadline = time.monotonic() + grace
-        for p in alive:
-            try:
-                p.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
+        for p in running:
+            while _group_alive(p.popen.pid) and time.monotonic() < deadline:
+                p.poll()
+                time.sleep(0.01)
+            if _group_alive(p.popen.pid):
                 _signal(p.popen, signal.SIGKILL)
                 p.popen.wait()
         for p in self.processes:
             if p.popen.stdout and not p.popen.stdout.closed:
                 p.popen.stdout.close()
+
+
+def _group_alive(group: int) -> bool:
+    """Whether the process group has a process left (a zombie leader not yet reaped counts)."""
+    try:
+        os.killpg(group, 0)
+    except (ProcessLookupError, PermissionError):
+        return False
+    return True
 
 
 def _signal(popen: subprocess.Popen, sig: int) -> None:

@@ -18,7 +18,7 @@ from cosim import protocol
 from cosim.cli import main
 from cosim.errors import CosimError, SceneError
 from cosim.results import RunResults
-from cosim.rundir import read_status
+from cosim.rundir import alive, read_status
 from cosim.scene import load_scene
 from coupler.run import run_scene
 from precice_compat.config import read_config
@@ -621,6 +621,24 @@ QUADS = """if participant.requires_mesh_connectivity_for("Source-Mesh"):
 EDGES = """if participant.requires_mesh_connectivity_for("Source-Mesh"):
     top = np.arange(15, 20)
     participant.set_mesh_edges("Source-Mesh", np.column_stack([top[:-1], top[1:]]))"""
+
+
+@pytest.mark.parametrize("ending", ["finishes", "crashes"])
+def test_what_a_participant_started_is_stopped_with_it(tmp_path, ending):
+    """A participant that starts a child (a `sleep 300`) and then finishes, or crashes: the child does not
+    outlive the run (its process group is signalled, though the participant itself is gone)."""
+    source = FIELD_SOURCE.replace("CONNECT", "import subprocess\nchild = subprocess.Popen(['sleep', '300'])\n"
+                                             "open('child.pid', 'w').write(str(child.pid))")
+    if ending == "crashes":
+        source = source.replace("participant.finalize()", "raise SystemExit(3)")
+    case_file = write_case(tmp_path, {"Source": source, "Target": FIELD_TARGET},
+                           FIELD_CONFIG.replace("MAPPING", "nearest-neighbor"))
+    try:
+        run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    except CosimError:
+        assert ending == "crashes"
+    child = int((tmp_path / "Source" / "child.pid").read_text())
+    wait_for(lambda: not alive(child), "the participant's child to stop with the run", timeout=10.0)
 
 
 def exact_field(points: np.ndarray, t: float) -> np.ndarray:
