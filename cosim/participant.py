@@ -54,6 +54,7 @@ class ParticipantHub:
         self.expected: set[str] = set()                  # the participants the run has (their proxies)
         self.announced: list[Path] = []                  # rendezvous files written for participants started by hand
         self.groups: dict[str, RankGroup] = {}           # a parallel participant's ranks
+        self.launched: dict[str, str] = {}               # name -> the token of the participant the coupler started
 
     def announce(self, path: Path) -> None:
         """Write where the coupler listens, and the token, into ``path`` for participants started by hand (only
@@ -75,10 +76,12 @@ class ParticipantHub:
         os.replace(partial, path)
         self.announced.append(path)
 
-    def environment(self) -> dict[str, str]:
-        """What a participant the coupler starts finds in its environment to reach it."""
+    def environment(self, name: str) -> dict[str, str]:
+        """What the participant ``name``, started by the coupler, finds in its environment to reach it: a token of
+        its own, so that it cannot say hello as another participant."""
         import os
-        return {ENDPOINT_VARIABLE: self.endpoint, TOKEN_VARIABLE: self.token, PID_VARIABLE: str(os.getpid())}
+        token = self.launched.setdefault(name, secrets.token_hex(16))
+        return {ENDPOINT_VARIABLE: self.endpoint, TOKEN_VARIABLE: token, PID_VARIABLE: str(os.getpid())}
 
     def poll(self, timeout: float) -> None:
         """Take what has arrived within ``timeout`` seconds and queue it by participant."""
@@ -96,11 +99,21 @@ class ParticipantHub:
                 continue
             given = header.get("args")
             args: dict[str, Any] = given if isinstance(given, dict) else {}
-            if args.get("token") != self.token:
+            token = args.get("token")
+            started_as = next((n for n, known in self.launched.items() if known == token), None)
+            if token != self.token and started_as is None:
                 self.reply(identity, header.get("id"), error="refused: this coupler serves the participants of its "
                                                            "own run (a wrong or missing token)")
                 continue
             name, rank = self._sender(identity)
+            claimed = str(args.get("participant", "")) if name is None else name
+            if started_as is not None and claimed != started_as and header.get("op") in ("hello", "error"):
+                message = (f"this process was started as participant '{started_as}' and says "
+                           f"{header.get('op')} as '{claimed}' (the run's participants: "
+                           f"{', '.join(sorted(self.expected))})")
+                self.reply(identity, header.get("id"), error=message)
+                self.queues.setdefault(started_as, deque()).append(({"op": "error", "args": {"message": message}}, {}))
+                continue
             if header.get("op") == "error" and name is None:      # a participant's misuse before its hello
                 name = str(args.get("participant", ""))
                 self.queues.setdefault(name, deque()).append((header, arrays))
@@ -265,9 +278,11 @@ class ParticipantProxy:
                 self.hub.poll(SLICE_SECONDS)
                 if self.hub.queues.get(self.name):
                     continue
-                rank, pid = gone[0]
-                raise ComponentError(self.name, f"its rank {rank} (pid {pid}) is gone while the coupler waited for "
-                                                f"{what}")
+                ranks = " and ".join(str(rank) for rank, _ in gone)
+                pids = ", ".join(str(pid) for _, pid in gone)
+                raise ComponentError(self.name, f"its rank{'s' if len(gone) > 1 else ''} {ranks} (pid{'s' if len(gone) > 1 else ''} "
+                                                f"{pids}) {'are' if len(gone) > 1 else 'is'} gone while the coupler "
+                                                f"waited for {what}")
             if self.process is None and self.pid and not alive(self.pid):     # started by hand, and gone
                 self.hub.poll(SLICE_SECONDS)
                 if self.hub.queues.get(self.name):

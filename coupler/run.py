@@ -118,7 +118,7 @@ def start_backends(scene: Scene, backends: list[Backend], launcher: Launcher,
         for b in backends:
             if b.command and hub is not None:
                 processes[b.name] = launcher.spawn_command(
-                    b.name, b.command, b.cwd, {**component_environment(components[b.participant]), **hub.environment()},
+                    b.name, b.command, b.cwd, {**component_environment(components[b.participant]), **hub.environment(b.name)},
                     components[b.participant]["cores"])
             elif b.rendezvous and hub is not None:
                 hub.announce(Path(b.rendezvous))
