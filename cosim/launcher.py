@@ -62,6 +62,17 @@ class Launcher:
         self.log_dir = Path(log_dir)
         self.startup_timeout = startup_timeout
         self.processes: list[ComponentProcess] = []
+        self._scratch: Path | None = None      # the processes' temporary folder (TMPDIR), removed with them
+
+    def scratch(self, name: str) -> str:
+        """A temporary folder of the process ``name`` (its TMPDIR): what it leaves there goes when the run stops,
+        however the process ended."""
+        if self._scratch is None:
+            import tempfile
+            self._scratch = Path(tempfile.mkdtemp(prefix="cosim-run-"))
+        folder = self._scratch / name
+        folder.mkdir(exist_ok=True)
+        return str(folder)
 
     def __enter__(self) -> Launcher:
         atexit.register(self.stop_all)
@@ -86,6 +97,7 @@ class Launcher:
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
         token = secrets.token_hex(16)
         env[TOKEN_VARIABLE] = token
+        env["TMPDIR"] = self.scratch(name)
         # -P: no working directory before our packages (a scene's `cosim.py` must not run as cosim); the scene's
         # folders come first for its own modules, inside the server (--folder)
         command = [sys.executable, "-P", "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",
@@ -111,7 +123,7 @@ class Launcher:
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log_path = self.log_dir / f"{name}.log"
         extra = dict(environment or {})
-        env = {**os.environ, **extra}
+        env = {**os.environ, "TMPDIR": self.scratch(name), **extra}
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [extra.get("PYTHONPATH", ""),
                                                           os.environ.get("PYTHONPATH", "")]))
         # `python3` in a participant's command is the coupler's Python (a full path names another)
@@ -190,6 +202,10 @@ class Launcher:
         for p in self.processes:
             if p.popen.stdout and not p.popen.stdout.closed:
                 p.popen.stdout.close()
+        if self._scratch is not None:
+            import shutil
+            shutil.rmtree(self._scratch, ignore_errors=True)
+            self._scratch = None
 
 
 def _group_alive(group: int) -> bool:

@@ -38,11 +38,17 @@ class LateHangingSolid(TubeSolid):
 
 
 class CrashingSolid(TubeSolid):
-    """Exits the process with code 7 at t >= 0.3."""
+    """Exits the process with code 7 at t >= 0.3, leaving a temporary folder behind (its path in the environment's
+    CRASH_NOTE file, if set)."""
 
     def do_step(self, t, dt):
         if t >= 0.3:
             import os
+            import tempfile
+            folder = tempfile.mkdtemp(prefix="left-behind-")
+            if os.environ.get("CRASH_NOTE"):
+                with open(os.environ["CRASH_NOTE"], "w") as note:
+                    note.write(folder)
             os._exit(7)
         super().do_step(t, dt)
 

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -111,12 +112,15 @@ def test_killed_solid_stops_the_run_and_keeps_finished_windows(tmp_path):
         assert results.attributes["windows_completed"] == windows
 
 
-def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path):
+def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path, monkeypatch):
+    monkeypatch.setenv("CRASH_NOTE", str(tmp_path / "left.txt"))
     with pytest.raises(ComponentDied, match=r"component 'solid' in window 4 \(t = 0.3 to 0.4\), iteration 1: "
                                             r"process exited with code 7") as error:
         run(tmp_path, "time.end=1", "components.solid.entry=tests.components:CrashingSolid")
     assert error.value.exit_code == 7
     assert children_of(os.getpid()) == []
+    left = Path((tmp_path / "left.txt").read_text())       # its temporary folder went with it
+    assert left.name.startswith("left-behind-") and not left.exists()
     with RunResults(tmp_path / "run") as results:
         assert len(results.windows) == 3  # windows ending at 0.1, 0.2, 0.3 finished before the crash
 
