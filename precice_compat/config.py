@@ -97,7 +97,10 @@ class _Reader:
         return value.strip()
 
     def number(self, element: Element, name: str, default: float | None = None, integer: bool = False,
-               low: float | None = None) -> float:
+               low: float | None = None, above: float | None = None, high: float | None = None,
+               below: float | None = None) -> float:
+        """The attribute ``name`` as a number: at least ``low``, more than ``above``, at most ``high``, less than
+        ``below`` (each if given); refused naming the file, line, element and attribute."""
         text = element.get(name)
         if text is None:
             if default is None:
@@ -108,8 +111,11 @@ class _Reader:
         except ValueError:
             raise self.fail(element, f"'{name}' is {text!r}, not {'an integer' if integer else 'a number'}") \
                 from None
-        if not math.isfinite(value) or (low is not None and value < low):
-            raise self.fail(element, f"'{name}' is {text}; allowed: {'at least ' + str(low) if low is not None else 'finite'}")
+        bounds = [f"at least {low:g}" if low is not None else "", f"above {above:g}" if above is not None else "",
+                  f"at most {high:g}" if high is not None else "", f"below {below:g}" if below is not None else ""]
+        if not math.isfinite(value) or (low is not None and value < low) or (above is not None and value <= above) \
+                or (high is not None and value > high) or (below is not None and value >= below):
+            raise self.fail(element, f"'{name}' is {text}; allowed: {' and '.join(b for b in bounds if b) or 'finite'}")
         return value
 
     def flag(self, element: Element, name: str, default: bool = False) -> bool:
@@ -129,8 +135,9 @@ class _Reader:
             raise self.fail(element, f"the attribute '{unread[0]}' is not supported (cosim reads: "
                                      f"{', '.join(sorted(element.used)) or 'none'}); remove it")
 
-    def value_child(self, element: Element, integer: bool = False, low: float | None = None) -> float:
-        value = self.number(element, "value", integer=integer, low=low)
+    def value_child(self, element: Element, integer: bool = False, low: float | None = None,
+                    above: float | None = None, high: float | None = None) -> float:
+        value = self.number(element, "value", integer=integer, low=low, above=above, high=high)
         self.done(element)
         for child in element.children:
             raise self.fail(child, "no element goes here")
@@ -416,7 +423,7 @@ def _scheme(reader: _Reader, config: Config, element: Element, kind: str) -> Non
             scheme["participants"] = [reader.required(child, "first"), reader.required(child, "second")]
             reader.done(child)
         elif child.tag == "max-time":
-            scheme["max_time"] = reader.value_child(child, low=0.0)
+            scheme["max_time"] = reader.value_child(child, above=0.0)
         elif child.tag == "max-time-windows":
             scheme["max_windows"] = int(reader.value_child(child, integer=True, low=1))
         elif child.tag == "time-window-size":
@@ -425,7 +432,7 @@ def _scheme(reader: _Reader, config: Config, element: Element, kind: str) -> Non
                 raise reader.fail(child, "a window size the first participant chooses is not supported: give "
                                          "value=\"...\"")
             child.get("valid-digits")
-            scheme["window"] = reader.value_child(child, low=0.0)
+            scheme["window"] = reader.value_child(child, above=0.0)
         elif child.tag == "max-iterations":
             scheme["max_iterations"] = int(reader.value_child(child, integer=True, low=1))
         elif child.tag == "min-iterations":
@@ -460,11 +467,11 @@ def _measure(reader: _Reader, element: Element) -> dict[str, Any]:
     strict = reader.flag(element, "strict")
     suffices = reader.flag(element, "suffices")
     if kind in MEASURES:
-        measure = {"data": data, "type": MEASURES[kind], "limit": reader.number(element, "limit", low=0.0)}
+        measure = {"data": data, "type": MEASURES[kind], "limit": reader.number(element, "limit", above=0.0)}
     elif kind == "absolute-or-relative-convergence-measure":
         measure = {"data": data, "type": "any-of", "measures": [
-            {"type": "absolute", "limit": reader.number(element, "abs-limit", low=0.0)},
-            {"type": "relative", "limit": reader.number(element, "rel-limit", low=0.0)}]}
+            {"type": "absolute", "limit": reader.number(element, "abs-limit", above=0.0)},
+            {"type": "relative", "limit": reader.number(element, "rel-limit", above=0.0)}]}
     elif kind == "min-iteration-convergence-measure":
         measure = {"data": data, "type": "min-iterations",
                    "iterations": int(reader.number(element, "min-iterations", integer=True, low=1))}
@@ -496,11 +503,11 @@ def _acceleration(reader: _Reader, element: Element, kind: str) -> dict[str, Any
                 raise reader.fail(child, "a data scaling is not supported (cosim scales each data item by its norm)")
             reader.done(child)
         elif child.tag == "relaxation" and kind == "constant":
-            settings["relaxation"] = reader.value_child(child, low=0.0)
+            settings["relaxation"] = reader.value_child(child, above=0.0, high=1.0)
         elif child.tag == "initial-relaxation" and kind != "constant":
             if reader.flag(child, "enforce"):
                 raise reader.fail(child, "enforce=\"true\" is not supported")
-            settings["initial_relaxation"] = reader.value_child(child, low=0.0)
+            settings["initial_relaxation"] = reader.value_child(child, above=0.0, high=1.0)
         elif child.tag == "max-used-iterations" and kind.startswith("IQN"):
             settings["max_used_iterations"] = int(reader.value_child(child, integer=True, low=1))
         elif child.tag == "time-windows-reused" and kind.startswith("IQN"):
@@ -517,7 +524,7 @@ def _acceleration(reader: _Reader, element: Element, kind: str) -> dict[str, Any
                                          "QR1-absolute, QR2)")
             settings["filter"] = FILTERS[kind_of_filter]
             settings["filter_limit"] = reader.number(child, "limit", default=1e-16 if kind_of_filter == "QR1" else
-                                                     1e-2, low=0.0)
+                                                     1e-2, above=0.0, below=1.0)
             reader.done(child)
         elif child.tag == "preconditioner" and kind.startswith("IQN"):
             preconditioner = reader.required(child, "type")
