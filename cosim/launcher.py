@@ -93,11 +93,10 @@ class Launcher:
         ``import_paths`` (a scene's folder) before the installed packages; returns before its handshake."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log_path = self.log_dir / f"{name}.log"
-        env = {**os.environ, **(environment or {})}
+        env = {**os.environ, "TMPDIR": self.scratch(name), **(environment or {})}     # the scene's TMPDIR wins
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
         token = secrets.token_hex(16)
         env[TOKEN_VARIABLE] = token
-        env["TMPDIR"] = self.scratch(name)
         # -P: no working directory before our packages (a scene's `cosim.py` must not run as cosim); the scene's
         # folders come first for its own modules, inside the server (--folder)
         command = [sys.executable, "-P", "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",

@@ -228,6 +228,7 @@ class FmuComponent(Component):
             self.fmu.do_step(t, dt)
         except FmiError as exc:
             raise ComponentError(self.name, str(exc)) from None
+        self._clock = t + dt
 
     def step(self, t: float, dt: float, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The hot path: set, step, get, with the names it returns worked out once."""
@@ -235,9 +236,22 @@ class FmuComponent(Component):
             self._returned = self.output_names() + self.local_names()
         if self.repeats_steps:        # rolled back to the window's start at each later call
             self._roll_back(t)
+        elif self.stateless:
+            self._start_at(t)
         self.set_values(inputs)
         self.do_step(t, dt)
         return self.get_values(self._returned)
+
+    def _start_at(self, t: float) -> None:
+        """A stateless FMU asked for a window again: FMI's steps only go forward, so the instance is reset and
+        initialised at the window's start (its outputs depend on its inputs alone: nothing is to be replayed)."""
+        clock = getattr(self, "_clock", None)
+        if clock is not None and t < clock - 1e-9 * max(1.0, abs(t)):
+            try:
+                self.fmu.restart(t)
+            except FmiError as exc:
+                raise ComponentError(self.name, f"could not start again at t = {t:g} to repeat a window: {exc}") \
+                    from None
 
     @property
     def can_checkpoint(self) -> bool:

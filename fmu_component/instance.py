@@ -73,6 +73,16 @@ class FmiInstance:
     def exit_initialization(self) -> None:
         self.slave.exitInitializationMode()
 
+    def restart(self, start: float) -> None:
+        """Reset the instance (as if instantiated anew) and initialise it at ``start``: FMI's way back in time for
+        an FMU without a state to restore."""
+        try:
+            self.slave.reset()
+            self.enter_initialization(start)
+            self.exit_initialization()
+        except Exception as exc:        # fmpy raises its own exception type for an FMU's error status
+            raise FmiError(f"{exc} ({self.messages[-1] if self.messages else 'no message'})") from None
+
     def get_state(self) -> Any:
         return self.slave.getFMUState()
 

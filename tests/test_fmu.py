@@ -297,9 +297,11 @@ def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
     with pytest.raises(ComponentError, match="has no linux64 binary"):
         FmuComponent().instantiate({"path": str(no_binary)})
     assert unpacked_folders() == before
+    import tempfile
     with Launcher(tmp_path / "logs") as launcher:
-        for stop in (signal.SIGTERM, signal.SIGKILL):
-            process = launcher.spawn("fmu", "fmu_component.component:FmuComponent")
+        for stop in (signal.SIGTERM, signal.SIGKILL):      # in the system's temporary folder: the FMU's own cleanup
+            process = launcher.spawn("fmu", "fmu_component.component:FmuComponent",
+                                     {"TMPDIR": tempfile.gettempdir()})
             proxy = ComponentProxy("fmu", launcher.handshake(process), process=process)
             proxy.instantiate({"path": str(fmu)})
             mine = {name for name in unpacked_folders() - before if name.startswith(f"{process.pid}-")}
@@ -312,6 +314,15 @@ def test_an_fmus_unpacked_files_go_whatever_stops_it(models, tmp_path):
         assert mine <= unpacked_folders()        # SIGKILL: no process can clean up after itself ...
         FmuComponent().instantiate({"path": str(fmu)})   # ... the next FMU instance does
         wait_for(lambda: not mine & unpacked_folders(), "the killed instance's folder to go")
+        process = launcher.spawn("killed", "fmu_component.component:FmuComponent")    # in the run's own TMPDIR
+        proxy = ComponentProxy("killed", launcher.handshake(process), process=process)
+        proxy.instantiate({"path": str(fmu)})
+        scratch = Path(launcher.scratch("killed"))
+        assert any(scratch.rglob("*.so"))
+        os.kill(process.pid, signal.SIGKILL)
+        process.popen.wait(timeout=30)
+        proxy.close()
+    assert not scratch.exists()         # the run's temporary folder goes with its processes
 
 
 def test_an_fmu_that_cannot_serialise_its_state_is_named_when_checkpointed(models, tmp_path):
