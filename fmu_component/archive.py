@@ -62,14 +62,22 @@ def check_archive(path: Path) -> None:
         raise FmuArchiveError(f"is FMI {found}; FMI {' or '.join(FMI_VERSIONS)} is needed")
 
 
+def one_line(exc: BaseException, limit: int = 300) -> str:
+    """An exception's whole message on one line (fmpy puts the reason on the lines after its first), its type if
+    the message says little."""
+    text = " ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+    if len(text.strip(": ")) < 8:        # "77", ": 77": what it is, with the type
+        text = f"{type(exc).__name__}: {text.strip(': ')}".rstrip(": ")
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def read_description(path: Path):
     """The FMU's model description (fmpy's), its FMI version checked: 2.0 or 3.0, with Co-Simulation."""
     from fmpy import read_model_description
     try:
         md = read_model_description(str(path))
     except Exception as exc:  # fmpy raises several types for a bad model description
-        raise FmuArchiveError(f"has no valid modelDescription.xml: {str(exc).splitlines()[0] if str(exc) else exc}"
-                              ) from None
+        raise FmuArchiveError(f"has no valid modelDescription.xml: {one_line(exc)}") from None
     if md.fmiVersion not in FMI_VERSIONS:
         raise FmuArchiveError(f"is FMI {md.fmiVersion}; FMI {' or '.join(FMI_VERSIONS)} is needed")
     if md.coSimulation is None:

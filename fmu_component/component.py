@@ -127,15 +127,20 @@ class FmuComponent(Component):
         self._window: tuple[float, Any] | None = None     # the window in flight and the state it starts from
         described = resources / "interface.json"
         if described.is_file():
-            interface = json.loads(described.read_text())
-            self.history_windows = int(interface.get("history_windows", 0))
-            self.declared_stateless = bool(interface.get("stateless", False))
+            try:
+                interface = json.loads(described.read_text())
+                self.history_windows = int(interface.get("history_windows", 0))
+                self.declared_stateless = bool(interface.get("stateless", False))
+                take_over = str(interface.get("take_over", ""))
+                for v in interface["variables"]:
+                    if v["name"] in self.placement:
+                        self.placement[v["name"]] = (str(v["mesh"]), int(v["components"]))
+                self.mesh_nodes = {str(k): np.array(v, dtype=np.float64) for k, v in interface["meshes"].items()}
+            except (ValueError, TypeError, KeyError, AttributeError, UnicodeDecodeError) as exc:
+                why = f"no key {exc}" if isinstance(exc, KeyError) else str(exc)
+                raise ComponentError(self.name, f"FMU '{self.path}': resources/interface.json: {why}") from None
             if self.history_windows:
-                self._bind_take_over(str(interface.get("take_over", "")))
-            for v in interface["variables"]:
-                if v["name"] in self.placement:
-                    self.placement[v["name"]] = (v["mesh"], int(v["components"]))
-            self.mesh_nodes = {k: np.array(v, dtype=np.float64) for k, v in interface["meshes"].items()}
+                self._bind_take_over(take_over)
 
     def _choose_state(self, state: str) -> None:
         """Stateless, rolled back through the FMU state (``repeats_steps``), or neither (with the reason)."""

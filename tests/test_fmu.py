@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import re
 import zipfile
 from pathlib import Path
 
@@ -169,6 +170,30 @@ def test_bad_fmus_get_clear_errors(models, tmp_path):
             target.writestr(item, data[:-8] if item.filename == "resources/rom.bin" else data)
     with pytest.raises(ComponentError, match=r"bytes, the sizes in its header need"):
         FmuComponent().instantiate({"path": str(short_resource)})
+
+
+@pytest.mark.parametrize(("text", "why"), [("{", "Expecting property name"), ('{"variables": 5}', "'int' object"),
+                                         ('{"variables": [{"name": "pressure"}], "meshes": {}}', "no key 'mesh'"),
+                                         ("[1, 2]", "'list' object")])
+def test_a_damaged_interface_json_is_named_in_one_line(models, tmp_path, text, why):
+    """The FMU's resources/interface.json (meshes and variables' placement) damaged: one line naming the file."""
+    fmu = models["rbf"][1]
+    damaged = tmp_path / "damaged.fmu"
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(damaged, "w") as target:
+        for item in source.infolist():
+            if item.filename != "resources/interface.json":
+                target.writestr(item, source.read(item.filename))
+        target.writestr("resources/interface.json", text)
+    with pytest.raises(ComponentError, match=r"resources/interface.json: .*" + re.escape(why)) as refused:
+        FmuComponent().instantiate({"path": str(damaged)})
+    assert "\n" not in str(refused.value)
+
+
+def test_an_exceptions_whole_message_goes_on_one_line():
+    from fmu_component.archive import one_line
+    assert one_line(ValueError("Failed to validate modelDescription.xml:\n- line 3: missing attribute 'guid'")) == \
+        "Failed to validate modelDescription.xml: - line 3: missing attribute 'guid'"
+    assert one_line(OSError(": 77")) == "OSError: 77"
 
 
 def test_resource_uri_forms(models, tmp_path):
