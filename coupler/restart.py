@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -60,17 +61,45 @@ def write_checkpoint(out_dir: Path, scheme: Any, backends: list, store: ResultsW
     scheme.release_states()       # no handle of the run before it outlives a component's checkpoint
     arrays: dict[str, np.ndarray] = {}
     components = {}
+    digests = {}
     for backend in backends:
         document, state = backend.client.checkpoint()
         components[backend.name] = document
-        arrays.update({f"{COMPONENTS}{backend.name}/{key}": value for key, value in state.items()})
+        held = {f"{COMPONENTS}{backend.name}/{key}": value for key, value in state.items()}
+        digests[backend.name] = state_digest(document, held)
+        arrays.update(held)
     scheme_document, scheme_arrays = pack(scheme.checkpoint_state(), prefix=SCHEME)
     arrays.update(scheme_arrays)
     path = write(out_dir / FILE, {**counts, "run": identity, "results": store.lengths(), "scheme": scheme_document,
-                                  "components": components}, arrays)
+                                  "components": components, "digests": digests}, arrays)
     store.set_attributes(checkpoint_bytes=path.stat().st_size)
     store.add_to_attributes(checkpoints_written=1, checkpoint_seconds_total=time.perf_counter() - started)
     return path
+
+
+def state_digest(document: Any, arrays: Mapping[str, np.ndarray]) -> str:
+    """A component's checkpoint (its document and its arrays: names, types, shapes and bytes) as a SHA-256: a blob
+    damaged on disk (a solver's own restart file among them) is refused before the solver reads it."""
+    digest = hashlib.sha256(json.dumps(document, sort_keys=True).encode())
+    for name in sorted(arrays):
+        value = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}:{value.dtype.str}:{value.shape}".encode())
+        digest.update(value.tobytes())
+    return digest.hexdigest()
+
+
+def check_digests(document: dict[str, Any], arrays: Mapping[str, np.ndarray], path: Path) -> None:
+    """Each component's state is what was written (a checkpoint of before the digests has none to check)."""
+    digests = document.get("digests") or {}
+    if not isinstance(digests, dict) or not all(isinstance(v, str) for v in digests.values()):
+        raise CheckpointError(f"checkpoint '{path}': 'digests' is {json.dumps(digests)[:80]}; expected a table of "
+                              "SHA-256 strings")
+    for name, expected in digests.items():
+        prefix = f"{COMPONENTS}{name}/"
+        held = {key: value for key, value in arrays.items() if key.startswith(prefix)}
+        if state_digest(document["components"].get(name), held) != expected:
+            raise CheckpointError(f"checkpoint '{path}': the state of component '{name}' is damaged (its digest "
+                                  "differs from the one written with it)")
 
 
 def resumable(out_dir: str | Path) -> bool:
@@ -94,6 +123,7 @@ def read_checkpoint_for(scene: Scene, out_dir: Path, n_windows: int,
 
     document, arrays = read(path, wanted, lambda document: check_document(document, path, n_windows, components))
     check_identity(document["run"], scene, n_windows, f"the checkpoint of '{out_dir}'")
+    check_digests(document, arrays, path)
     check_results(out_dir / "results.h5", scene, document)
     return document, arrays
 

@@ -271,6 +271,18 @@ def test_a_damaged_checkpoint_document_is_refused_by_its_key(stopped, capsys, ch
     refused(capsys, resume(stopped), stopped, message)
 
 
+def test_a_damaged_component_state_in_a_checkpoint_is_refused_by_its_digest(stopped, capsys):
+    """One byte of a component's state changed (a solver's restart blob damaged on disk): refused naming the
+    component, before any solver reads it."""
+    from cosim.checkpoint import read, write
+    document, arrays = read(stopped / "checkpoint.npz")
+    name = next(key for key in arrays if key.startswith("component:solid/") and arrays[key].size)
+    damaged = np.array(arrays[name], copy=True)
+    damaged.reshape(-1).view(np.uint8)[0] ^= 1
+    write(stopped / "checkpoint.npz", {k: v for k, v in document.items() if k != "format"}, {**arrays, name: damaged})
+    refused(capsys, resume(stopped), stopped, "the state of component 'solid' is damaged (its digest differs")
+
+
 def test_arrays_a_checkpoint_does_not_name_are_refused_unread(stopped, capsys):
     import io
     original = (stopped / "checkpoint.npz").read_bytes()
