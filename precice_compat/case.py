@@ -60,6 +60,9 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
                      "connectivity": mesh in with_elements, "direct_access": mesh in participant.direct,
                      "from": participant.receives.get(mesh, name)}
               for mesh in [*participant.provides, *participant.receives]}
+    for mapping in participant.mappings:       # just in time: nearest-neighbor onto a mesh accessed directly
+        if not mapping.source or not mapping.target:
+            meshes[mapping.source or mapping.target].setdefault("just_in_time", []).append(mapping.direction)
 
     def dimensions(data: str, mesh: str) -> int:
         return config.meshes[mesh]["dimensions"] if config.data[data]["vector"] else 1

@@ -319,8 +319,18 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
     direction = reader.required(element, "direction")
     if direction not in ("read", "write"):
         raise reader.fail(element, f"'direction' is {direction!r}; allowed: read or write")
-    source = _mesh_of(reader, config, element, reader.required(element, "from"))
-    target = _mesh_of(reader, config, element, reader.required(element, "to"))
+    given = {end: element.get(end) for end in ("from", "to")}
+    if given["from"] is None and given["to"] is None:
+        raise reader.fail(element, "a mapping names its meshes: 'from' and 'to' (one of them for a just-in-time "
+                                   "mapping)")
+    jit = given["to"] is None if direction == "read" else given["from"] is None     # preCICE's just-in-time form
+    if given["from"] is None or given["to"] is None:
+        if not jit:
+            raise reader.fail(element, f"the attribute '{'from' if given['from'] is None else 'to'}' is required "
+                                       f"(a {direction} mapping without it is a just-in-time one only without "
+                                       f"'{'to' if direction == 'read' else 'from'}')")
+    source = _mesh_of(reader, config, element, given["from"]) if given["from"] is not None else ""
+    target = _mesh_of(reader, config, element, given["to"]) if given["to"] is not None else ""
     constraint = reader.required(element, "constraint")
     if constraint not in ("consistent", "conservative"):
         raise reader.fail(element, f"'constraint' is {constraint!r}; cosim maps 'consistent' or 'conservative' "
@@ -352,6 +362,10 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
     if kind not in V3_RBF:
         for child in element.children:
             raise reader.fail(child, "no element goes here")
+    if jit and (mapped != "nearest-neighbour" or (direction, constraint) not in (("read", "consistent"),
+                                                                                  ("write", "conservative"))):
+        raise reader.fail(element, "a just-in-time mapping is nearest-neighbor, read consistent or write "
+                                   f"conservative, in cosim (not {kind} {direction} {constraint})")
     return Mapping(mapped, direction, source, target, constraint, settings, element.line)
 
 
@@ -591,6 +605,12 @@ def _check(reader: _Reader, config: Config) -> None:
         for mapping in participant.mappings:
             own = mapping.target if mapping.direction == "read" else mapping.source
             other = mapping.source if mapping.direction == "read" else mapping.target
+            if not own:         # just in time: onto a received mesh accessed directly, from coordinates given then
+                if other not in participant.direct:
+                    raise SceneError(f"{config.path}, line {mapping.line}: participant '{name}' maps just in time "
+                                     f"{'from' if mapping.direction == 'read' else 'to'} mesh '{other}', which it "
+                                     "does not receive with api-access=\"true\"")
+                continue
             if own not in participant.provides or other not in participant.receives:
                 raise SceneError(f"{config.path}, line {mapping.line}: participant '{name}' maps {mapping.direction} "
                                  f"from '{mapping.source}' to '{mapping.target}': a {mapping.direction} mapping goes "

@@ -761,6 +761,87 @@ DIRECT_CONFIG = '''<?xml version="1.0"?>
 '''
 
 
+JIT_PROVIDER = '''
+import json
+import numpy as np
+import precice
+participant = precice.Participant("A", "../config.xml", 0, 1)
+grid = np.column_stack([np.linspace(0, 1, 6), np.zeros(6)])
+ids = participant.set_mesh_vertices("A-Mesh", grid)
+participant.initialize()
+seen, t = [], 0.0
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    t += dt
+    participant.write_data("A-Mesh", "V", ids, 10 * t + grid[:, 0])
+    seen.append(participant.read_data("A-Mesh", "F", ids, dt).tolist())
+    participant.advance(dt)
+participant.finalize()
+json.dump(seen, open("seen.json", "w"))
+'''
+JIT_PARTICLES = '''
+import json
+import numpy as np
+import precice
+participant = precice.Participant("B", "../config.xml", 0, 1)
+participant.set_mesh_access_region("A-Mesh", [-1, 2, -1, 1])
+participant.initialize()
+points, reads = np.array([[0.12, 0.0], [0.5, 0.1], [0.93, 0.0]]), []
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    reads.append(participant.map_and_read_data("A-Mesh", "V", points, dt).tolist())
+    participant.write_and_map_data("A-Mesh", "F", points, np.array([1.0, 2.0, 3.0]))
+    participant.write_and_map_data("A-Mesh", "F", points[:1], np.array([5.0]))
+    participant.advance(dt)
+participant.finalize()
+json.dump(reads, open("reads.json", "w"))
+'''
+JIT_CONFIG = '''<?xml version="1.0" encoding="UTF-8" ?>
+<precice-configuration experimental="true">
+  <data:scalar name="V" /><data:scalar name="F" />
+  <mesh name="A-Mesh" dimensions="2"><use-data name="V" /><use-data name="F" /></mesh>
+  <participant name="A"><provide-mesh name="A-Mesh" /><write-data name="V" mesh="A-Mesh" />
+    <read-data name="F" mesh="A-Mesh" /></participant>
+  <participant name="B"><receive-mesh name="A-Mesh" from="A" api-access="true" />
+    <read-data name="V" mesh="A-Mesh" /><write-data name="F" mesh="A-Mesh" />
+    <mapping:nearest-neighbor direction="read" from="A-Mesh" constraint="consistent" />
+    <mapping:nearest-neighbor direction="write" to="A-Mesh" constraint="conservative" />
+  </participant>
+  <m2n:sockets acceptor="A" connector="B" exchange-directory="." />
+  <coupling-scheme:serial-explicit>
+    <participants first="A" second="B" /><max-time-windows value="3" /><time-window-size value="1.0" />
+    <exchange data="V" mesh="A-Mesh" from="A" to="B" />
+    <exchange data="F" mesh="A-Mesh" from="B" to="A" />
+  </coupling-scheme:serial-explicit>
+</precice-configuration>
+'''
+
+
+def test_just_in_time_mapping_reads_and_writes_at_coordinates_as_precice_does(tmp_path):
+    """Particles read the provider's data at their coordinates (nearest vertex) and write onto its nearest vertices,
+    twice in a window (the values add up, and each window starts from zero): the values preCICE 3.4.1 gives with
+    the same participants and configuration."""
+    case_file = write_case(tmp_path, {"A": JIT_PROVIDER, "B": JIT_PARTICLES}, JIT_CONFIG)
+    run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert json.loads((tmp_path / "B" / "reads.json").read_text()) == [[10.2, 10.4, 11.0], [20.2, 20.4, 21.0],
+                                                                         [30.2, 30.4, 31.0]]
+    assert json.loads((tmp_path / "A" / "seen.json").read_text()) == [[0.0] * 6, [0.0, 6.0, 2.0, 0.0, 0.0, 3.0],
+                                                                        [0.0, 6.0, 2.0, 0.0, 0.0, 3.0]]
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (('<mapping:nearest-neighbor direction="read" from="A-Mesh" constraint="consistent" />',
+      '<mapping:rbf-pum-direct direction="read" from="A-Mesh" constraint="consistent"><basis-function:'
+      'thin-plate-splines /></mapping:rbf-pum-direct>'), "a just-in-time mapping is nearest-neighbor"),
+    (('api-access="true"', ''), "on mesh 'A-Mesh', which it receives without direct-access"),
+    (('direction="read" from="A-Mesh"', 'direction="read" to="A-Mesh"'), "the attribute 'from' is required"),
+])
+def test_a_just_in_time_mapping_cosim_does_not_do_is_refused_in_one_line(tmp_path, change, message):
+    (tmp_path / "config.xml").write_text(JIT_CONFIG.replace(*change))
+    with pytest.raises(SceneError, match=re.escape(message)):
+        read_config(tmp_path / "config.xml")
+
+
 def write_case(folder: Path, participants: dict[str, str], config: str) -> Path:
     """A case of participants written here, each in its folder beside ``config.xml``."""
     lines = ['[precice]', 'config = "config.xml"']

@@ -55,6 +55,7 @@ class Core:
         self.elements: dict[str, dict[str, list[np.ndarray]]] = {mesh: {} for mesh in self.meshes}
         self.received_vertices: dict[str, np.ndarray] = {}   # received meshes accessed directly: from initialize
         self.regions: dict[str, np.ndarray] = {}             # their access regions, (dimensions, 2): min and max
+        self.accumulated: set[str] = set()      # data written just in time this window (zeroed when it ends)
         self.written: dict[str, np.ndarray] = {}
         self.received: dict[str, np.ndarray] = {}
         self.waveforms: dict[str, Waveform] = {}       # read data of degree >= 1: its window's interpolant
@@ -176,6 +177,58 @@ class Core:
         points, bounds = self.received_vertices[mesh], self.regions[mesh]
         inside = np.flatnonzero(((points >= bounds[:, 0]) & (points <= bounds[:, 1])).all(axis=1))
         return inside, points[inside]
+
+    # --- just-in-time mapping: data at coordinates given then, on a received mesh's nearest vertex -----------------
+    def _just_in_time(self, call: str, mesh: Any, direction: str, coordinates: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The received mesh's vertex ids in the access region nearest each of ``coordinates`` (and the points)."""
+        info = self.direct(call, mesh)
+        if direction not in info.get("just_in_time", []):
+            raise self.fail(call, f"no just-in-time {direction} mapping is configured on mesh '{mesh}' (a "
+                                  f"<mapping:nearest-neighbor direction=\"{direction}\"> with "
+                                  f"{'from' if direction == 'read' else 'to'}=\"{mesh}\" alone)")
+        dimensions = int(info["dimensions"])
+        points = np.asarray(coordinates, dtype=np.float64)
+        if points.ndim == 1 and points.size == dimensions:
+            points = points.reshape(1, dimensions)
+        if points.ndim != 2 or points.shape[1] != dimensions or not np.isfinite(points).all():
+            raise self.fail(call, f"coordinates of shape {points.shape} on mesh '{mesh}' of {dimensions} dimensions; "
+                                  f"expected finite (n, {dimensions})")
+        ids, vertices = self.region_vertices(call, mesh)
+        if not len(ids):
+            raise self.fail(call, f"the access region of mesh '{mesh}' holds no vertex to map to")
+        nearest = np.empty(len(points), dtype=np.int64)
+        for start in range(0, len(points), 256):         # a block of points against every vertex at a time
+            block = points[start:start + 256]
+            distances = ((block[:, None, :] - vertices[None, :, :]) ** 2).sum(axis=2)
+            nearest[start:start + 256] = ids[np.argmin(distances, axis=1)]
+        return nearest, points
+
+    def map_and_read(self, call: str, mesh: str, data: str, coordinates: Any, relative_read_time: float) -> np.ndarray:
+        """The data at ``coordinates``: the value at the nearest vertex of the received mesh (consistent)."""
+        nearest, _ = self._just_in_time(call, mesh, "read", coordinates)
+        return self.read_values(call, mesh, data, nearest, relative_read_time)
+
+    def write_and_map(self, call: str, mesh: str, data: str, coordinates: Any, values: Any) -> None:
+        """Values at ``coordinates`` added to the nearest vertices of the received mesh (conservative); what a
+        window gathers goes at its end, and the next window starts from zero."""
+        nearest, points = self._just_in_time(call, mesh, "write", coordinates)
+        spec = self.write.get((mesh, data))
+        if spec is None:
+            raise self.fail(call, f"participant '{self.name}' writes no data '{data}' on mesh '{mesh}'")
+        dimensions = int(spec["dimensions"])
+        expected = (len(points),) if dimensions == 1 else (len(points), dimensions)
+        array = np.asarray(values, dtype=np.float64)
+        if array.shape != expected and array.size == int(np.prod(expected)):
+            array = array.reshape(expected)
+        if array.shape != expected or not np.isfinite(array).all():
+            raise self.fail(call, f"values of shape {array.shape} for {len(points)} points; expected finite "
+                                  f"{expected}")
+        buffer = self._buffer(mesh, data, spec)
+        if data not in self.accumulated:
+            buffer = np.zeros_like(buffer)
+            self.accumulated.add(data)
+        np.add.at(buffer, nearest, array)
+        self.written[data] = buffer
 
     def coordinates(self, mesh: str) -> np.ndarray:
         blocks = self.vertices[mesh]
@@ -338,6 +391,9 @@ class Core:
             for data in self.substep_data:
                 arrays["substeps:" + data] = np.stack([sample[data] for _, sample in self.samples])
         self._exchange("advance", args, arrays)
+        for data in self.accumulated:         # a just-in-time write gathers a window's values from zero
+            self.written.pop(data, None)
+        self.accumulated.clear()
 
     def release(self) -> None:
         """What preCICE's destructor does for a participant that did not call ``finalize``: one whose coupling is

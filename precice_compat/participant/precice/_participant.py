@@ -129,11 +129,13 @@ class Participant:
         raise self._core.fail("write_gradient_data", "gradient data is not supported by cosim (no mapping asks "
                               "for it: requires_gradient_data_for() is False)")
 
-    def write_and_map_data(self, *args: Any) -> None:
-        raise self._core.fail("write_and_map_data", "just-in-time mapping is not supported by cosim")
+    def write_and_map_data(self, mesh_name: str, data_name: str, coordinates: Any, values: Any) -> None:
+        self._core.write_and_map("write_and_map_data", mesh_name, data_name, coordinates, values)
 
-    def map_and_read_data(self, *args: Any) -> Any:
-        raise self._core.fail("map_and_read_data", "just-in-time mapping is not supported by cosim")
+    def map_and_read_data(self, mesh_name: str, data_name: str, coordinates: Any,
+                          relative_read_time: float) -> np.ndarray:
+        return self._core.map_and_read("map_and_read_data", mesh_name, data_name, coordinates,
+                                       float(relative_read_time))
 
     # --- profiling (accepted: cosim times every call itself) ---------------------------------------------------------
     def start_profiling_section(self, event_name: str) -> None:
