@@ -9,7 +9,8 @@ coupling iterations (in all, and in the first window), the exit codes, and the l
 Usage: python -m scripts.precice_tutorials TUTORIALS --out DIR [--case NAME ...] [--python STACK=PY ...]
 [--mode cosim-run]. ``--python nutils7=/venv/bin/python`` runs the participants that need nutils 7 with that
 interpreter (a venv with their own needs and ``pip install ./precice_compat/participant``); stacks: python, nutils7,
-nutils9 (the perpendicular flap's nutils solid), fenics (Debian's python3-dolfin with fenicsprecice); default python3. Results go to
+nutils9 (the perpendicular flap's nutils solid), fenics (Debian's python3-dolfin with fenicsprecice), fmi (preCICE's
+FMI runner fmiprecice with fmpy); default python3. Results go to
 ``DIR/<case>-<mode>/`` and ``DIR/table.json`` as each run ends; a rerun goes on with the runs it lacks.
 """
 
@@ -32,7 +33,8 @@ from cosim.results import RunResults
 NUTILS = {"NUTILS_RICHOUTPUT": "no"}
 FENICS = {"OMP_NUM_THREADS": "1"}
 # case -> (its folder, {participant: (folder, command, environment, stack)}); a stack is the software a participant
-# needs beyond pyprecice ("python": NumPy alone; "nutils7", "nutils9", "fenics"), whose Python --python names
+# needs beyond pyprecice ("python": NumPy alone; "nutils7", "nutils9", "fenics", "fmi": fmiprecice and fmpy), whose
+# Python --python names
 CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str], str]]]] = {
     "elastic-tube-1d": ("elastic-tube-1d", {
         "Fluid": ("fluid-python", "python3 ./FluidSolver.py ../precice-config.xml", {}, "python"),
@@ -52,6 +54,11 @@ CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str], str]]]] = 
     "oscillator": ("oscillator", {
         "Mass-Left": ("mass-left-python", "python3 ../solver-python/oscillator.py Mass-Left", {}, "python"),
         "Mass-Right": ("mass-right-python", "python3 ../solver-python/oscillator.py Mass-Right", {}, "python")}),
+    "oscillator (FMI runner)": ("oscillator", {      # Oscillator.fmu built in solver-fmi as its README says
+        "Mass-Left": ("mass-left-fmi", "python3 -m fmiprecice.runner fmi-settings.json precice-settings.json", {},
+                      "fmi"),
+        "Mass-Right": ("mass-right-fmi", "python3 -m fmiprecice.runner fmi-settings.json precice-settings.json", {},
+                       "fmi")}),
     "oscillator-overlap": ("oscillator-overlap", {
         "Mass-Left": ("mass-left-python", "python3 ../solver-python/oscillator.py Mass-Left", {}, "python"),
         "Mass-Right": ("mass-right-python", "python3 ../solver-python/oscillator.py Mass-Right", {}, "python")}),
