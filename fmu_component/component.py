@@ -87,8 +87,8 @@ class FmuComponent(Component):
         self.inputs, self.outputs, self.locals = kinds["input"], kinds["output"], kinds["local"]
         self.variable_notes = dict(self.fmu.skipped)
         if not self.inputs and not self.outputs:       # outputs alone drive a solver; inputs alone take its data
-            expected = ("scalar names like 'force[1].x' or 'pressure[1]'" if self.fmi_version == "2.0"
-                        else "Float64 inputs or outputs")
+            expected = ("Real inputs or outputs, scalars or arrays named 'force[1].x' or 'pressure[1]'"
+                        if self.fmi_version == "2.0" else "Float64 inputs or outputs")
             skipped = "; ".join(self.fmu.skipped.values())
             raise ComponentError(self.name, f"FMU '{path}' has no array inputs or outputs (expected {expected})"
                                  + (f": {skipped}" if skipped else ""))

@@ -51,11 +51,23 @@ class Fmi2Instance(FmiInstance):
         self.can_serialize = bool(md.coSimulation.canSerializeFMUstate)
         found: dict[tuple[str, str], list[tuple[int, int, int]]] = {}
         for v in md.modelVariables:
+            if v.causality not in ("input", "output", "local"):
+                continue
+            if v.type != "Real":
+                if v.causality != "local":
+                    self.skipped[v.name] = (f"{v.causality} '{v.name}' is {v.type}; only Real (Float64) variables "
+                                            "can be coupled")
+                continue
             match = NAME.match(v.name)
-            if v.causality in ("input", "output", "local") and v.type == "Real" and match:
+            if match:          # node-major arrays: name[node] or name[node].x
                 axis = "xyz".index(match["axis"]) if match["axis"] else 0
                 found.setdefault((match["name"], v.causality), []).append((int(match["node"]), axis,
                                                                           v.valueReference))
+            elif "[" not in v.name:      # a scalar: an array of one value
+                found.setdefault((v.name, v.causality), []).append((1, 0, v.valueReference))
+            elif v.causality != "local":
+                self.skipped[v.name] = (f"{v.causality} '{v.name}' is an element of an array not named by node "
+                                        "(name[i] or name[i].x)")
         self._buffers: dict[str, tuple[Any, ctypes.c_size_t, Any, np.ndarray]] = {}
         self._refs: dict[str, np.ndarray] = {}
         for (variable, causality), entries in found.items():

@@ -196,6 +196,28 @@ def test_an_exceptions_whole_message_goes_on_one_line():
     assert one_line(OSError(": 77")) == "OSError: 77"
 
 
+def test_an_fmi2_fmus_scalars_are_arrays_of_one_and_its_other_types_are_named():
+    """The Reference FMUs' FMI 2.0 variables: a plain Real scalar ('x') is a variable of one value, 'a[1]', 'a[2]'
+    an array of two; an Integer output is kept to the FMU with the reason (they were all refused: 'no array inputs
+    or outputs')."""
+    from types import SimpleNamespace
+
+    from fmu_component.fmi2_instance import Fmi2Instance
+    variables = [SimpleNamespace(name=name, type=kind, causality=causality, valueReference=vr)
+                 for vr, (name, kind, causality) in enumerate([("x", "Real", "output"), ("a[1]", "Real", "input"),
+                                                               ("a[2]", "Real", "input"), ("n", "Integer", "output"),
+                                                               ("der(x)", "Real", "local"),
+                                                               ("m[1,2]", "Real", "output")])]
+    md = SimpleNamespace(modelVariables=variables,
+                         coSimulation=SimpleNamespace(canGetAndSetFMUstate=True, canSerializeFMUstate=False))
+    instance = Fmi2Instance(md, "test")
+    assert {name: (v.causality, v.size) for name, v in instance.variables.items()} == {
+        "x": ("output", 1), "a": ("input", 2), "der(x)": ("local", 1)}
+    assert instance.skipped == {"n": "output 'n' is Integer; only Real (Float64) variables can be coupled",
+                                "m[1,2]": "output 'm[1,2]' is an element of an array not named by node (name[i] or "
+                                          "name[i].x)"}
+
+
 def test_resource_uri_forms(models, tmp_path):
     """file:///path with and without a trailing slash, percent-encoded, and file://localhost/."""
     from fmpy import calloc, free
