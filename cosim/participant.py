@@ -570,10 +570,13 @@ class ParticipantProxy:
         return self.elements.get(self.variables[name].mesh, {}).get("edges")
 
     def cells_of(self, name: str) -> np.ndarray | None:
-        """Its cells: triangles on a 2-D mesh, tetrahedra on a 3-D one."""
+        """Its cells: triangles on a 2-D mesh; tetrahedra on a 3-D one, else its triangles (a surface, for a
+        projection)."""
         mesh = self.variables[name].mesh
-        kind = "triangles" if self.meshes[mesh].shape[1] == 2 else "tetrahedra"
-        return self.elements.get(mesh, {}).get(kind)
+        elements = self.elements.get(mesh, {})
+        if self.meshes[mesh].shape[1] == 2:
+            return elements.get("triangles")
+        return elements.get("tetrahedra", elements.get("triangles"))
 
     def _elements(self, arrays: Mapping[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
         """The edges, triangles and tetrahedra sent with the vertices (``edges:MESH``, ...), checked."""

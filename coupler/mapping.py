@@ -129,7 +129,11 @@ class NearestElement(Mapping):
         source, target = np.asarray(source, float), np.asarray(target, float)
         if constraint == "conservative":
             source, target = target, source
-        matrix = _on_lines(source, target, lines, local_coordinate_tolerance)
+        triangles = cells if cells is not None and source.shape[1] == 3 and np.shape(cells)[1:] == (3,) else None
+        if triangles is not None and len(triangles):        # a 3-D surface: its triangles, then its edges
+            matrix = _on_triangles(source, target, np.asarray(triangles, np.int64), lines)
+        else:
+            matrix = _on_lines(source, target, lines, local_coordinate_tolerance)
         self.matrix = matrix if constraint == "consistent" else matrix.T.tocsr()
 
 
@@ -170,13 +174,48 @@ def _on_lines(nodes: np.ndarray, points: np.ndarray, lines: np.ndarray | None, t
     return _projection(nodes, points, np.asarray(lines, np.int64), tolerance)
 
 
+def _on_triangles(nodes: np.ndarray, points: np.ndarray, triangles: np.ndarray, lines: np.ndarray | None,
+                  candidates: int = 16) -> sp.csr_matrix:
+    """Interpolation at each point's projection onto the nearest triangle that holds it (of the ``candidates``
+    whose centres are nearest); a point projected onto none goes to the lines (``_on_lines``, no extrapolation)."""
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+    a, b, c = (nodes[triangles[:, k]] for k in range(3))
+    k = min(candidates, len(triangles))
+    _, near = cKDTree((a + b + c) / 3.0).query(points, k=k)
+    near = near.reshape(len(points), k)
+    v0, v1, v2 = b[near] - a[near], c[near] - a[near], points[:, None, :] - a[near]       # (points, k, 3)
+    d00, d01, d11 = (np.einsum("pkj,pkj->pk", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))
+    d20, d21 = np.einsum("pkj,pkj->pk", v2, v0), np.einsum("pkj,pkj->pk", v2, v1)
+    denominator = d00 * d11 - d01 * d01
+    flat = denominator <= 1e-14 * np.maximum(d00 * d11, np.finfo(float).tiny)     # a degenerate triangle
+    denominator = np.where(flat, 1.0, denominator)
+    v = (d11 * d20 - d01 * d21) / denominator
+    w = (d00 * d21 - d01 * d20) / denominator
+    weights = np.stack([1.0 - v - w, v, w], axis=-1)                                   # (points, k, 3)
+    inside = (weights.min(axis=-1) >= -1e-10) & ~flat
+    projected = np.einsum("pkc,pkcj->pkj", weights, np.stack([a[near], b[near], c[near]], axis=2))
+    distance = np.where(inside, np.linalg.norm(points[:, None, :] - projected, axis=-1), np.inf)
+    best = np.argmin(distance, axis=1)
+    rows = np.flatnonzero(np.isfinite(distance[np.arange(len(points)), best]))
+    chosen = near[rows, best[rows]]
+    values = weights[rows, best[rows]]
+    matrix = sp.csr_matrix((values.ravel(), (np.repeat(rows, 3), triangles[chosen].ravel())),
+                           shape=(len(points), len(nodes)))
+    if len(rows) == len(points):
+        return matrix
+    outside = np.setdiff1d(np.arange(len(points)), rows)
+    rest = _on_lines(nodes, points[outside], lines, 0.0).tocoo()
+    return matrix + sp.csr_matrix((rest.data, (outside[rest.row], rest.col)), shape=matrix.shape)
+
+
 def _in_cells(nodes: np.ndarray, points: np.ndarray, cells: np.ndarray | None, lines: np.ndarray | None,
               candidates: int = 16, chunk: int = 64) -> sp.csr_matrix:
     """The (len(points), len(nodes)) barycentric interpolation in the simplex cell holding each point; points in no
     cell go to the lines (``_on_lines``, no extrapolation)."""
     import scipy.sparse as sp
     from scipy.spatial import cKDTree
-    if cells is None or len(cells) == 0:
+    if cells is None or len(cells) == 0 or np.shape(cells)[1] != nodes.shape[1] + 1:     # simplices of the space
         return _on_lines(nodes, points, lines, 0.0)
     cells = np.asarray(cells, np.int64)
     corners = nodes[cells]                                        # (cells, d + 1, d)

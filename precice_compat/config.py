@@ -345,9 +345,6 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
         settings.update(_rbf_settings(reader, config, element, kind))
         mapped = "rbf"
     elif kind == "nearest-projection":
-        if config.meshes[source]["dimensions"] == 3:
-            raise reader.fail(element, "nearest-projection on a 3-D mesh (onto its triangles) is not supported by "
-                                       "cosim: use rbf, or linear-cell-interpolation on tetrahedra")
         mapped = "nearest-element"
         settings.update(local_coordinate_tolerance=0.0, without_elements="nearest-node")
     elif kind == "linear-cell-interpolation":

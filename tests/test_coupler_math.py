@@ -468,6 +468,31 @@ def test_cell_interpolation_is_exact_on_linear_fields_inside_the_cells_and_conse
     assert conservative(forces).sum() == pytest.approx(forces.sum(), rel=1e-12)
 
 
+def test_a_nearest_projection_onto_a_3d_surfaces_triangles_is_exact_on_linear_fields():
+    """A tilted plane's triangles (preCICE's nearest-projection in 3-D): points off the plane take the linear
+    field at their projection onto it; a point beyond the surface, with no edges given, its nearest node; the
+    conservative form keeps the total."""
+    from scipy.spatial import Delaunay
+    x, y = (g.ravel() for g in np.meshgrid(np.linspace(0, 1, 6), np.linspace(0, 1, 6)))
+    nodes = np.column_stack([x, y, 0.3 * x + 0.2 * y])
+    triangles = Delaunay(nodes[:, :2]).simplices
+    normal = np.array([-0.3, -0.2, 1.0]) / np.linalg.norm([-0.3, -0.2, 1.0])
+    rng = np.random.default_rng(9)
+    on_plane = rng.uniform(0.1, 0.9, (30, 2))
+    on_plane = np.column_stack([on_plane, 0.3 * on_plane[:, 0] + 0.2 * on_plane[:, 1]])
+    points = np.vstack([on_plane + 0.05 * normal, [[1.5, 1.5, 0.5]]])
+    field = lambda p: 1.0 + p[:, 0] + 2.0 * p[:, 1] + 3.0 * p[:, 2]      # noqa: E731
+    mapping = make_mapping({"type": "nearest-element", "constraint": "consistent"}, nodes, points, (36,), (31,),
+                           "t", source_cells=triangles)
+    mapped = mapping(field(nodes))
+    np.testing.assert_allclose(mapped[:30], field(on_plane), atol=1e-12)
+    assert mapped[30] == field(nodes)[np.argmin(np.linalg.norm(nodes - points[30], axis=1))]
+    forces = rng.standard_normal(31)
+    conservative = make_mapping({"type": "nearest-element", "constraint": "conservative"}, points, nodes, (31,),
+                                (36,), "t", target_cells=triangles)
+    assert conservative(forces).sum() == pytest.approx(forces.sum(), rel=1e-12)
+
+
 def test_element_mappings_without_elements_refuse_or_take_the_nearest_node_as_asked():
     rng = np.random.default_rng(4)
     source, target = rng.random((20, 2)), rng.random((7, 2))
