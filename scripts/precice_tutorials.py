@@ -85,7 +85,7 @@ CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str], str]]]] = 
         "Fluid": ("fluid-nutils", "python3 fluid.py", NUTILS, "nutils7"),
         "Transport": ("transport-nutils", "python3 transport.py", NUTILS, "nutils7")}),
     "channel-transport-reaction (FEniCS)": ("channel-transport-reaction", {
-        "Fluid": ("fluid-fenics", "python3 fluid.py", FENICS, "fenics"),
+        "Flow": ("fluid-fenics", "python3 fluid.py", FENICS, "fenics"),
         "Chemical": ("chemical-fenics", "python3 chemical-reaction-advection-diffusion.py", FENICS, "fenics")}),
 }
 MODES = ("cosim-run", "by-hand")
