@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
+import warnings
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -104,7 +105,11 @@ def main(argv: list[str] | None = None) -> int:
         # Ctrl-C while the commands load is an interruption too
         args = parser(given[0] if given and not given[0].startswith("-") else None).parse_args(argv)
         command = f"cosim {args.command}"
-        return _call(args)
+        with warnings.catch_warnings():
+            # NumPy's arithmetic warnings (an overflow while a run diverges) are not printed: the run checks its
+            # values and states what failed in its one line
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return _call(args)
     except KeyboardInterrupt:
         print(f"{command}: interrupted; components stopped", file=sys.stderr)
         return 130

@@ -63,6 +63,14 @@ class NanSolid(TubeSolid):
             self.section[5] = float("nan")
 
 
+class OverflowingSolid(TubeSolid):
+    """Sections of 1e160 and up: the coupler's residual norm overflows (NumPy warns) before the fluid fails."""
+
+    def do_step(self, t, dt):
+        self._calls = getattr(self, "_calls", 0) + 1
+        self.section = np.full(self.n, 1e150 * 10.0 ** (10 * self._calls))
+
+
 class DivergingSolid(TubeSolid):
     """Within a window, the k-th call returns a0 (1 + 1e-3 10^k): a residual growing tenfold per iteration."""
 

@@ -45,6 +45,17 @@ def test_accepted_windows_are_counted(tmp_path, capsys):
     assert err.count("did not converge in 2 iterations") == unconverged
 
 
+def test_numpys_warnings_are_not_printed_above_the_error_line(tmp_path):
+    """The coupler's norm of sections of 1e160 overflows (NumPy's RuntimeWarning); the run's failure is still the
+    one line on stderr."""
+    done = subprocess.run([sys.executable, "-m", "cosim", "run", str(TUBE_SCENE), "--out", str(tmp_path / "huge"),
+                           "--quiet", "--set", "time.end=1", "--set",
+                           "components.solid.entry=tests.components:OverflowingSolid"],
+                          capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert done.stderr.startswith("cosim run: error: component 'fluid' in window 1")
+
+
 def test_a_growing_residual_stops_an_accepting_run_as_diverged(tmp_path):
     with pytest.raises(DivergenceError, match=r"window 1 \(t = 0 to 0.1\): diverged: the coupling residual grew from "
                                               r"[\d.e+-]+ to [\d.e+-]+ in 6 iterations"):
