@@ -249,6 +249,7 @@ def build_scheme(scene: Scene, proxies: dict[str, Coupled],
                           coupling["max_iterations"], coupling["on_max_iterations"],
                           coupling["extrapolation_order"], recorders, coupling["divergence_factor"],
                           coupling["predictor"], coupling_model(coupling))
+    scheme.first_iterate_zero = list(coupling["first_iterate_zero"])
     scheme.initialize()
     scheme.acceleration = make_acceleration(coupling["acceleration"], scheme.block_sizes(scheme.accelerated))
     if scheme.model is not None:

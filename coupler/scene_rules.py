@@ -34,6 +34,7 @@ COUPLING: dict[str, Any] = {
     # or "acceleration" (the acceleration's update from the last window's converged iteration)
     "predictor": Choice("none", ("none", "acceleration", "surrogate")),
     "acceleration": PluginChoice("none"),
+    "first_iterate_zero": [],
     # the online interface surrogate (checked by the coupler against its own settings)
     "surrogate": AnyTable(),
 }
@@ -42,8 +43,13 @@ EXCHANGE = {"data": Required(str), "from": Required(str), "to": Required(str), "
             "at_window_end": False}
 MEANINGS = {
     "coupling.scheme": "the coupling scheme: a registered scheme's name (below)",
-    "coupling.participants": "the two components the scheme couples, in its order (serial: the first goes first)",
+    "coupling.participants": "the components the scheme couples, in its order (serial: the first goes first); two, "
+                             "or two or more for multi",
     "coupling.max_iterations": "the coupling iterations a window may take",
+    "coupling.first_iterate_zero": "parallel schemes: data whose initial values the measures and the acceleration "
+                                   "take as zero in the first iteration of the first window, though the receiver "
+                                   "gets them (preCICE does so for initial data the accelerating participant "
+                                   "receives)",
     "coupling.on_max_iterations": "a window that reaches max_iterations: stop the run ('fail') or take the last "
                                   "iterate with a warning ('accept')",
     "coupling.divergence_factor": "a window whose coupling residual grows by this factor has diverged: the run stops",
@@ -117,7 +123,11 @@ def check_coupling(data: dict[str, Any], source: str) -> None:
         raise SceneError(f"{source}: 'coupling.acceleration.data' must be a list, got {accelerated!r}")
     participants = coupling["participants"]
     string_list(participants, "coupling.participants", source)
-    if len(participants) != 2 or len(set(participants)) != 2:
+    if SCHEMES.classes[coupling["scheme"]].many_participants:
+        if len(participants) < 2 or len(set(participants)) != len(participants):
+            raise SceneError(f"{source}: 'coupling.participants' must name two or more different components "
+                             f"for {coupling['scheme']}, got {participants}")
+    elif len(participants) != 2 or len(set(participants)) != 2:
         raise SceneError(f"{source}: 'coupling.participants' must name two different components, got {participants}")
     for i, name in enumerate(participants):
         if name not in names:
@@ -144,6 +154,15 @@ def check_coupling(data: dict[str, Any], source: str) -> None:
                              f"not exchanged data ({', '.join(sorted(exchanged))})")
     second = participants[1]
     fed_back = sorted(e["data"] for e in data["exchange"] if e["from"] == second)
+    zeroed = coupling["first_iterate_zero"]
+    string_list(zeroed, "coupling.first_iterate_zero", source)
+    for i, name in enumerate(zeroed):
+        if name not in exchanged:
+            raise SceneError(f"{source}: 'coupling.first_iterate_zero.{i}' is {name!r}, not exchanged data "
+                             f"({', '.join(sorted(exchanged))})")
+    if zeroed and not SCHEMES.classes[coupling["scheme"]].takes_first_iterate_zero:
+        raise SceneError(f"{source}: 'coupling.first_iterate_zero' is for the parallel implicit schemes, not "
+                         f"{coupling['scheme']}")
     for i, name in enumerate(accelerated):
         where = f"coupling.acceleration.data.{i}"
         if not isinstance(name, str) or name not in exchanged:

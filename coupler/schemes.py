@@ -1,4 +1,5 @@
-"""Coupling schemes: serial-explicit, serial-implicit (Gauss-Seidel), parallel-implicit (Jacobi).
+"""Coupling schemes: serial-explicit, parallel-explicit, serial-implicit (Gauss-Seidel), parallel-implicit
+(Jacobi), and multi (Jacobi over two or more participants).
 
 A scheme advances all participants through one time window (``advance``) and
 reports iterations, convergence, residual measures and the window's values of
@@ -86,13 +87,16 @@ class CouplingScheme:
     """Common parts: data values, sending, recording."""
 
     implicit = True
+    many_participants = False     # couples two or more participants (else exactly two)
+    takes_first_iterate_zero = False      # honours ``first_iterate_zero``
 
     def __init__(self, participants: Sequence[Coupled], exchanges: Sequence[Exchange],
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
                  accelerated: Sequence[str] = (), max_iterations: int = 50, on_max_iterations: str = "fail",
                  extrapolation_order: int = 0, recorders: Mapping[str, CallRecorder] | None = None,
                  divergence_factor: float = 1e3, predictor: str = "none", model: CouplingModel | None = None):
-        self.first, self.second = participants
+        self.participants = tuple(participants)
+        self.first, self.second = self.participants[:2]
         self.exchanges = list(exchanges)
         self.measures = list(measures)
         self.acceleration = acceleration or Acceleration()
@@ -119,6 +123,8 @@ class CouplingScheme:
         self._to_free: dict[str, int] = {}    # states of the last window, freed with the next step
         self.model = model      # a model of the coupled map learnt during the run (coupler.coupling_model), or None
         self._deferred: Callable[[], None] | None = None
+        self.first_iterate_zero: list[str] = []   # data whose initial values the measures and the acceleration
+                                                  # take as zero in the first window's first iteration
 
     def checkpoint_state(self) -> dict[str, Any]:
         """Everything the scheme carries from one window to the next, as a state tree (``cosim.checkpoint``): the
@@ -132,7 +138,7 @@ class CouplingScheme:
                 "acceleration": object_state(self.acceleration, skip=("model",)),
                 "model": self.model.checkpoint_state() if self.model is not None else None,
                 "measures": [object_state(m) for m in self.measures],
-                "schedules": {p.name: kept for p in (self.first, self.second)
+                "schedules": {p.name: kept for p in self.participants
                               if (kept := p.coupling_state()) is not None}}
 
     def restore_checkpoint_state(self, state: Mapping[str, Any]) -> None:
@@ -149,7 +155,7 @@ class CouplingScheme:
             self.model.restore_checkpoint_state(state["model"])
         for measure, measure_state in zip(self.measures, state["measures"]):
             restore_object(measure, measure_state)
-        for p in (self.first, self.second):
+        for p in self.participants:
             if p.coupling_state() is not None:
                 p.restore_coupling_state(state["schedules"][p.name])
 
@@ -169,7 +175,7 @@ class CouplingScheme:
 
     def initialize(self) -> None:
         """Initial data values from the producers (after initialization mode)."""
-        for proxy in (self.first, self.second):
+        for proxy in self.participants:
             names = self.sent_by(proxy)
             if names:
                 self.values.update({k: np.array(v) for k, v in proxy.get_values(names).items()})
@@ -343,14 +349,14 @@ class CouplingScheme:
     def _save_states(self) -> None:
         """A window begins: each stateful participant's state is saved, by its first step where its server takes
         ``save`` with a step, else by ``get_state``."""
-        for proxy in (self.first, self.second):
+        for proxy in self.participants:
             if self._stateful(proxy) and not proxy.step_saves_state:
                 self._state[proxy.name] = proxy.get_state()
 
     def _free_states(self) -> None:
         """A window ends: the saved states go, with the next window's first step where the server takes ``free``
         with a step (``release_states`` frees them before a checkpoint and at the end)."""
-        for proxy in (self.first, self.second):
+        for proxy in self.participants:
             handle = self._state.pop(proxy.name, None)
             if handle is not None and self._stateful(proxy):
                 if proxy.step_saves_state:
@@ -360,7 +366,7 @@ class CouplingScheme:
 
     def release_states(self) -> None:
         """Free the states still held for the step that would have freed them (between windows)."""
-        for proxy in (self.first, self.second):
+        for proxy in self.participants:
             handle = self._to_free.pop(proxy.name, None)
             if handle is not None and self._stateful(proxy):
                 proxy.free_state(handle)
@@ -398,7 +404,7 @@ class CouplingScheme:
         changed (ROM and solid FOM) changed the map."""
         self._residuals.append(norm(x_tilde - x))
         self._measure_history.append([m.value for m in self.measures])
-        if any(proxy.backend_changed for proxy in (self.first, self.second)):
+        if any(proxy.backend_changed for proxy in self.participants):
             self.acceleration.map_changed()
         self.acceleration.observe(x, x_tilde)
 
@@ -496,7 +502,7 @@ class SerialExplicit(CouplingScheme):
     def _advance(self, t: float, dt: float) -> WindowResult:
         self._begin(t, dt)
         self.iteration = 1
-        for proxy in (self.first, self.second):
+        for proxy in self.participants:
             inputs = self.inputs_for(proxy, self.values)
             proxy.send_step(t, dt, inputs, **self.waveforms_for(proxy, self.values, self.series))
             self.run_deferred()
@@ -516,7 +522,7 @@ class ParallelExplicit(CouplingScheme):
     def _advance(self, t: float, dt: float) -> WindowResult:
         self._begin(t, dt)
         self.iteration = 1
-        proxies = (self.first, self.second)
+        proxies = self.participants
         inputs = {p.name: self.inputs_for(p, self.values) for p in proxies}
         for p in proxies:
             p.send_step(t, dt, inputs[p.name], **self.waveforms_for(p, self.values, self.series))
@@ -590,17 +596,19 @@ class SerialImplicit(CouplingScheme):
 class ParallelImplicit(CouplingScheme):
     """Jacobi: both participants step concurrently on the previous iterate."""
 
+    takes_first_iterate_zero = True
+
     def default_accelerated(self) -> list[str]:
-        return [e.data for e in self.exchanges]
+        return list(dict.fromkeys(e.data for e in self.exchanges))
 
     def _advance(self, t: float, dt: float) -> WindowResult:
         self._begin(t, dt)
-        names = [e.data for e in self.exchanges]
+        names = list(dict.fromkeys(e.data for e in self.exchanges))
         accelerated = self.accelerated
         values = self._begin_implicit_window()
         series: Series = {}          # the predicted iterate has no samples inside the window
         converged = False
-        proxies = (self.first, self.second)
+        proxies = self.participants
         for iteration in range(1, self.max_iterations + 1):
             self.iteration = iteration
             inputs = {p.name: self.inputs_for(p, values) for p in proxies}
@@ -617,8 +625,11 @@ class ParallelImplicit(CouplingScheme):
                 outputs.update(returned)
                 self._take_series(p, out_series)
             new = {k: outputs[k] for k in names}
-            converged = window_converged(self.measures, [m.measure(values[m.data], new[m.data]) for m in self.measures])
-            self._observe(*self._iterates(values, series, new, out_series, accelerated))
+            seen = values
+            if self.window == 1 and iteration == 1 and self.first_iterate_zero:
+                seen = {k: np.zeros_like(v) if k in self.first_iterate_zero else v for k, v in values.items()}
+            converged = window_converged(self.measures, [m.measure(seen[m.data], new[m.data]) for m in self.measures])
+            self._observe(*self._iterates(seen, series, new, out_series, accelerated))
             values.update(new)
             series = out_series
             if converged or iteration == self.max_iterations:
@@ -628,3 +639,12 @@ class ParallelImplicit(CouplingScheme):
             series.update(proposed_series)
         self._predict_next_window(converged)
         return self._end_implicit_window(values, series, t + dt, iteration, converged)
+
+
+@SCHEMES.register("multi")
+class Multi(ParallelImplicit):
+    """Jacobi over two or more participants: all step concurrently on the previous iterate, and the measures and
+    the acceleration work on all exchanged data (preCICE's fully implicit multi-coupling). With two participants
+    it is parallel-implicit."""
+
+    many_participants = True

@@ -78,7 +78,7 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
                   "degree": config.data[data]["degree"]} for data, mesh in participant.reads.items()
                  if data in exchanged],
         "initial": [e.data for e in config.exchanges if e.initialize and e.source == name],
-        "implicit": scheme["kind"].endswith("implicit"),
+        "implicit": scheme["kind"].endswith("implicit") or scheme["kind"] == "multi",
         "window": scheme["window"],
         "start": 0.0,
     }
@@ -102,13 +102,12 @@ def scene_of(config: Config, participants: dict[str, dict[str, Any]], folder: Pa
     """The scene a configuration makes, each participant started as ``participants`` says (a participant the case
     does not name is one started by hand)."""
     scheme = config.scheme
-    first, second = scheme["participants"]
     window = scheme["window"]
     end = scheme.get("max_time")
     if "max_windows" in scheme:
         end = scheme["max_windows"] * window if end is None else min(end, scheme["max_windows"] * window)
     components = {}
-    for participant in (first, second):
+    for participant in scheme["participants"]:
         spec = participants.get(participant, {})
         component = _component(config, participant, spec, folder)
         components[participant] = component
@@ -123,13 +122,20 @@ def scene_of(config: Config, participants: dict[str, dict[str, Any]], folder: Pa
         measures.append({"data": config.exchanges[0].data, "type": "min-iterations", "iterations": minimum})
     coupling: dict[str, Any] = {
         "scheme": scheme["kind"],
-        "participants": [first, second],
+        "participants": list(scheme["participants"]),
         "max_iterations": scheme.get("max_iterations", 100),
         # preCICE goes on after max-iterations unless a measure is strict
         "on_max_iterations": "fail" if strict else "accept",
         "extrapolation_order": scheme.get("extrapolation_order", 0),
         "convergence": measures,
     }
+    if scheme["kind"] in ("parallel-implicit", "multi"):
+        # the participant that accelerates (the second; multi's controller) keeps the initial data it receives out
+        # of the first window's first iterate, as preCICE 3 does
+        accelerating = scheme["participants"][1 if scheme["kind"] == "parallel-implicit" else 0]
+        zeroed = [e.data for e in config.exchanges if e.initialize and e.target == accelerating]
+        if zeroed:
+            coupling["first_iterate_zero"] = list(dict.fromkeys(zeroed))
     if scheme["acceleration"] is not None:
         coupling["acceleration"] = {k: v for k, v in scheme["acceleration"].items() if k != "line"}
     watch_points = [{"component": participant.name, "mesh": point["mesh"], "name": point["name"],

@@ -21,7 +21,7 @@ from coupler.mapping import BASES, COMPACT_BASES
 from precice_compat.xml_tree import Element, parse
 
 SCHEMES = {"serial-explicit": "serial-explicit", "parallel-explicit": "parallel-explicit",
-           "serial-implicit": "serial-implicit", "parallel-implicit": "parallel-implicit"}
+           "serial-implicit": "serial-implicit", "parallel-implicit": "parallel-implicit", "multi": "multi"}
 MEASURES = {"relative-convergence-measure": "relative", "absolute-convergence-measure": "absolute",
             "residual-relative-convergence-measure": "residual-relative"}
 FILTERS = {"QR1": "qr1", "QR2": "qr2", "QR1-absolute": "qr1-absolute"}
@@ -424,14 +424,22 @@ def _m2n(reader: _Reader, config: Config, element: Element) -> None:
 
 def _scheme(reader: _Reader, config: Config, element: Element, kind: str) -> None:
     if kind not in SCHEMES:
-        raise reader.fail(element, f"the coupling scheme {kind!r} is not supported: cosim couples two participants "
-                                   f"({', '.join(SCHEMES)})")
+        raise reader.fail(element, f"the coupling scheme {kind!r} is not supported (cosim: {', '.join(SCHEMES)})")
     scheme: dict[str, Any] = {"kind": kind, "line": element.line, "measures": [], "acceleration": None}
     reader.done(element)
+    controllers: list[str] = []
     for child in element.children:
         prefix, child_kind = child.kind()
-        if child.tag == "participants":
+        if child.tag == "participants" and kind != "multi":
             scheme["participants"] = [reader.required(child, "first"), reader.required(child, "second")]
+            reader.done(child)
+        elif child.tag == "participant" and kind == "multi":
+            name = reader.required(child, "name")
+            if name in scheme.setdefault("participants", []):
+                raise reader.fail(child, f"participant '{name}' is named twice")
+            scheme["participants"].append(name)
+            if reader.flag(child, "control"):
+                controllers.append(name)
             reader.done(child)
         elif child.tag == "max-time":
             scheme["max_time"] = reader.value_child(child, above=0.0)
@@ -468,6 +476,13 @@ def _scheme(reader: _Reader, config: Config, element: Element, kind: str) -> Non
             scheme["acceleration"] = _acceleration(reader, child, child_kind)
         else:
             raise reader.fail(child, "this element of a coupling scheme is not supported by cosim")
+    if kind == "multi":
+        if len(controllers) != 1:
+            raise reader.fail(element, "exactly one <participant name=\"...\" control=\"yes\"/> must control a "
+                                       f"multi-coupling, found {len(controllers)}")
+        # the controller computes measures and acceleration in preCICE; cosim's coupler does, whoever controls
+        scheme["participants"].remove(controllers[0])
+        scheme["participants"].insert(0, controllers[0])
     config.scheme = scheme
 
 
@@ -571,6 +586,8 @@ def _check(reader: _Reader, config: Config) -> None:
     names = scheme.get("participants")
     if not names:
         raise SceneError(f"{where}: <participants first=\"...\" second=\"...\"/> is required")
+    if len(names) < 2:
+        raise SceneError(f"{where}: a multi-coupling needs two or more <participant name=\"...\"/>")
     for name in names:
         if name not in config.participants:
             raise SceneError(f"{where}: participant '{name}' is not defined (participants: "
@@ -632,7 +649,7 @@ def _check(reader: _Reader, config: Config) -> None:
             raise SceneError(f"{config.path}, line {measure['line']}: the measure's data '{measure['data']}' is not "
                              "exchanged by the coupling scheme")
     acceleration = scheme["acceleration"]
-    iterated = {e.data for e in config.exchanges if scheme["kind"] == "parallel-implicit"
+    iterated = {e.data for e in config.exchanges if scheme["kind"] in ("parallel-implicit", "multi")
                 or (scheme["kind"] == "serial-implicit" and e.source == names[1])}
     if acceleration is not None and acceleration["type"] == "constant" and not acceleration["data"]:
         # preCICE relaxes all the data the scheme iterates when constant relaxation names none
@@ -661,5 +678,5 @@ def _check(reader: _Reader, config: Config) -> None:
     if scheme.get("min_iterations", 1) > scheme.get("max_iterations", 100):
         raise SceneError(f"{where}: <min-iterations value=\"{scheme['min_iterations']}\"/> is above "
                          f"<max-iterations value=\"{scheme.get('max_iterations', 100)}\"/>: no window could converge")
-    if scheme["kind"].endswith("implicit") and not scheme["measures"]:
+    if (scheme["kind"].endswith("implicit") or scheme["kind"] == "multi") and not scheme["measures"]:
         raise SceneError(f"{where}: an implicit scheme needs a convergence measure")

@@ -619,19 +619,22 @@ def test_a_preconditioned_iqn_ils_does_not_see_the_units_of_each_data_block(prec
 
 
 def test_the_residual_sum_preconditioner_sums_each_blocks_share_of_the_residual_over_the_window():
-    """Weights 1 / sum over the window's iterations of |r_i| / |r|; replaced only when one changes by an order of
-    magnitude, and summed afresh each window."""
+    """Weights 1 / sum over the window's iterations of |r_i| / |r|: in the first window at every iteration; from
+    then on replaced only when one changes by an order of magnitude, and summed afresh each window."""
     from coupler.accelerations.preconditioners import Preconditioner
     p = Preconditioner("residual-sum", [2, 1])
     p.start_window()
     r = np.array([3.0, 0.0, 4.0])                      # shares 0.6 and 0.8
     np.testing.assert_allclose(p.update(r, r), [1 / 0.6, 1 / 0.6, 1 / 0.8])
-    for _ in range(8):                                 # sums 0.6 k, 0.8 k: within an order of magnitude to k = 9
-        np.testing.assert_allclose(p.update(r, r), [1 / 0.6, 1 / 0.6, 1 / 0.8])
-    p.update(r, r)
-    np.testing.assert_allclose(p.update(r, r), [1 / 6.6, 1 / 6.6, 1 / 8.8])      # k = 11: eleven times, taken
+    np.testing.assert_allclose(p.update(r, r), [1 / 1.2, 1 / 1.2, 1 / 1.6])        # the first window: each time
     p.end_window()
-    p.start_window()                                   # summed afresh: 0.6 is a eleventh of 6.6, taken
+    p.start_window()                                   # summed afresh: 0.6 is half of 1.2, kept
+    s = np.array([7.0, 0.0, 24.0])                     # shares 0.28 and 0.96
+    for _ in range(16):                                # sums 0.28 k, 0.96 k: within an order of magnitude to k = 16
+        np.testing.assert_allclose(p.update(s, s), [1 / 1.2, 1 / 1.2, 1 / 1.6])
+    np.testing.assert_allclose(p.update(s, s), [1 / 4.76, 1 / 4.76, 1 / 16.32])   # k = 17: 10.2 times, taken
+    p.end_window()
+    p.start_window()                                   # summed afresh: 0.8 is a 20th of 16.32, taken
     np.testing.assert_allclose(p.update(r, r), [1 / 0.6, 1 / 0.6, 1 / 0.8])
     zero = np.zeros(3)                                 # no residual: the weights stay
     np.testing.assert_allclose(p.update(zero, zero), [1 / 0.6, 1 / 0.6, 1 / 0.8])

@@ -226,3 +226,24 @@ def test_paths_and_modules_in_a_scene_are_the_scene_folders_and_set_values_the_w
                                          r"\(a relative path is the scene folder's\)"):
         (case / "tube.toml").write_text(text.replace("tables/inlet.csv", "tables/missing.csv"))
         run_scene(load_scene(case / "tube.toml", ["time.end=0.3"]), "run3", progress=False)
+
+
+def test_multi_with_two_participants_is_parallel_implicit_bit_for_bit(tmp_path):
+    """multi is Jacobi over any number of participants: with the tube's two, the parallel scheme's run exactly."""
+    common = ["time.end=0.5", "coupling.acceleration.data=[\"pressure\", \"section\"]",
+              "coupling.acceleration.initial_relaxation=0.1"]
+    run(tmp_path, *common, "coupling.scheme=parallel-implicit", name="parallel")
+    run(tmp_path, *common, "coupling.scheme=multi", name="multi")
+    with RunResults(tmp_path / "parallel" / "results.h5") as p, RunResults(tmp_path / "multi" / "results.h5") as m:
+        assert m.windows.iterations.tolist() == p.windows.iterations.tolist()
+        for name, values in p.fields().items():
+            assert np.array_equal(m.fields()[name], values), name
+
+
+@pytest.mark.parametrize(("participants", "message"), [
+    ('["fluid"]', "must name two or more different components for multi"),
+    ('["fluid", "solid", "fluid"]', "must name two or more different components for multi"),
+])
+def test_multi_participants_are_checked(tmp_path, participants, message):
+    with pytest.raises(SceneError, match=re.escape(message)):
+        load_scene(TUBE_SCENE, ["coupling.scheme=multi", f"coupling.participants={participants}"])

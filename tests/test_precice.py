@@ -251,8 +251,11 @@ BAD_CONFIGS = [
     ("an RBF mapping without its basis", ("<mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
                                           "<mapping:rbf direction=\"read\" from=\"Solid-Nodes\""),
      "an RBF mapping holds one"),
-    ("a multi coupling scheme", ("coupling-scheme:serial-implicit>", "coupling-scheme:multi>"),
-     "the coupling scheme 'multi' is not supported"),
+    ("an unknown coupling scheme", ("coupling-scheme:serial-implicit>", "coupling-scheme:staggered>"),
+     "the coupling scheme 'staggered' is not supported"),
+    ("a multi-coupling given two participants as a pair", ("coupling-scheme:serial-implicit>",
+                                                          "coupling-scheme:multi>"),
+     "<participants>: this element of a coupling scheme is not supported"),
     ("the QR3 filter", ('<filter type="QR2"', '<filter type="QR3"'), "the filter 'QR3' is not supported"),
     ("a waveform degree of 4", ('<data:scalar name="Pressure" />', '<data:scalar name="Pressure" waveform-degree="4" />'),
      "'waveform-degree' is 4; allowed: 0 to 3"),
@@ -1355,3 +1358,171 @@ def test_window_converged_takes_all_measures_or_one_that_suffices():
     assert window_converged([strict, enough], [False, True])
     assert not window_converged([strict, enough], [True, False])
     assert window_converged([strict, enough], [True, True])
+
+
+MASS = '''"""One mass of a chain wall-M1-M2-M3-wall, as a preCICE participant: trapezoidal rule, the neighbours'
+displacements at the window's end read from preCICE."""
+import json
+import sys
+
+import numpy as np
+import precice
+
+NAME = sys.argv[1]
+I = int(NAME[-1])
+MASS = {1: 1.0, 2: 2.0, 3: 1.0}[I]
+WALL = {1: 4.0, 2: 0.0, 3: 3.0}[I]
+SPRING = 1.0
+NEIGHBOURS = [int(j) for j in sys.argv[2].split(",")] if len(sys.argv) > 2 else {1: [2], 2: [1, 3], 3: [2]}[I]
+STIFFNESS = WALL + SPRING * len(NEIGHBOURS)
+
+participant = precice.Participant(NAME, "../config.xml", 0, 1)
+mesh = f"{NAME}-Mesh"
+vertex = participant.set_mesh_vertices(mesh, np.zeros((1, 2)))
+u, v = {1: 1.0, 2: 0.2, 3: -0.5}[I], {1: 0.0, 2: 0.3, 3: 0.0}[I]
+written = [f"Displacement-{I}"]
+read = [f"Displacement-{j}" for j in NEIGHBOURS]
+if participant.requires_initial_data():
+    for name in written:
+        participant.write_data(mesh, name, vertex, [u])
+participant.initialize()
+dt = participant.get_max_time_step_size()
+neighbours = np.array([participant.read_data(mesh, name, vertex, dt)[0] for name in read])
+history = [u]
+while participant.is_coupling_ongoing():
+    if participant.requires_writing_checkpoint():
+        saved = (u, v, neighbours)
+    dt = participant.get_max_time_step_size()
+    start = (u, v, neighbours)
+    ends = np.array([participant.read_data(mesh, name, vertex, dt)[0] for name in read])
+    a0 = (-STIFFNESS * u + SPRING * neighbours.sum()) / MASS
+    u1 = (u + dt * v + dt ** 2 / 4 * (a0 + SPRING * ends.sum() / MASS)) / (1 + dt ** 2 * STIFFNESS / (4 * MASS))
+    v1 = v + dt / 2 * (a0 + (-STIFFNESS * u1 + SPRING * ends.sum()) / MASS)
+    u, v, neighbours = u1, v1, ends
+    for name in written:
+        participant.write_data(mesh, name, vertex, [u])
+    participant.advance(dt)
+    if participant.requires_reading_checkpoint():
+        u, v, neighbours = saved
+    elif participant.is_time_window_complete():
+        history.append(u)
+participant.finalize()
+json.dump(history, open("history.json", "w"))
+'''
+
+
+def chain_config(masses: int, scheme: str, acceleration: str, initialize: bool) -> str:
+    """A chain wall-M1-...-Mn-wall of masses coupled by springs, each mass a participant (n = 2 or 3); the
+    middle one (M2) accelerates: multi's controller, parallel-implicit's second."""
+    names = [f"M{i}" for i in range(1, masses + 1)]
+    neighbours = {name: [other for other in names if abs(int(other[1]) - int(name[1])) == 1] for name in names}
+    init = ' initialize="true"' if initialize else ""
+    lines = ['<?xml version="1.0" encoding="UTF-8" ?>', "<precice-configuration>"]
+    lines += [f'<data:scalar name="Displacement-{n[1]}" />' for n in names]
+    for name in names:
+        used = "".join(f'<use-data name="Displacement-{m[1]}" />' for m in [name, *neighbours[name]])
+        lines.append(f'<mesh name="{name}-Mesh" dimensions="2">{used}</mesh>')
+    for name in names:
+        lines.append(f'<participant name="{name}"><provide-mesh name="{name}-Mesh" />'
+                     f'<write-data name="Displacement-{name[1]}" mesh="{name}-Mesh" />')
+        for other in neighbours[name]:
+            lines.append(f'<receive-mesh name="{other}-Mesh" from="{other}" /><read-data name="Displacement-'
+                         f'{other[1]}" mesh="{name}-Mesh" /><mapping:nearest-neighbor direction="read" '
+                         f'from="{other}-Mesh" to="{name}-Mesh" constraint="consistent" />')
+        lines.append("</participant>")
+    lines += [f'<m2n:sockets acceptor="M2" connector="{n}" exchange-directory=".." />' for n in names if n != "M2"]
+    lines.append(f"<coupling-scheme:{scheme}>")
+    if scheme == "multi":
+        lines += ['<participant name="M2" control="yes" />', '<participant name="M1" />', '<participant name="M3" />']
+    else:
+        lines.append('<participants first="M1" second="M2" />')
+    lines += ['<max-time-windows value="40" />', '<time-window-size value="0.1" />', '<max-iterations value="40" />']
+    for name in names:
+        for other in neighbours[name]:
+            lines.append(f'<exchange data="Displacement-{name[1]}" mesh="{name}-Mesh" from="{name}" to="{other}"'
+                         f'{init} />')
+        lines.append(f'<absolute-convergence-measure limit="1e-10" data="Displacement-{name[1]}" '
+                     f'mesh="{name}-Mesh" />')
+    lines += [acceleration.format(data="".join(f'<data name="Displacement-{n[1]}" mesh="{n}-Mesh" />'
+                                               for n in names)), f"</coupling-scheme:{scheme}>",
+              "</precice-configuration>"]
+    return "\n".join(lines) + "\n"
+
+
+RELAXATION = '<acceleration:constant><relaxation value="0.5" /></acceleration:constant>'
+IQN_RESIDUAL_SUM = ('<acceleration:IQN-ILS>{data}<preconditioner type="residual-sum" /><filter type="QR2" '
+                    'limit="1e-3" /><initial-relaxation value="0.5" /><max-used-iterations value="20" />'
+                    '<time-windows-reused value="5" /></acceleration:IQN-ILS>')
+
+
+def chain_run(folder: Path, masses: int, scheme: str, acceleration: str, initialize: bool) -> tuple[list[int],
+                                                                                                   np.ndarray]:
+    """The chain's run under cosim: iterations per window, and each mass's displacement at every window's end."""
+    names = [f"M{i}" for i in range(1, masses + 1)]
+    (folder / "mass.py").write_text(MASS)
+    lines = ['[precice]', 'config = "config.xml"']
+    for name in names:
+        (folder / name).mkdir(parents=True, exist_ok=True)
+        others = ",".join(str(i) for i in range(1, masses + 1) if abs(i - int(name[1])) == 1)
+        lines += [f"[participants.{name}]", f'command = "python3 ../mass.py {name} {others}"', f'cwd = "{name}"']
+    (folder / "config.xml").write_text(chain_config(masses, scheme, acceleration, initialize))
+    (folder / "case.toml").write_text("\n".join(lines) + "\n")
+    run_scene(load_scene(folder / "case.toml"), folder / "out", progress=False)
+    with RunResults(folder / "out") as results:
+        iterations = results.windows.iterations.tolist()
+    return iterations, np.column_stack([json.loads((folder / n / "history.json").read_text()) for n in names])
+
+
+def chain_exact(masses: int) -> np.ndarray:
+    """The trapezoidal rule on the whole chain at once (the masses', walls' and springs' values of MASS)."""
+    mass, wall, spring = np.array([1.0, 2.0, 1.0])[:masses], np.array([4.0, 0.0, 3.0])[:masses], 1.0
+    K = np.diag(wall) + spring * (2 * np.eye(masses) - np.eye(masses, k=1) - np.eye(masses, k=-1))
+    K[0, 0] -= spring
+    K[-1, -1] -= spring
+    A = np.block([[np.zeros((masses, masses)), np.eye(masses)], [-K / mass[:, None], np.zeros((masses, masses))]])
+    step = np.linalg.solve(np.eye(2 * masses) - 0.05 * A, np.eye(2 * masses) + 0.05 * A)
+    x = np.concatenate([[1.0, 0.2, -0.5][:masses], [0.0, 0.3, 0.0][:masses]])
+    ends = [x[:masses]]
+    for _ in range(40):
+        x = step @ x
+        ends.append(x[:masses])
+    return np.array(ends)
+
+
+# preCICE 3.4.1's iterations per window with the same participants and configurations (chain_config)
+PRECICE_CHAIN = {
+    ("multi", "relaxation", True): [35, 31] + [32] * 10 + [31, 31, 30, 31] + [32] * 11 + [31, 31, 31] + [32] * 10,
+    ("parallel-implicit", "relaxation", True): [35, 31] + [32] * 9 + [31, 31, 29, 30, 31] + [32] * 9
+                                               + [31, 30, 29, 30, 31, 32, 32, 32, 32, 33, 33, 32, 32, 32, 32],
+    ("multi", "iqn", False): [5] + [3] * 39,
+}
+
+
+@pytest.mark.parametrize(("scheme", "acceleration", "initialize"), list(PRECICE_CHAIN))
+def test_a_chain_of_masses_takes_precices_iterations_and_gives_the_monolithic_solution(tmp_path, scheme,
+                                                                                       acceleration, initialize):
+    """Three masses in one multi-coupling (two in a parallel scheme), each its own participant: every window
+    converged to the trapezoidal rule on the whole chain, in the iterations preCICE 3.4.1 takes. With initial
+    data, the accelerating participant's first iterate holds zero for the data it receives, as preCICE's does (35
+    iterations in the first window; 30 were it the initial data). IQN-ILS's residual-sum weights from the first
+    window's second iteration on, every iteration in it."""
+    masses = 2 if scheme == "parallel-implicit" else 3
+    form = RELAXATION if acceleration == "relaxation" else IQN_RESIDUAL_SUM
+    iterations, ends = chain_run(tmp_path, masses, scheme, form, initialize)
+    assert iterations == PRECICE_CHAIN[scheme, acceleration, initialize]
+    if initialize:      # else the first window starts from neighbours at zero
+        np.testing.assert_allclose(ends, chain_exact(masses), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (('<participant name="M2" control="yes" />', '<participant name="M2" />'),
+     "exactly one <participant name=\"...\" control=\"yes\"/> must control a multi-coupling, found 0"),
+    (('<participant name="M1" />', '<participant name="M1" control="yes" />'), "found 2"),
+    (('<participant name="M1" />', '<participant name="M2" />'), "participant 'M2' is named twice"),
+    (('<participant name="M2" control="yes" />', '<participants first="M2" second="M1" />'),
+     "this element of a coupling scheme is not supported"),
+])
+def test_a_multi_coupling_misconfigured_is_one_line(tmp_path, change, message):
+    (tmp_path / "config.xml").write_text(chain_config(3, "multi", RELAXATION, True).replace(*change))
+    with pytest.raises(SceneError, match=re.escape(message)):
+        read_config(tmp_path / "config.xml")

@@ -8,8 +8,11 @@ Each class gives the weights at every iteration (``update``), from the values or
 - ``constant``: no scaling (every weight 1);
 - ``residual``: one over the norm of each block's residual at the current iteration;
 - ``residual-sum``: one over the sum, over the window's iterations so far, of each block's share of the residual
-  (its residual's norm over the whole residual's norm). The weights in use are replaced only when one of them
-  changes by more than an order of magnitude.
+  (its residual's norm over the whole residual's norm). In the first window the weights follow the sums at every
+  iteration; from then on they are replaced only when one of them changes by more than an order of magnitude.
+
+The quasi-Newton methods update the weights at the iterations that have a column to fit (from the first window's
+second iteration on), as preCICE's do: its first iteration is a plain relaxation.
 
 ``freeze_after = k > 0`` keeps the weights of the k-th window for the rest of the run (preCICE's freeze-after).
 A block whose norm is zero keeps its weight (1 at first).
@@ -71,7 +74,7 @@ class Preconditioner:
             total = float(np.sqrt(np.sum(norms ** 2)))
             if total > 0:
                 self._sums += norms / total
-                if self.weights is None or self._changed_by_an_order(self._sums):
+                if self.weights is None or self.windows == 0 or self._changed_by_an_order(self._sums):
                     self._take(self._sums)
             elif self.weights is None:
                 self._take(np.zeros_like(norms))

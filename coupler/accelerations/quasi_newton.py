@@ -63,7 +63,7 @@ class IQNILS(Acceleration):
         "preconditioner": "with several data items, the weight of each in the least squares: one over the norm of "
                           "its values at the window's start ('value'), none ('constant'), one over its residual's "
                           "norm ('residual') or over the sum of its residual's shares in the window ('residual-sum'; "
-                          "replaced when a weight changes by an order of magnitude)",
+                          "after the first window replaced when a weight changes by an order of magnitude)",
         "freeze_after": "the weights stay those of this window from then on (0: never)",
         "count_emptied_windows": "an earlier window whose columns the filter or max_used_iterations all removed "
                                  "still counts among reused_time_windows (false: it is dropped, so the windows "
@@ -110,7 +110,8 @@ class IQNILS(Acceleration):
     def observe(self, x: np.ndarray, x_tilde: np.ndarray) -> None:
         super().observe(x, x_tilde)
         r = x_tilde - x
-        self._weights = self.preconditioner.update(x_tilde, r)
+        if self._r_previous is not None or any(V for V, _ in self._windows):
+            self._weights = self.preconditioner.update(x_tilde, r)
         size = norm(r)
         if self.iteration > 1 and self.stale_step_ratio > 0 and size > self._last_norm:
             self._forget_old_windows()   # an update built on reused columns made the residual worse
