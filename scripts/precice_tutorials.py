@@ -7,9 +7,10 @@ their folders), runs it twice, under ``cosim run CASE.toml`` and with the partic
 coupling iterations (in all, and in the first window), the exit codes, and the last line each participant printed.
 
 Usage: python -m scripts.precice_tutorials TUTORIALS --out DIR [--case NAME ...] [--python STACK=PY ...]
-[--mode cosim-run]. ``--python nutils7=/venv/bin/python`` runs the participants that need nutils 7 with that
+[--mode cosim-run] [--timeout S]. ``--python nutils7=/venv/bin/python`` runs the participants that need nutils 7 with that
 interpreter (a venv with their own needs and ``pip install ./precice_compat/participant``); stacks: python, nutils7,
-nutils9 (the perpendicular flap's nutils solid), fenics (Debian's python3-dolfin with fenicsprecice), fmi (preCICE's
+nutils9 (the perpendicular flap's nutils solid), nutils6 (its nutils fluid), micromanager (the two-scale case's Micro
+Manager, micro-manager-precice with nutils 7), fenics (Debian's python3-dolfin with fenicsprecice), fmi (preCICE's
 FMI runner fmiprecice with fmpy); default python3. Results go to
 ``DIR/<case>-<mode>/`` and ``DIR/table.json`` as each run ends; a rerun goes on with the runs it lacks.
 """
@@ -45,6 +46,9 @@ CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str], str]]]] = 
     "perpendicular-flap (fake fluid, nutils solid)": ("perpendicular-flap", {
         "Fluid": ("fluid-fake", "python3 fake.py", {}, "python"),
         "Solid": ("solid-nutils", "python3 solid.py", NUTILS, "nutils9")}),
+    "perpendicular-flap (nutils fluid, fake solid)": ("perpendicular-flap", {
+        "Fluid": ("fluid-nutils", "python3 fluid.py", NUTILS, "nutils6"),
+        "Solid": ("solid-fake", "python3 fake.py", {}, "python")}),
     "perpendicular-flap (fake fluid, FEniCS solid)": ("perpendicular-flap", {
         "Fluid": ("fluid-fake", "python3 fake.py", {}, "python"),
         "Solid": ("solid-fenics", "python3 solid.py", FENICS, "fenics")}),
@@ -84,6 +88,10 @@ CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str], str]]]] = 
     "channel-transport (nutils)": ("channel-transport", {
         "Fluid": ("fluid-nutils", "python3 fluid.py", NUTILS, "nutils7"),
         "Transport": ("transport-nutils", "python3 transport.py", NUTILS, "nutils7")}),
+    "two-scale-heat-conduction (nutils, serial Micro Manager)": ("two-scale-heat-conduction", {
+        "macro-heat": ("macro-nutils", "python3 macro.py richoutput=no", NUTILS, "nutils7"),
+        "Micro-Manager": ("micro-nutils", "micro-manager-precice micro-manager-config.json", NUTILS,
+                          "micromanager")}),
     "channel-transport-reaction (FEniCS)": ("channel-transport-reaction", {
         "Flow": ("fluid-fenics", "python3 fluid.py", FENICS, "fenics"),
         "Chemical": ("chemical-fenics", "python3 chemical-reaction-advection-diffusion.py", FENICS, "fenics")}),
@@ -97,9 +105,14 @@ def slug(name: str) -> str:
 
 
 def command_of(command: str, stack: str, pythons: dict[str, str]) -> str:
-    """The tutorial's command with the Python of the participant's stack (python3 as in run.sh if none given)."""
+    """The tutorial's command with the Python of the participant's stack (python3 as in run.sh if none given); a
+    command that starts with a console script (the Micro Manager's) takes the one beside that Python."""
     python = pythons.get(stack)
-    return command.replace("python3 ", f"{python} ", 1) if python else command
+    if not python:
+        return command
+    if command.startswith("python3 "):
+        return command.replace("python3 ", f"{python} ", 1)
+    return str(Path(python).parent / command)
 
 
 def write_case(tutorials: Path, name: str, pythons: dict[str, str], where: Path) -> Path:
@@ -196,16 +209,19 @@ def table(rows: dict[str, dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
+    global TIMEOUT
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("tutorials", type=Path, help="a checkout of preCICE's tutorials")
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--case", action="append", choices=list(CASES), help="only these cases (default: all)")
     parser.add_argument("--mode", action="append", choices=MODES, help="only these ways to start (default: both)")
+    parser.add_argument("--timeout", type=float, default=TIMEOUT, help="seconds a run may take (default %(default)g)")
     parser.add_argument("--python", action="append", default=[], metavar="STACK=PY",
                         help="the Python of the participants of a stack (python, nutils7, nutils9, fenics): a venv "
                              "with what they need and this project's pyprecice (pip install "
                              "./precice_compat/participant); default python3")
     args = parser.parse_args(argv)
+    TIMEOUT = args.timeout
     pythons = dict(item.split("=", 1) for item in args.python)
     store = args.out / "table.json"
     rows = json.loads(store.read_text()) if store.exists() else {}
