@@ -252,6 +252,7 @@ class ParticipantProxy:
         self.roundtrip_seconds: list[float] = []
         self._pending: dict[str, Any] | None = None     # the request the participant waits on
         self._initial: dict[str, np.ndarray] = {}
+        self.gradients: dict[str, np.ndarray] = {}    # data -> the gradients its last write carried (n x dim*k)
         self._written: list[str] = []       # the data it writes: every window-ending advance carries them
         self._window: tuple[float, float] | None = None   # (t, dt) of the last step answered
         self._sent_at = 0.0
@@ -354,6 +355,7 @@ class ParticipantProxy:
         self.elements = self._elements(arrays)
         self._initial = {name[len("data:"):]: value for name, value in arrays.items() if name.startswith("data:")}
         self._declare()
+        self._take_gradients(arrays)
 
     def _declare(self) -> None:
         """Its variables: the data it writes and reads, on the meshes it provides (and those it accesses directly,
@@ -446,6 +448,7 @@ class ParticipantProxy:
         missing = [name for name in self._written if name not in outputs]
         if missing:
             raise ComponentError(self.name, f"its advance carried no '{missing[0]}'")
+        self._take_gradients(arrays)
         self.substeps = self._samples(args.get("times"), arrays)
         self.substep_calls = self._calls(outputs) if self.substeps else []
         compute = _seconds(args.get("compute_seconds"), roundtrip)
@@ -453,6 +456,23 @@ class ParticipantProxy:
         self.cpu_seconds.append(_seconds(args.get("cpu_seconds"), compute))
         self.roundtrip_seconds.append(roundtrip)
         return self.check_outputs(outputs)
+
+    def _take_gradients(self, arrays: Mapping[str, np.ndarray]) -> None:
+        """The gradients a write carried (``write_gradient_data``): per vertex, each component's d/dx, d/dy (, d/dz)
+        (float64, finite, one row a vertex of the data's mesh)."""
+        for key, value in arrays.items():
+            if not key.startswith("gradient:"):
+                continue
+            name = key[len("gradient:"):]
+            variable = self.variables.get(name)
+            if variable is None or variable.causality != "output":
+                raise ComponentError(self.name, f"sent gradients of '{name}', which it does not write")
+            nodes = len(self.meshes[variable.mesh])
+            columns = self.meshes[variable.mesh].shape[1] * variable.components
+            if value.dtype != np.float64 or value.shape != (nodes, columns) or not np.isfinite(value).all():
+                raise ComponentError(self.name, f"sent gradients of '{name}' as {value.dtype} of shape {value.shape}"
+                                                f"; expected finite float64 of shape ({nodes}, {columns})")
+            self.gradients[name] = value
 
     def _calls(self, outputs: Mapping[str, np.ndarray]) -> list[tuple[dict, dict]]:
         """Its steps inside the window as calls: at each sample's time, the inputs as their waveforms give them

@@ -86,12 +86,13 @@ class RankGroup:
         return joined
 
     def _joined(self, arrays: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-        """Data written by every rank, joined along the vertices (a substep's samples: along their second axis)."""
+        """Data (and gradients) written by every rank, joined along the vertices (a substep's samples: along their
+        second axis)."""
         joined = {}
         for key in arrays[0]:
             prefix, _, data = key.partition(":")
-            if prefix in ("data", "substeps"):
-                joined[key] = np.concatenate([a[key] for a in arrays], axis=0 if prefix == "data" else 1)
+            if prefix in ("data", "substeps") or (prefix == "gradient" and all(key in a for a in arrays)):
+                joined[key] = np.concatenate([a[key] for a in arrays], axis=1 if prefix == "substeps" else 0)
         return joined
 
     def split(self, result: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None

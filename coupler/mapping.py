@@ -8,6 +8,8 @@ components). Mappings are plug-ins chosen by name (``MAPPINGS``):
 - ``nearest-neighbour``: ``consistent`` (for displacements: each target node takes the
   value of its nearest source node) or ``conservative`` (for forces: each source value
   goes to its nearest target node, so totals are preserved).
+- ``nearest-neighbour-gradient``: consistent nearest-neighbour corrected to first order by the gradient the
+  source writes at its node (a preCICE participant's ``write_gradient_data``).
 - ``nearest-element``: on 2-D interfaces, each target node interpolated at its projection onto the nearest of the
   sender's line elements (``Component.lines``), or the transpose of that the other way (``conservative``).
 - ``rbf``: radial basis functions (each basis preCICE lists, compact or global) with a linear
@@ -46,6 +48,7 @@ class Mapping:
     SETTINGS: dict[str, Any] = {}
     HELP: dict[str, str] = {}
     needs_meshes = True
+    takes_gradients = False     # corrects its values by the gradients the source writes (``correction``)
 
     def __init__(self, source: np.ndarray, target: np.ndarray, **settings: Any):
         self.matrix = self.build(np.asarray(source, float), np.asarray(target, float), **settings)
@@ -102,6 +105,33 @@ class NearestNeighbour(Mapping):
 
     def __call__(self, values: np.ndarray) -> np.ndarray:
         return np.array(values) if self.identity else self.matrix @ values
+
+
+@MAPPINGS.register("nearest-neighbour-gradient")
+class NearestNeighbourGradient(NearestNeighbour):
+    """Consistent only: each target node takes its nearest source node's value, corrected to first order by the
+    gradient the source gives there (preCICE's nearest-neighbor-gradient): v + G . (x_target - x_source). Without a
+    gradient it is the nearest-neighbour mapping."""
+
+    SETTINGS = {"constraint": Choice("consistent", ("consistent",))}
+    HELP = {"constraint": "'consistent' only: a gradient corrects values, not sums"}
+    takes_gradients = True
+
+    def build(self, source: np.ndarray, target: np.ndarray,  # type: ignore[override]  # a mapping's own settings
+              constraint: str = "consistent") -> sp.csr_matrix:
+        from scipy.spatial import cKDTree
+        _, self.nearest = cKDTree(source).query(target)
+        self.offsets = target - source[self.nearest]       # n_target x dimensions
+        return super().build(source, target, constraint)
+
+    def correction(self, gradients: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        """What the gradients add to values of ``shape`` (n_target, or n_target x k) mapped: per source node, the
+        first component's d/dx, d/dy (, d/dz), then the next component's (n_source x k*dimensions), the layout
+        preCICE 3.4.1 reads."""
+        dimensions = self.offsets.shape[1]
+        components = 1 if len(shape) == 1 else shape[1]
+        at = np.asarray(gradients, float).reshape(len(gradients), components, dimensions)[self.nearest]
+        return np.einsum("nd,nkd->nk", self.offsets, at).reshape(shape)
 
 
 @MAPPINGS.register("nearest-element")

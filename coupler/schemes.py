@@ -107,6 +107,7 @@ class CouplingScheme:
         self.values: dict[str, np.ndarray] = {}
         self.series: Series = {}                  # the last window's substep samples, per data item
         self._window_start: dict[str, np.ndarray] = {}    # the window's start values (the last window's ends)
+        self._start_gradients: dict[str, np.ndarray] = {}   # and the gradients written with them
         self._with_substeps = {e.data for e in exchanges if e.substeps}    # data whose samples are exchanged
         self._grid: dict[str, np.ndarray] = {}    # the accelerated data's times inside the window, as the
                                                   # acceleration's columns hold them
@@ -219,7 +220,31 @@ class CouplingScheme:
 
     # --- helpers ------------------------------------------------------------
     def inputs_for(self, target: Coupled, values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        return {e.data: e.mapping(values[e.data]) for e in self.exchanges if e.target is target}
+        return {e.data: self._corrected(e, e.mapping(values[e.data]), self._gradients(e))
+                for e in self.exchanges if e.target is target}
+
+    @staticmethod
+    def _gradients(e: Exchange) -> np.ndarray | None:
+        """The gradients the source's last step wrote of ``e``'s data, where ``e``'s mapping takes them (only
+        preCICE participants write gradients)."""
+        return getattr(e.source, "gradients", {}).get(e.data) if e.mapping.takes_gradients else None
+
+    @staticmethod
+    def _corrected(e: Exchange, mapped: np.ndarray, gradients: np.ndarray | None) -> np.ndarray:
+        """Mapped values of one time plus what ``gradients`` add through a gradient mapping."""
+        if gradients is None:
+            return mapped
+        return mapped + e.mapping.correction(gradients, mapped.shape)    # type: ignore[attr-defined]
+
+    def _corrected_in_time(self, e: Exchange, mapped: np.ndarray) -> np.ndarray:
+        """Samples in time, each mapped, from the window's start to its end, corrected by the gradients written
+        with them: the start's from the window before, the others' the last written (the end's)."""
+        end = self._gradients(e)
+        if end is None:
+            return mapped
+        start = self._start_gradients.get(e.data, end)
+        return np.stack([self._corrected(e, sample, start if k == 0 else end) for k, sample in enumerate(mapped)])
+
 
     def block_sizes(self, names: Sequence[str]) -> list[int]:
         return [self.values[n].size * (1 + len(self._grid.get(n, ()))) for n in names]
@@ -236,10 +261,10 @@ class CouplingScheme:
                 continue
             start, end = self._window_start.get(e.data, values[e.data]), values[e.data]
             if e.data not in series:       # start and end: the line through them
-                waveforms[e.data] = (LINE, e.mapping.in_time(np.stack([start, end])))
+                waveforms[e.data] = (LINE, self._corrected_in_time(e, e.mapping.in_time(np.stack([start, end]))))
                 continue
             times, samples = series[e.data]
-            mapped = e.mapping.in_time(np.concatenate([start[None], samples, end[None]]))
+            mapped = self._corrected_in_time(e, e.mapping.in_time(np.concatenate([start[None], samples, end[None]])))
             waveforms[e.data] = coefficients(times, mapped, e.degree)
         return {"waveforms": waveforms} if waveforms else {}
 
@@ -393,6 +418,7 @@ class CouplingScheme:
 
     def _begin(self, t: float, dt: float) -> None:
         self._window_start = dict(self.values)
+        self._start_gradients = {e.data: g for e in self.exchanges if (g := self._gradients(e)) is not None}
         self.window += 1
         self.t, self.dt = t, dt
         self.iteration = 0

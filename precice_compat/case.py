@@ -68,11 +68,16 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
         return config.meshes[mesh]["dimensions"] if config.data[data]["vector"] else 1
 
     exchanged = {e.data for e in config.exchanges}
+    # data a nearest-neighbor-gradient mapping maps from the mesh it is written on: its writer gives gradients
+    with_gradients = {(mapping.source, e.data) for p in config.participants.values() for mapping in p.mappings
+                      if mapping.kind == "nearest-neighbour-gradient" for e in config.exchanges
+                      if e.source == name and participant.writes.get(e.data) == mapping.source}
     return {
         "dimensions": max((config.meshes[m]["dimensions"] for m in meshes), default=2),
         "meshes": meshes,
         "write": [{"mesh": mesh, "data": data, "dimensions": dimensions(data, mesh),
-                   "substeps": any(e.substeps for e in config.exchanges if e.data == data and e.source == name)}
+                   "substeps": any(e.substeps for e in config.exchanges if e.data == data and e.source == name),
+                   "gradient": (mesh, data) in with_gradients}
                   for data, mesh in participant.writes.items() if data in exchanged],
         "read": [{"mesh": mesh, "data": data, "dimensions": dimensions(data, mesh),
                   "degree": config.data[data]["degree"]} for data, mesh in participant.reads.items()
@@ -81,6 +86,7 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
         "implicit": scheme["kind"].endswith("implicit") or scheme["kind"] == "multi",
         "window": scheme["window"],
         "start": 0.0,
+        "experimental": config.experimental,
     }
 
 

@@ -79,6 +79,7 @@ class Config:
     scheme: dict[str, Any] = field(default_factory=dict)
     exchanges: list[Exchange] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    experimental: bool = False      # the experimental API (gradient data) unlocked
 
 
 class _Reader:
@@ -151,7 +152,7 @@ def read_config(path: str | Path) -> Config:
     reader = _Reader(path)
     if root.tag != "precice-configuration":
         raise reader.fail(root, "the root element of a preCICE configuration is <precice-configuration>")
-    reader.flag(root, "experimental")       # v3's gate on experimental features: cosim's are what it reads
+    experimental = reader.flag(root, "experimental")    # v3's gate on experimental API calls (gradients)
     reader.flag(root, "allow-remeshing")    # a participant's reset_mesh is refused when called
     reader.done(root)
     children = root.children
@@ -164,10 +165,10 @@ def read_config(path: str | Path) -> Config:
         dimensions = int(reader.number(interface, "dimensions", integer=True, low=1))
         if dimensions not in (2, 3):
             raise reader.fail(interface, f"'dimensions' is {dimensions}; allowed: 2 or 3")
-        interface.get("experimental")
+        experimental = reader.flag(interface, "experimental") or experimental
         reader.done(interface)
         children = [c for c in children if c.tag != "solver-interface"] + interface.children
-    config = Config(path, version)
+    config = Config(path, version, experimental=experimental)
     for element in children:
         prefix, kind = element.kind()
         if element.tag in ("log", "profiling") or prefix in ("export",):
@@ -350,9 +351,14 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
     elif kind == "linear-cell-interpolation":
         mapped = "cell-interpolation"
         settings["without_elements"] = "nearest-node"
-    elif kind in ("nearest-neighbor-gradient", "axial-geometric-multiscale", "radial-geometric-multiscale"):
+    elif kind == "nearest-neighbor-gradient":
+        if constraint != "consistent":
+            raise reader.fail(element, "nearest-neighbor-gradient maps consistent data only (a gradient corrects "
+                                       "values, not sums)")
+        mapped = "nearest-neighbour-gradient"
+    elif kind in ("axial-geometric-multiscale", "radial-geometric-multiscale"):
         raise reader.fail(element, f"the mapping {kind!r} is not supported by cosim: use nearest-neighbor, "
-                                   "nearest-projection, linear-cell-interpolation or rbf")
+                                   "nearest-neighbor-gradient, nearest-projection, linear-cell-interpolation or rbf")
     else:
         raise reader.fail(element, f"unknown mapping kind {kind!r}")
     reader.done(element)

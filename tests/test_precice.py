@@ -268,9 +268,9 @@ BAD_CONFIGS = [
     ("an undefined participant", ('<participants first="Fluid" second="Solid" />',
                                   '<participants first="Fluid" second="Structure" />'),
      "participant 'Structure' is not defined"),
-    ("nearest-neighbor-gradient", ("mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
-                                   "mapping:nearest-neighbor-gradient direction=\"read\" from=\"Solid-Nodes\""),
-     "the mapping 'nearest-neighbor-gradient' is not supported"),
+    ("a geometric multiscale mapping", ("mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
+                                        "mapping:axial-geometric-multiscale direction=\"read\" from=\"Solid-Nodes\""),
+     "the mapping 'axial-geometric-multiscale' is not supported"),
     ("an action", ('<write-data name="Pressure" mesh="Fluid-Nodes" />',
                    '<write-data name="Pressure" mesh="Fluid-Nodes" />\n    <action:multiply-by-area timing="write-mapping-post" mesh="Fluid-Nodes"/>'),
      "actions are not supported"),
@@ -1525,4 +1525,109 @@ def test_a_chain_of_masses_takes_precices_iterations_and_gives_the_monolithic_so
 def test_a_multi_coupling_misconfigured_is_one_line(tmp_path, change, message):
     (tmp_path / "config.xml").write_text(chain_config(3, "multi", RELAXATION, True).replace(*change))
     with pytest.raises(SceneError, match=re.escape(message)):
+        read_config(tmp_path / "config.xml")
+
+
+GRADIENT_WRITER = '''import json
+import numpy as np
+import precice
+participant = precice.Participant("A", "../config.xml", 0, 1)
+grid = np.array([[x, y] for x in np.linspace(0, 1, 4) for y in np.linspace(0, 1, 3)])
+ids = participant.set_mesh_vertices("A-Mesh", grid)
+participant.initialize()
+asked = [participant.requires_gradient_data_for("A-Mesh", "S"), participant.requires_gradient_data_for("A-Mesh", "V")]
+t = 0.0
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    t += dt
+    x, y = grid[:, 0], grid[:, 1]
+    participant.write_data("A-Mesh", "S", ids, t + 2 * x - y)
+    participant.write_data("A-Mesh", "V", ids, np.column_stack([x + 2 * y, t * (3 * x - y)]))
+    if asked[0]:
+        participant.write_gradient_data("A-Mesh", "S", ids, np.tile([2.0, -1.0], (len(ids), 1)))
+    if asked[1]:
+        participant.write_gradient_data("A-Mesh", "V", ids, np.tile([1.0, 3.0 * t, 2.0, -t], (len(ids), 1)))
+    participant.advance(dt)
+participant.finalize()
+json.dump(asked, open("asked.json", "w"))
+'''
+GRADIENT_READER = '''import json
+import numpy as np
+import precice
+participant = precice.Participant("B", "../config.xml", 0, 1)
+points = np.array([[0.1, 0.05], [0.45, 0.8], [0.9, 0.33], [0.6, 0.6]])
+ids = participant.set_mesh_vertices("B-Mesh", points)
+participant.initialize()
+seen = []
+while participant.is_coupling_ongoing():
+    dt = participant.get_max_time_step_size()
+    participant.advance(dt)
+    seen.append([participant.read_data("B-Mesh", "S", ids, 0.0).tolist(),
+                 participant.read_data("B-Mesh", "V", ids, 0.0).tolist()])
+participant.finalize()
+json.dump(seen, open("seen.json", "w"))
+'''
+GRADIENT_CONFIG = '''<?xml version="1.0" encoding="UTF-8" ?>
+<precice-configuration experimental="true">
+  <data:scalar name="S" /><data:vector name="V" />
+  <mesh name="A-Mesh" dimensions="2"><use-data name="S" /><use-data name="V" /></mesh>
+  <mesh name="B-Mesh" dimensions="2"><use-data name="S" /><use-data name="V" /></mesh>
+  <participant name="A"><provide-mesh name="A-Mesh" /><write-data name="S" mesh="A-Mesh" />
+    <write-data name="V" mesh="A-Mesh" /></participant>
+  <participant name="B"><provide-mesh name="B-Mesh" /><receive-mesh name="A-Mesh" from="A" />
+    <read-data name="S" mesh="B-Mesh" /><read-data name="V" mesh="B-Mesh" />
+    <mapping:nearest-neighbor-gradient direction="read" from="A-Mesh" to="B-Mesh" constraint="consistent" />
+  </participant>
+  <m2n:sockets acceptor="A" connector="B" exchange-directory=".." />
+  <coupling-scheme:serial-explicit>
+    <participants first="A" second="B" /><max-time-windows value="2" /><time-window-size value="1.0" />
+    <exchange data="S" mesh="A-Mesh" from="A" to="B" />
+    <exchange data="V" mesh="A-Mesh" from="A" to="B" />
+  </coupling-scheme:serial-explicit>
+</precice-configuration>
+'''
+# what B read with preCICE 3.4.1 and pyprecice 3.4.0, the same participants and configuration: S = t + 2x - y exactly
+# (a linear field, corrected by its gradient); V's second component shows preCICE's layout of a vector's gradient
+# (each component's d/dx, d/dy), and after the last advance B reads the last window's values
+PRECICE_GRADIENT_READS = [
+    [[1.15, 1.1, 2.47, 1.6], [[0.25, 0.15], [1.85, 0.43333333333333335], [1.39, 2.47], [1.9, 1.2666666666666666]]],
+    [[2.15, 2.1, 3.47, 2.6], [[0.4, 0.1], [1.25, 0.6333333333333333], [0.88, 5.14], [2.2, 2.666666666666667]]]]
+
+
+def test_nearest_neighbor_gradient_maps_with_the_gradients_the_writer_gives_as_precice_does(tmp_path):
+    """The writer is asked for gradients of both its data (requires_gradient_data_for), writes them, and the
+    reader's values are the nearest vertex's corrected by them: preCICE 3.4.1's values, to round-off."""
+    case_file = write_case(tmp_path, {"A": GRADIENT_WRITER, "B": GRADIENT_READER}, GRADIENT_CONFIG)
+    run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert json.loads((tmp_path / "A" / "asked.json").read_text()) == [True, True]
+    seen = json.loads((tmp_path / "B" / "seen.json").read_text())
+    for window, expected in zip(seen, PRECICE_GRADIENT_READS, strict=True):
+        np.testing.assert_allclose(window[0], expected[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(window[1], expected[1], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(("participant", "change", "message"), [
+    ("config", ('<precice-configuration experimental="true">', "<precice-configuration>"),
+     "gradient data is preCICE's experimental API"),
+    ("A", ("np.tile([2.0, -1.0], (len(ids), 1))", "np.ones((len(ids), 3))"),
+     "gradients of shape (12, 3) for 12 vertices of 'S'; expected (12, 2)"),
+    ("A", ("if asked[0]:", "if True:"), "''"),
+])
+def test_gradient_data_misused_is_named_in_one_line(tmp_path, participant, change, message):
+    texts = {"A": GRADIENT_WRITER, "B": GRADIENT_READER, "config": GRADIENT_CONFIG}
+    texts[participant] = texts[participant].replace(*change)
+    case_file = write_case(tmp_path, {"A": texts["A"], "B": texts["B"]}, texts["config"])
+    if message == "''":     # a participant that writes gradients where none is asked for: preCICE refuses it too
+        texts["config"] = texts["config"].replace("nearest-neighbor-gradient", "nearest-neighbor")
+        (tmp_path / "config.xml").write_text(texts["config"])
+        message = "'S' on mesh 'A-Mesh' takes no gradients: no nearest-neighbor-gradient mapping maps it"
+    with pytest.raises(CosimError) as failed:
+        run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert message in str(failed.value) and "\n" not in str(failed.value)
+    assert children_of(os.getpid()) == []
+
+
+def test_a_conservative_gradient_mapping_is_refused_in_one_line(tmp_path):
+    (tmp_path / "config.xml").write_text(GRADIENT_CONFIG.replace('constraint="consistent"', 'constraint="conservative"'))
+    with pytest.raises(SceneError, match="nearest-neighbor-gradient maps consistent data only"):
         read_config(tmp_path / "config.xml")

@@ -57,6 +57,7 @@ class Core:
         self.regions: dict[str, np.ndarray] = {}             # their access regions, (dimensions, 2): min and max
         self.accumulated: set[str] = set()      # data written just in time this window (zeroed when it ends)
         self.written: dict[str, np.ndarray] = {}
+        self.gradients: dict[str, np.ndarray] = {}     # data -> its gradients written (vertices x dim*components)
         self.received: dict[str, np.ndarray] = {}
         self.waveforms: dict[str, Waveform] = {}       # read data of degree >= 1: its window's interpolant
         self.starts: dict[str, np.ndarray] = {}        # each read data item's value at the window's start
@@ -279,6 +280,31 @@ class Core:
             buffer = self.written[data] = np.zeros((self.vertex_count(mesh),) + expected[1:])
         buffer[vertex_ids] = array
 
+    def write_gradients(self, call: str, mesh: str, data: str, ids: Any, gradients: Any) -> None:
+        if not self.setup.get("experimental"):
+            raise self.fail(call, "gradient data is preCICE's experimental API: unlock it with <precice-configuration "
+                                  "experimental=\"true\"> in the configuration")
+        self.mesh(call, mesh)
+        spec = self.write.get((mesh, data))
+        if spec is None or not spec.get("gradient"):
+            raise self.fail(call, f"'{data}' on mesh '{mesh}' takes no gradients: no nearest-neighbor-gradient "
+                                  "mapping maps it (requires_gradient_data_for() is False)")
+        if self.state == "finalized":
+            raise self.fail(call, "the participant was finalized")
+        vertex_ids = self._ids(call, mesh, ids)
+        columns = int(self.meshes[mesh]["dimensions"]) * int(spec["dimensions"])
+        array = np.asarray(gradients, dtype=np.float64)
+        if array.shape != (len(vertex_ids), columns):
+            raise self.fail(call, f"gradients of shape {array.shape} for {len(vertex_ids)} vertices of '{data}'; "
+                                  f"expected ({len(vertex_ids)}, {columns}): each component's d/dx, d/dy...")
+        if not np.isfinite(array).all():
+            raise self.fail(call, f"gradients of '{data}' are not finite")
+        count = self.vertex_count(mesh)
+        buffer = self.gradients.get(data)
+        if buffer is None or len(buffer) != count:
+            buffer = self.gradients[data] = np.zeros((count, columns))
+        buffer[vertex_ids] = array
+
     def read_values(self, call: str, mesh: str, data: str, ids: Any, relative_read_time: float | None) -> np.ndarray:
         self.mesh(call, mesh)
         spec = self.read.get((mesh, data))
@@ -324,8 +350,14 @@ class Core:
         for (mesh, data), spec in self.write.items():
             if data in self.setup["initial"]:
                 arrays["data:" + data] = self._buffer(mesh, data, spec)
+        arrays.update(self._gradient_arrays())
         self.state = "initialized"
         self._exchange("initialize", {}, arrays)
+
+    def _gradient_arrays(self) -> dict[str, np.ndarray]:
+        """The gradients written so far, for the coupler (each data item's, on all its mesh's vertices)."""
+        return {"gradient:" + data: self.gradients[data] for (mesh, data) in self.write
+                if data in self.gradients and len(self.gradients[data]) == self.vertex_count(mesh)}
 
     def _buffer(self, mesh: str, data: str, spec: dict[str, Any]) -> np.ndarray:
         count = self.vertex_count(mesh)
@@ -341,7 +373,11 @@ class Core:
         for name, value in received.items():
             if name.startswith("mesh:"):           # a received mesh this participant accesses directly
                 self.received_vertices[name[len("mesh:"):]] = np.asarray(value, dtype=np.float64)
-        self.received = {name[len("data:"):]: value for name, value in received.items() if name.startswith("data:")}
+        data = {name[len("data:"):]: value for name, value in received.items() if name.startswith("data:")}
+        if data or result["ongoing"]:
+            self.received = data
+        else:       # the end: reads give the last window's end values, as preCICE's do
+            result = {**result, "knots": {}, "lines": []}
         self.waveforms = {name: Waveform(np.array(knots), received["coefficients:" + name])
                           for name, knots in (result.get("knots") or {}).items()}
         for name in result.get("lines") or []:      # the line from the window's start (sent once a window) to its end
@@ -384,6 +420,7 @@ class Core:
                     if data in self.substep_data}))
             return
         arrays = {"data:" + data: self._buffer(mesh, data, spec) for (mesh, data), spec in self.write.items()}
+        arrays.update(self._gradient_arrays())
         wall, cpu = self._computing_since
         args: dict[str, Any] = {"compute_seconds": time.perf_counter() - wall, "cpu_seconds": time.process_time() - cpu}
         if self.samples:

@@ -122,12 +122,16 @@ class Participant:
         return self._core.read_values("read_data", mesh_name, data_name, vertex_ids, float(relative_read_time))
 
     def requires_gradient_data_for(self, mesh_name: str, data_name: str) -> bool:
+        """Whether a nearest-neighbor-gradient mapping maps this data from this mesh: then write its gradients
+        (``write_gradient_data``) with its values."""
         self._core.mesh("requires_gradient_data_for", mesh_name)
-        return False
+        return bool(self._core.write.get((mesh_name, data_name), {}).get("gradient"))
 
     def write_gradient_data(self, mesh_name: str, data_name: str, vertex_ids: Any, gradients: Any) -> None:
-        raise self._core.fail("write_gradient_data", "gradient data is not supported by cosim (no mapping asks "
-                              "for it: requires_gradient_data_for() is False)")
+        """The data's gradients at the vertices: an array of one row a vertex, the first component's d/dx, d/dy (and
+        d/dz), then the next component's (the layout preCICE 3.4.1 reads); only where ``requires_gradient_data_for``
+        is True, in a configuration with ``experimental="true"``."""
+        self._core.write_gradients("write_gradient_data", mesh_name, data_name, vertex_ids, gradients)
 
     def write_and_map_data(self, mesh_name: str, data_name: str, coordinates: Any, values: Any) -> None:
         self._core.write_and_map("write_and_map_data", mesh_name, data_name, coordinates, values)
