@@ -37,7 +37,14 @@ from coupler.preflight import check_parameters
 from coupler.recording import CallRecorder
 from coupler.restart import read_checkpoint_for, restore_checkpoint, run_identity, write_checkpoint
 from coupler.run_log import RunLog
-from coupler.run_observers import CouplerLogs, ProgressBar, ResultsWindows, RunObserver, StatusFile
+from coupler.run_observers import (
+    CouplerLogs,
+    PreciceFormatLogs,
+    ProgressBar,
+    ResultsWindows,
+    RunObserver,
+    StatusFile,
+)
 from coupler.scene_rules import check_described, check_precision, coupling_model, resolve_plugins
 from coupler.schedule import BackendSchedule
 from coupler.schemes import SCHEMES, CouplingScheme, Exchange
@@ -348,6 +355,8 @@ class Run:
         self.phase = "start-up"   # where an error that is not inside a window happened
         self.log = RunLog(self.out_dir / "logs", self.windows if self.saved is not None else None)
         self.observers: list[RunObserver] = [ResultsWindows(self.store), CouplerLogs(self.log),
+                                             PreciceFormatLogs(self.out_dir, self.windows if self.saved is not None
+                                                               else None),
                                              StatusFile(directory, n_windows), ProgressBar(progress)]
         self._tell("starting", self)
 

@@ -1,5 +1,5 @@
 """A run's own logs in ``DIR/logs``, next to each component's: what the coupler did, and its convergence history
-in the manner of preCICE's ``precice-*-iterations.log`` and ``precice-*-convergence.log``.
+(the run directory also holds the same history in preCICE's own format: ``coupler.precice_log``).
 
 - ``coupler.log``: one timestamped line per event: the start (scene, windows, every component's process and
   address), warnings, checkpoints, the end or the error that stopped the run.
@@ -51,7 +51,7 @@ class RunLog:
         with self._guard():
             if self.resume_after is not None:
                 for name in (ITERATIONS, CONVERGENCE):
-                    _cut(self.folder / name, self.resume_after)
+                    cut_table(self.folder / name, self.resume_after)
             self.iterations = _table(self.folder / ITERATIONS, ["TimeWindow", "Time", "Iterations",
                                                                 "TotalIterations", "Converged", *labels])
             self.convergence = _table(self.folder / CONVERGENCE, ["TimeWindow", "Iteration", *labels,
@@ -100,7 +100,7 @@ def _table(path: Path, columns: list[str]) -> TextIO:
     return stream
 
 
-def _cut(path: Path, windows: int) -> None:
+def cut_table(path: Path, windows: int) -> None:
     """Keep the header and the rows of the first ``windows`` windows of a log table."""
     if not path.is_file():
         return

@@ -6,11 +6,13 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, Protocol
 
 from cosim.results_writer import ResultsWriter
 from cosim.rundir import RunDirectory
 from cosim.scene import Scene, TimeGrid
+from coupler.precice_log import PreciceLogs
 from coupler.recording import CallRecorder
 from coupler.run_log import RunLog
 from coupler.schemes import CouplingScheme, WindowResult
@@ -116,6 +118,61 @@ class CouplerLogs(RunObserver):
 
     def interrupted(self, run: Run) -> None:
         self.log.event(f"interrupted after {run.windows} windows")
+
+
+class PreciceFormatLogs(RunObserver):
+    """The iteration and convergence logs of an implicit run in preCICE's format, in the run directory
+    (``coupler.precice_log``); like the coupler's logs, they never stop a run."""
+
+    def __init__(self, folder: Path, resume_after: int | None):
+        self.folder, self.resume_after = folder, resume_after
+        self.logs: PreciceLogs | None = None
+        self.counted = (0, 0)       # the acceleration's deleted and dropped columns at the last window's end
+
+    def first_window(self, run: Run) -> None:
+        scheme = run.scheme
+        if scheme is None or not scheme.implicit:
+            return
+        meshes: dict[str, str] = {}
+        for e in scheme.exchanges:
+            meshes.setdefault(e.data, getattr(getattr(e.source, "variables", {}).get(e.data), "mesh", ""))
+        names = [p.name for p in scheme.participants]
+        counts = getattr(scheme.acceleration, "column_counts", None)
+        if counts is not None:
+            self.counted = counts()[1:]
+        try:
+            self.logs = PreciceLogs(self.folder, names, names[scheme.measuring], scheme.measures, meshes,
+                                    counts is not None, self.resume_after)
+        except OSError:
+            self.logs = None
+
+    def window_reported(self, run: Run, window: int, result: WindowResult, iterations: int) -> None:
+        if self.logs is None or run.scheme is None:
+            return
+        columns = (0, 0, 0)
+        counts = getattr(run.scheme.acceleration, "column_counts", None)
+        if counts is not None:
+            held, deleted, dropped = counts()
+            columns = (held, deleted - self.counted[0], dropped - self.counted[1])
+            self.counted = (deleted, dropped)
+        try:
+            self.logs.window(window, result, iterations, columns)
+        except OSError:
+            self.logs = None
+
+    def finished(self, run: Run) -> None:
+        self._close()
+
+    def failed(self, run: Run, error: Exception) -> None:
+        self._close()
+
+    def interrupted(self, run: Run) -> None:
+        self._close()
+
+    def _close(self) -> None:
+        if self.logs is not None:
+            self.logs.close()
+            self.logs = None
 
 
 class StatusFile(RunObserver):

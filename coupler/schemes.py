@@ -89,6 +89,7 @@ class CouplingScheme:
     implicit = True
     many_participants = False     # couples two or more participants (else exactly two)
     takes_first_iterate_zero = False      # honours ``first_iterate_zero``
+    measuring = 1       # the participant that measures and accelerates, in preCICE's terms (its logs name it)
 
     def __init__(self, participants: Sequence[Coupled], exchanges: Sequence[Exchange],
                  measures: Sequence[ConvergenceMeasure] = (), acceleration: Acceleration | None = None,
@@ -674,3 +675,4 @@ class Multi(ParallelImplicit):
     it is parallel-implicit."""
 
     many_participants = True
+    measuring = 0       # the controller

@@ -1631,3 +1631,55 @@ def test_a_conservative_gradient_mapping_is_refused_in_one_line(tmp_path):
     (tmp_path / "config.xml").write_text(GRADIENT_CONFIG.replace('constraint="consistent"', 'constraint="conservative"'))
     with pytest.raises(SceneError, match="nearest-neighbor-gradient maps consistent data only"):
         read_config(tmp_path / "config.xml")
+
+
+def test_an_implicit_run_writes_precices_iteration_and_convergence_logs_in_its_format(tmp_path):
+    """Each participant's precice-<name>-iterations.log and the controller's precice-<name>-convergence.log, in the
+    run directory: preCICE 3.4.1's header lines and column layout (its files from the same chain run), the same
+    iterations, and the first window's residuals to preCICE's printed digits."""
+    iterations, _ = chain_run(tmp_path, 3, "multi", IQN_RESIDUAL_SUM, False)
+    out = tmp_path / "out"
+    for name in ("M1", "M3"):
+        lines = (out / f"precice-{name}-iterations.log").read_text().splitlines()
+        assert lines[:3] == ["  TimeWindow  TotalIterations  Iterations  Convergence", "     1       5       5       1",
+                             "     2       8       3       1"]
+        assert [int(line.split()[2]) for line in lines[1:]] == PRECICE_CHAIN["multi", "iqn", False]
+    header = (out / "precice-M2-iterations.log").read_text().splitlines()[0]
+    assert header == ("  TimeWindow  TotalIterations  Iterations  Convergence  QNColumns  DeletedQNColumns  "
+                      "DroppedQNColumns")
+    lines = (out / "precice-M2-convergence.log").read_text().splitlines()
+    assert lines[0] == ("  TimeWindow  Iteration  ResAbs(M1-Mesh:Displacement-1)  ResAbs(M2-Mesh:Displacement-2)  "
+                        "ResAbs(M3-Mesh:Displacement-3)")
+    assert all(re.fullmatch(r" +\d+ +\d+( +\d\.\d{8}e[+-]\d\d){3}", line) for line in lines[1:])
+    assert [len(line) for line in lines[1:3]] == [65, 65]      # 6, 2 + 6, then 2 + 15 per measure
+    precice_first_window = [[9.75308642e-01, 2.28927681e-01, 4.90099010e-01],
+                            [4.87936948e-01, 1.14766340e-01, 2.44766179e-01],
+                            [1.10937559e-06, 9.99743292e-07, 1.11212157e-06]]
+    np.testing.assert_allclose([[float(v) for v in line.split()[2:]] for line in lines[1:4]], precice_first_window,
+                               rtol=1e-6)
+    assert not (out / "precice-M1-convergence.log").exists()
+
+
+def test_the_convergence_log_names_each_measure_as_precice_does(tmp_path):
+    """relative, residual-relative and absolute-or-relative measures are ResRel, ResDrop and ResAbsOrRel (which
+    preCICE 3.4.1 logs as 0); the iterations log of a run without quasi-Newton has no QN columns."""
+    measures = ('<absolute-convergence-measure limit="1e-10" data="Displacement-1" mesh="M1-Mesh" />',
+                '<relative-convergence-measure limit="1e-8" data="Displacement-1" mesh="M1-Mesh" />'
+                '<residual-relative-convergence-measure limit="1e-3" data="Displacement-2" mesh="M2-Mesh" />'
+                '<absolute-or-relative-convergence-measure abs-limit="1e-12" rel-limit="1e-9" data="Displacement-2" '
+                'mesh="M2-Mesh" />')
+    config = chain_config(2, "parallel-implicit", RELAXATION, True).replace(*measures).replace(
+        '<absolute-convergence-measure limit="1e-10" data="Displacement-2" mesh="M2-Mesh" />', "")
+    (tmp_path / "mass.py").write_text(MASS)
+    for name in ("M1", "M2"):
+        (tmp_path / name).mkdir()
+    (tmp_path / "config.xml").write_text(config)
+    (tmp_path / "case.toml").write_text('[precice]\nconfig = "config.xml"\n' + "".join(
+        f'[participants.{n}]\ncommand = "python3 ../mass.py {n} {o}"\ncwd = "{n}"\n' for n, o in (("M1", 2), ("M2", 1))))
+    run_scene(load_scene(tmp_path / "case.toml"), tmp_path / "out", progress=False)
+    lines = (tmp_path / "out" / "precice-M2-convergence.log").read_text().splitlines()
+    assert lines[0] == ("  TimeWindow  Iteration  ResRel(M1-Mesh:Displacement-1)  ResDrop(M2-Mesh:Displacement-2)  "
+                        "ResAbsOrRel(M2-Mesh:Displacement-2)")
+    assert lines[1].split()[2:] == ["1.00000000e+00", "1.00000000e+00", "0.00000000e+00"]
+    assert (tmp_path / "out" / "precice-M2-iterations.log").read_text().splitlines()[0] == \
+        "  TimeWindow  TotalIterations  Iterations  Convergence"

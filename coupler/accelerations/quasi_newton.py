@@ -95,6 +95,7 @@ class IQNILS(Acceleration):
         self._weights: np.ndarray | None = None
         self.columns_used = 0
         self.columns_filtered = 0
+        self.columns_dropped = 0    # for max_used_iterations, the windows reused, or a stale regime
         self.stale_step_ratio = stale_step_ratio
         self.stale_windows = 0
         self.maps_changed = 0
@@ -123,6 +124,11 @@ class IQNILS(Acceleration):
             self._cap(min(self.max_columns, x.size))
         self._r_previous, self._xt_previous = r, x_tilde.copy()
 
+    def column_counts(self) -> tuple[int, int, int]:
+        """The columns held now, and those the filter deleted and those dropped so far (preCICE's QNColumns,
+        DeletedQNColumns and DroppedQNColumns, the last two summed over the run)."""
+        return sum(len(V) for V, _ in self._windows), self.columns_filtered, self.columns_dropped
+
     def regrid(self, transform: Callable[[np.ndarray], np.ndarray], block_sizes: list[int]) -> None:
         """Every column (of this window and the reused ones) resampled; no column spans the change."""
         super().regrid(transform, block_sizes)
@@ -141,6 +147,7 @@ class IQNILS(Acceleration):
                 V.pop()
                 W.pop()
                 excess -= 1
+                self.columns_dropped += 1
         self._drop_emptied()
 
     def _drop_emptied(self) -> None:
@@ -180,7 +187,7 @@ class IQNILS(Acceleration):
                 proposal = None
         if self._drop_previous:
             while len(self._windows) > 1:
-                self._windows.pop()
+                self.columns_dropped += len(self._windows.pop()[0])
             self._drop_previous = False
         return proposal
 
@@ -217,7 +224,7 @@ class IQNILS(Acceleration):
         if len(self._windows) > 1 and any(V for V, _ in list(self._windows)[1:]):
             self.stale_windows += 1
         while len(self._windows) > 1:
-            self._windows.pop()
+            self.columns_dropped += len(self._windows.pop()[0])
 
     def map_changed(self) -> None:
         """No column spans the change (its difference would mix the two maps' outputs); with
@@ -261,7 +268,7 @@ class IQNILS(Acceleration):
         self.preconditioner.end_window()
         keep = max(self.reused, 1)   # reuse 0 keeps the last window for the next window's first update
         while len(self._windows) > keep:
-            self._windows.pop()
+            self.columns_dropped += len(self._windows.pop()[0])
 
 
 @ACCELERATIONS.register("iqn-imvj")
