@@ -84,6 +84,7 @@ class ComponentProxy:
         self.records_steps = False      # it is recorded: a subcycled step returns each step's inputs
         self.substeps: tuple[np.ndarray, dict[str, np.ndarray]] | None = None     # its last step's samples
         self.substep_calls: list[tuple[dict, dict]] = []     # and each of its steps' inputs and outputs
+        self.gradients: dict[str, np.ndarray] = {}           # a component writes no gradients
 
     # --- transport --------------------------------------------------------
     def send(self, op: str, args: Mapping[str, Any] | None = None,

@@ -35,6 +35,8 @@ class Coupled(Protocol):
     substep_calls: list[Call]
     # whether the last step was served by another backend than the one before (the acceleration's map changed)
     backend_changed: bool
+    # the gradients its last step wrote with its data (a preCICE participant's write_gradient_data), by data item
+    gradients: dict[str, np.ndarray]
 
     def output_names(self) -> list[str]: ...
 

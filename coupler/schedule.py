@@ -34,6 +34,7 @@ class BackendSchedule:
     reads_waveforms = False           # its backends read the window's end
     substeps: Samples | None = None   # and take one step a window
     substep_calls: list[Call] = []
+    gradients: dict[str, np.ndarray] = {}     # its backends write none
 
     def __init__(self, name: str, stages: Sequence[tuple[float, ComponentProxy]],
                  fallback: ComponentProxy | None = None):

@@ -228,7 +228,7 @@ class CouplingScheme:
     def _gradients(e: Exchange) -> np.ndarray | None:
         """The gradients the source's last step wrote of ``e``'s data, where ``e``'s mapping takes them (only
         preCICE participants write gradients)."""
-        return getattr(e.source, "gradients", {}).get(e.data) if e.mapping.takes_gradients else None
+        return e.source.gradients.get(e.data) if e.mapping.takes_gradients else None
 
     @staticmethod
     def _corrected(e: Exchange, mapped: np.ndarray, gradients: np.ndarray | None) -> np.ndarray:

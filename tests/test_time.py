@@ -109,6 +109,7 @@ class Program:
     repeats_steps = True
     backend_changed = False
     substep_calls: list = []
+    gradients: dict = {}
 
     def coupling_state(self):
         return None
