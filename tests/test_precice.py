@@ -205,6 +205,21 @@ def test_a_rank_that_dies_stops_the_run_naming_it(tmp_path, monkeypatch):
     assert children_of(os.getpid()) == []
 
 
+def test_direct_access_from_a_parallel_participant_is_refused_in_one_line(tmp_path):
+    """A parallel participant's ranks would each write on the whole received mesh: refused, naming the call."""
+    accessor = DIRECT_ACCESSOR.replace('precice.Participant("Accessor", "../config.xml", 0, 1)',
+                                       'precice.Participant("Accessor", "../config.xml", int(os.environ["RANK"]), '
+                                       'int(os.environ["SIZE"]))').replace("import json", "import json, os")
+    case_file = write_case(tmp_path, {"Provider": DIRECT_PROVIDER, "Accessor": accessor}, DIRECT_CONFIG)
+    (tmp_path / "Accessor" / "ranks.py").write_text(RANKS)
+    case_file.write_text(case_file.read_text().replace('command = "python3 participant.py"\ncwd = "Accessor"',
+                                                       'command = "python3 ranks.py 2 participant.py"\ncwd = "Accessor"'))
+    with pytest.raises(CosimError, match=re.escape("direct access from a parallel participant (2 ranks) is not "
+                                                   "supported by cosim")):
+        run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert children_of(os.getpid()) == []
+
+
 def test_a_participant_wire_message_is_cosims_both_ways():
     """The participant package's own codec and cosim.protocol read each other's messages."""
     _wire = participant_module("_wire")
@@ -251,6 +266,9 @@ BAD_CONFIGS = [
     ("an RBF mapping without its basis", ("<mapping:nearest-neighbor direction=\"read\" from=\"Solid-Nodes\"",
                                           "<mapping:rbf direction=\"read\" from=\"Solid-Nodes\""),
      "an RBF mapping holds one"),
+    ("a window size the first participant chooses", ('<time-window-size value="0.1" />',
+                                                      '<time-window-size method="first-participant" />'),
+     "a window size the first participant chooses is not supported"),
     ("an unknown coupling scheme", ("coupling-scheme:serial-implicit>", "coupling-scheme:staggered>"),
      "the coupling scheme 'staggered' is not supported"),
     ("a multi-coupling given two participants as a pair", ("coupling-scheme:serial-implicit>",
@@ -402,6 +420,8 @@ MISUSES = [
      "component 'Fluid' in window 4 (t = 0.3 to 0.4), iteration 1: process exited with code 9"),
     ("finalizing in the middle", "participant.advance(dt)", "participant.finalize()",
      "Participant.finalize: finalize while the coupling goes on"),
+    ("remeshing", "    participant.advance(dt)\n", "    participant.advance(dt)\n    participant.reset_mesh('Fluid-Nodes')\n",
+     "Participant.reset_mesh: remeshing is not supported by cosim: mesh 'Fluid-Nodes' keeps the vertices it had"),
     ("a name the run does not have", 'precice.Participant("Fluid", config, 0, 1)',
      'precice.Participant("Fluids", config, 0, 1)',
      "started as participant 'Fluid' and says hello as 'Fluids' (the run's participants: Fluid, Solid)"),

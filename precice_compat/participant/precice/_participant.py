@@ -108,6 +108,12 @@ class Participant:
     def set_mesh_tetrahedra(self, mesh_name: str, vertices: Any) -> None:
         self._connectivity("set_mesh_tetrahedra", mesh_name, vertices, 4)
 
+    def reset_mesh(self, mesh_name: str) -> None:
+        """preCICE's experimental remeshing: refused by cosim (a mesh keeps its vertices for the whole run)."""
+        self._core.mesh("reset_mesh", mesh_name)
+        raise self._core.fail("reset_mesh", f"remeshing is not supported by cosim: mesh '{mesh_name}' keeps the "
+                                            "vertices it had at initialize for the whole run")
+
     def set_mesh_access_region(self, mesh_name: str, bounding_box: Any) -> None:
         self._core.set_access_region("set_mesh_access_region", mesh_name, bounding_box)
 
