@@ -1250,8 +1250,9 @@ def test_a_rendezvous_file_that_another_could_have_written_is_not_trusted(tmp_pa
 
 
 def test_a_rendezvous_naming_a_live_program_that_is_no_coupler_or_a_zombie_is_stale(tmp_path):
-    """A pid that now runs another program, or a coupler that died unreaped (a zombie), is no coupler: the
-    participant does not wait on it (here it looks for the cosim command to start one, and says it has none);
+    """A pid that now runs another program, a coupler that died unreaped (a zombie), or a cosim process that does
+    not listen at the file's endpoint (it hung the participant silently) is no coupler: the participant does not
+    wait on it (here it looks for the cosim command to start one, and says it has none);
     the coupler's own liveness test sees the zombie as gone too."""
     from cosim.rundir import alive
     config = tmp_path / "precice-config.xml"
@@ -1259,19 +1260,22 @@ def test_a_rendezvous_naming_a_live_program_that_is_no_coupler_or_a_zombie_is_st
     (tmp_path / "cosim-run").mkdir()
     sleeper = subprocess.Popen(["sleep", "60"])
     dead = subprocess.Popen(["true"])
+    # a live process whose command line says cosim (another run's coupler, say), not listening at the endpoint
+    other_run = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", "cosim"])
     try:
         wait_for(lambda: Path(f"/proc/{dead.pid}/stat").read_text().rpartition(")")[2][1:2] == "Z",
                  "the child to be a zombie")
         assert alive(sleeper.pid) and not alive(dead.pid)
-        for pid in (sleeper.pid, dead.pid):
+        for pid in (sleeper.pid, dead.pid, other_run.pid):
             (tmp_path / "cosim-run" / "coupler.json").write_text(
                 json.dumps({"endpoint": "tcp://127.0.0.1:9", "token": "t", "pid": pid}))
             (tmp_path / "cosim-run" / "coupler.json").chmod(0o600)
             done = find_coupler_in(config)
             assert done.returncode != 0 and "no `cosim` command starts one" in done.stderr, done.stderr
     finally:
-        sleeper.kill()
-        sleeper.wait()
+        for process in (sleeper, other_run):
+            process.kill()
+            process.wait()
         dead.wait()
 
 

@@ -45,7 +45,7 @@ def _alive(pid: int) -> bool:
     return _proc(pid, "stat").rpartition(")")[2][1:2] != "Z"
 
 
-def _proc(pid: int, what: str) -> str:
+def _proc(pid: int | str, what: str) -> str:
     """``/proc/<pid>/<what>`` ('' where there is none: another system, or the process is gone)."""
     try:
         return Path(f"/proc/{pid}/{what}").read_bytes().replace(b"\0", b" ").decode(errors="replace")
@@ -71,7 +71,28 @@ def _running(path: Path) -> tuple[str, str, int] | None:
     command = _proc(pid, "cmdline")
     if not _alive(pid) or (command and "cosim" not in command):     # gone, or the pid is another program's now
         return None
-    return str(found["endpoint"]), str(found.get("token", "")), pid
+    endpoint = str(found.get("endpoint", ""))
+    if not _listens(pid, endpoint):         # another run's coupler, or a file that names the wrong address
+        return None
+    return endpoint, str(found.get("token", "")), pid
+
+
+def _listens(pid: int, endpoint: str) -> bool:
+    """Whether process ``pid`` listens at the TCP ``endpoint`` (tcp://host:port), from /proc; True where /proc
+    cannot tell (another system)."""
+    port = endpoint.rpartition(":")[2]
+    if not endpoint.startswith("tcp://") or not port.isdigit():
+        return False
+    tables = [_proc("self", "net/tcp"), _proc("self", "net/tcp6")]
+    if not any(tables):
+        return True
+    inodes = {fields[9] for table in tables for fields in (line.split() for line in table.splitlines()[1:])
+              if len(fields) > 9 and fields[3] == "0A" and int(fields[1].rpartition(":")[2], 16) == int(port)}
+    try:
+        links = [os.readlink(entry) for entry in Path(f"/proc/{pid}/fd").iterdir()]
+    except OSError:
+        return True             # another user's process: its sockets cannot be read here
+    return any(link == f"socket:[{inode}]" for link in links for inode in inodes)
 
 
 def find_coupler(config: Path) -> tuple[str, str, int]:
