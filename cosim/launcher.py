@@ -29,6 +29,9 @@ from cosim.errors import ComponentDied, ComponentError
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 TOKEN_VARIABLE = "COSIM_SHUTDOWN_TOKEN"   # read (and removed from its environment) by `cosim serve`
 
+TAIL_BYTES = 1 << 24     # of a log read for its last lines (read only when a process failed)
+TAIL_WIDTH = 400         # characters of a line an error quotes
+
 
 @dataclass
 class ComponentProcess:
@@ -47,12 +50,18 @@ class ComponentProcess:
     def poll(self) -> int | None:
         return self.popen.poll()
 
-    def stderr_tail(self, lines: int = 15) -> str:
+    def stderr_tail(self, lines: int = 15, width: int = TAIL_WIDTH) -> str:
+        """The last ``lines`` lines of its log, each cut to ``width`` characters (a process may print megabytes on
+        one line)."""
         try:
-            text = self.log_path.read_text(errors="replace")
+            with open(self.log_path, "rb") as stream:
+                start = max(stream.seek(0, 2) - TAIL_BYTES, 0)
+                stream.seek(start)
+                text = ("..." if start else "") + stream.read().decode(errors="replace")
         except OSError:
             return ""
-        return "\n".join(text.splitlines()[-lines:])
+        return "\n".join(line if len(line) <= width else f"{line[:width]}... ({len(line) - width} more characters)"
+                         for line in text.splitlines()[-lines:])
 
 
 class Launcher:

@@ -295,7 +295,7 @@ class ParticipantProxy:
                 if self.hub.queues.get(self.name):
                     continue
                 code = self.process.poll()
-                said = self.process.stderr_tail(1).strip()    # a Python participant's error: its message's line
+                said = one_line(self.process.stderr_tail(1))    # a Python participant's error: its message's line
                 if code == 0:
                     raise ComponentError(self.name, f"exited (code 0) while the coupler waited for {what} "
                                                     f"(its log: {self.process.log_path})")

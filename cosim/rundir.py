@@ -242,5 +242,6 @@ def describe_run(path: str | Path) -> str:
     if state == "interrupted":
         return f"interrupted after {done}{of} windows"
     if state == "died":
-        return f"its process (pid {status.get('pid')}) died after {done}{of} windows"
+        pid = f" (pid {status['pid']})" if "pid" in status else ""
+        return f"its process{pid} died after {done}{of} windows"
     return "results.h5 without a status"

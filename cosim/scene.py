@@ -448,6 +448,7 @@ def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]
             spec[kind]["entry"] = spec[kind]["entry"] or backend_entry(kind, f"components.{name}.{kind}.entry", source)
         string_list(spec["sections"], f"components.{name}.sections", source)
         _cores(spec["cores"], f"components.{name}.cores", source)
+        _threads(spec["threads"], f"components.{name}.threads", source)
         _names(spec["names"], f"components.{name}.names", source)
     # in the order the components name them: the resolved scene (and results.h5) is the same on every run
     sections = list(dict.fromkeys(s for spec in components.values() for s in spec["sections"]))
@@ -501,6 +502,17 @@ def string_list(value: list, where: str, source: str) -> None:
     for i, item in enumerate(value):
         if not isinstance(item, str):
             raise SceneError(f"{source}: '{where}.{i}' must be a string, got {item!r}")
+
+
+MAX_THREADS_PER_CORE = 4    # a process's OpenMP and BLAS threads: more than a few a core only slows it
+
+
+def _threads(value: int, where: str, source: str) -> None:
+    """A component's threads: at most a few a core of this machine (a solver died at start with 100,000)."""
+    most = MAX_THREADS_PER_CORE * (os.cpu_count() or 1)
+    if value > most:
+        raise SceneError(f"{source}: '{where}' is {value}; at most {most} ({MAX_THREADS_PER_CORE} a core of this "
+                         f"machine's {os.cpu_count() or 1})")
 
 
 def _cores(value: list, where: str, source: str) -> None:

@@ -24,9 +24,11 @@ def status_lines(run_dir: str | Path) -> list[str]:
     state, done, total = status.get("state", "?"), int(status.get("windows_completed", 0)), status.get("windows_total")
     share = f" ({100 * done / total:.0f} %)" if total else ""
     at = f", t = {status['time']:g}" if "time" in status else ""
-    lines = [f"{run_dir}: {state}, {done} of {total} windows{share}{at}"]
+    of = f" of {total}" if total is not None else ""        # a damaged file may have lost the total, or the pid
+    lines = [f"{run_dir}: {state}, {done}{of} windows{share}{at}"]
     if state == "died":
-        lines[0] += f" (its process {status.get('pid')} is gone without saying why: killed, or the machine stopped)"
+        pid = f" {status['pid']}" if "pid" in status else ""
+        lines[0] += f" (its process{pid} is gone without saying why: killed, or the machine stopped)"
     started, ran = status.get("started"), done - int(status.get("windows_at_start", 0))
     if started and ran > 0:
         seconds = max(float(status.get("updated", time.time())) - float(started), 1e-9)
@@ -68,7 +70,8 @@ def plot_convergence(run_dir: str | Path, out: str | Path | None = None) -> Path
         raise CosimError(f"'{path}' does not exist: the run has written no coupling iteration yet (or ran before "
                          "the coupler wrote convergence logs)")
     target = Path(out) if out else run_dir / "convergence.png"
-    if target.suffix.lower() != ".png" or (target.resolve().parent == run_dir.resolve() and target.name in RUN_FILES):
+    written = target.resolve()          # where it lands, through any link
+    if target.suffix.lower() != ".png" or (written.parent == run_dir.resolve() and written.name in RUN_FILES):
         raise CosimError(f"--out '{target}': the convergence plot is written as a PNG of its own, not over "
                          f"{'a file of the run' if target.suffix.lower() == '.png' else 'a ' + (target.suffix or 'file without suffix')} "
                          "(default: DIR/convergence.png)")

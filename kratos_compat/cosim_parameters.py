@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import SceneError
+from cosim.scene import MAX_THREADS_PER_CORE
 from kratos_compat.json_source import JsonSource, Path_
 
 COUPLED_SOLVERS = {"coupled_solvers.gauss_seidel_strong": "serial-implicit",
@@ -42,7 +43,6 @@ LOCATIONS = ("node_historical", "node_non_historical")
 COMMON = {"type", "solver", "data_name", "echo_level", "label"}
 
 
-MAX_THREADS_PER_CORE = 4     # a solver's OpenMP threads: more than a few a core only slows it
 
 
 @dataclass
@@ -210,6 +210,7 @@ class _Reader:
         project = self.folder / (given if given.endswith(".json") else given + ".json")
         if not project.is_file():
             raise self.fail((*at, "solver_wrapper_settings", "input_file"),
+                            f"'{project}' is not a regular file" if project.exists() else
                             f"'{project}' does not exist (paths are relative to {self.folder})")
         threads = self.get(wrapper, (*at, "solver_wrapper_settings"), "num_threads", int, None)
         most = MAX_THREADS_PER_CORE * (os.cpu_count() or 1)

@@ -39,16 +39,19 @@ class LateHangingSolid(TubeSolid):
 
 class CrashingSolid(TubeSolid):
     """Exits the process with code 7 at t >= 0.3, leaving a temporary folder behind (its path in the environment's
-    CRASH_NOTE file, if set)."""
+    CRASH_NOTE file, if set), after printing CRASH_SAYS times the letter x on one line of its stderr (if set)."""
 
     def do_step(self, t, dt):
         if t >= 0.3:
             import os
+            import sys
             import tempfile
             folder = tempfile.mkdtemp(prefix="left-behind-")
             if os.environ.get("CRASH_NOTE"):
                 with open(os.environ["CRASH_NOTE"], "w") as note:
                     note.write(folder)
+            if os.environ.get("CRASH_SAYS"):
+                print("x" * int(os.environ["CRASH_SAYS"]), file=sys.stderr, flush=True)
             os._exit(7)
         super().do_step(t, dt)
 

@@ -265,3 +265,7 @@ def test_special_files_named_as_inputs_are_refused_at_once(capsys, tmp_path):
     assert read_status(tmp_path) == {"state": "finished", "windows_total": 10, "measures": {"c": 1.5}}
     assert main(["status", str(tmp_path)]) == 0          # the fields it can read, no traceback
     assert "finished, 0 of 10 windows" in capsys.readouterr().out
+    (tmp_path / "status.json").write_text('{"state": "died", "windows_completed": 4, "windows_total": "x"}')
+    assert main(["status", str(tmp_path)]) == 0          # what it lost is left out, not printed as None
+    out = capsys.readouterr().out
+    assert "died, 4 windows" in out and "its process is gone" in out and "None" not in out, out

@@ -125,6 +125,16 @@ def test_crashing_component_is_named_with_its_exit_code_and_log(tmp_path, monkey
         assert len(results.windows) == 3  # windows ending at 0.1, 0.2, 0.3 finished before the crash
 
 
+def test_a_crashed_components_last_lines_are_cut_to_a_readable_width(tmp_path, monkeypatch):
+    """A process that printed two megabytes on one line before it died: the error quotes its start, and how much
+    more there was (it carried the whole line)."""
+    monkeypatch.setenv("CRASH_SAYS", "2000000")
+    with pytest.raises(ComponentDied) as error:
+        run(tmp_path, "time.end=1", "components.solid.entry=tests.components:CrashingSolid")
+    message = str(error.value)
+    assert len(message) < 3000 and "x" * 400 + "... (1999600 more characters)" in message, message[-300:]
+
+
 def test_hanging_component_times_out_and_is_killed(tmp_path):
     started = time.monotonic()
     with pytest.raises(ComponentTimeout, match=r"component 'solid' in window 3 \(t = 0.2 to 0.3\), iteration 1: "

@@ -189,6 +189,21 @@ def test_a_bad_cosimulation_file_is_one_line_naming_its_file_line_and_key(wall_c
 
 
 @needs_gmsh
+def test_a_solvers_input_file_that_is_a_fifo_is_named_as_one_not_as_missing(wall_case, tmp_path, capsys):
+    import os
+    import shutil
+    folder = tmp_path / "case"
+    shutil.copytree(wall_case, folder)
+    os.mkfifo(folder / "fifo.json")
+    document = json.loads((folder / "ProjectParametersCoSim.json").read_text())
+    edit(document, f"{S}/solvers/structure/solver_wrapper_settings/input_file", "fifo.json")
+    (folder / "ProjectParametersCoSim.json").write_text(json.dumps(document, indent=4))
+    assert main(["check", str(folder / "case.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "fifo.json' is not a regular file" in err, err
+
+
+@needs_gmsh
 def test_a_json_syntax_error_names_its_line(wall_case, tmp_path, capsys):
     import shutil
     folder = tmp_path / "case"

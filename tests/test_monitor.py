@@ -138,8 +138,10 @@ def test_the_convergence_plot_reads_damaged_or_unfinished_logs_and_never_writes_
     assert picture.stat().st_size > 5_000
     from coupler.run_log import read_table
     assert read_table(logs / "convergence.log")[1] == [[1, 1, 1.0, 0.2], [1, 2, 1e-5, 3e-6], [2, 1, 0.9, 0.1]]
+    (tmp_path / "link.png").symlink_to(tmp_path / "run" / "run.png")     # a link into the run: refused the same
     for target, message in ((tmp_path / "run" / "results.h5", "not over a .h5"),
-                            (tmp_path / "run" / "run.png", "not over a file of the run")):
+                            (tmp_path / "run" / "run.png", "not over a file of the run"),
+                            (tmp_path / "link.png", "not over a file of the run")):
         assert main(["plot", str(tmp_path / "run"), "--convergence", "--out", str(target)]) == 2
         err = capsys.readouterr().err.strip()
         assert "\n" not in err and message in err, err

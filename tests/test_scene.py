@@ -60,6 +60,8 @@ def test_set_overrides_values_and_records_them(tube_scene_path):
     ("inlte.f=1", "unknown key 'inlte'.*did you mean 'inlet'"),
     ('components.solid.cores=["0"]', r"'components.solid.cores.0' must be a core number, got '0'"),
     ("components.solid.cores=[4096]", r"'components.solid.cores' names core 4096; this process may use cores 0"),
+    ("components.solid.threads=100000", r"'components.solid.threads' is 100000; at most \d+ \(4 a core of this "
+                                        r"machine's \d+\)"),
     ("components.solid.substeps=1000000", r"'components.solid.substeps' is 1000000; allowed: \[1, 10,000\]"),
     ('coupling.convergence=[{data="section", type="min-iterations", iterations=91}]',
      r"'coupling.convergence.0.iterations' is 91, above 'coupling.max_iterations' \(90\): no window could converge"),

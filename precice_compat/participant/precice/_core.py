@@ -408,7 +408,8 @@ class Core:
         if not np.isfinite(step) or step <= 0:
             raise self.fail(call, f"the step {dt!r} must be positive")
         if step > remaining * (1 + EPSILON) + EPSILON * self.window:
-            raise self.fail(call, f"the step {step:g} is longer than what is left of the window, {remaining:g} "
+            shown, limit = _distinct(step, remaining)
+            raise self.fail(call, f"the step {shown} is longer than what is left of the window, {limit} "
                             "(get_max_time_step_size())")
         self.elapsed += step
         self.write_checkpoint = self.read_checkpoint = self.window_complete = False
