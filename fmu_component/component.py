@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import atexit
 import ctypes
-import json
 import shutil
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -44,6 +43,7 @@ from fmu_component.archive import (
 from fmu_component.fmi2_instance import Fmi2Instance
 from fmu_component.fmi3_instance import Fmi3Instance
 from fmu_component.instance import FmiError, FmiInstance
+from fmu_component.interface_file import read_interface
 
 __all__ = ["FmuComponent", "UNPACK_ROOT"]
 
@@ -128,17 +128,14 @@ class FmuComponent(Component):
         described = resources / "interface.json"
         if described.is_file():
             try:
-                interface = json.loads(described.read_text())
-                self.history_windows = int(interface.get("history_windows", 0))
-                self.declared_stateless = bool(interface.get("stateless", False))
-                take_over = str(interface.get("take_over", ""))
-                for v in interface["variables"]:
-                    if v["name"] in self.placement:
-                        self.placement[v["name"]] = (str(v["mesh"]), int(v["components"]))
-                self.mesh_nodes = {str(k): np.array(v, dtype=np.float64) for k, v in interface["meshes"].items()}
-            except (ValueError, TypeError, KeyError, AttributeError, UnicodeDecodeError) as exc:
-                why = f"no key {exc}" if isinstance(exc, KeyError) else str(exc)
-                raise ComponentError(self.name, f"FMU '{self.path}': resources/interface.json: {why}") from None
+                interface = read_interface(described.read_text())
+            except (ValueError, UnicodeDecodeError) as exc:
+                raise ComponentError(self.name, f"FMU '{self.path}': resources/interface.json: {exc}") from None
+            self.history_windows, self.declared_stateless = interface.history_windows, interface.stateless
+            take_over = interface.take_over
+            self.placement.update({name: where for name, where in interface.placement.items()
+                                   if name in self.placement})
+            self.mesh_nodes = interface.meshes
             if self.history_windows:
                 self._bind_take_over(take_over)
 

@@ -172,9 +172,18 @@ def test_bad_fmus_get_clear_errors(models, tmp_path):
         FmuComponent().instantiate({"path": str(short_resource)})
 
 
-@pytest.mark.parametrize(("text", "why"), [("{", "Expecting property name"), ('{"variables": 5}', "'int' object"),
-                                         ('{"variables": [{"name": "pressure"}], "meshes": {}}', "no key 'mesh'"),
-                                         ("[1, 2]", "'list' object")])
+@pytest.mark.parametrize(("text", "why"), [
+    ("{", "Expecting property name"),
+    ('{"variables": 5, "meshes": {}}', "'variables' must be a list, not a number"),
+    ('{"variables": [{"name": "pressure"}], "meshes": {}}', "'variables[0]' has no key 'mesh'"),
+    ("[1, 2]", "must hold an object, not a list"),
+    ('{"variables": [], "meshes": {"m": [[0, "x"]]}}', "'meshes.m' must be a list of nodes"),
+    ('{"variables": [{"name": "p", "mesh": "m", "components": 0}], "meshes": {}}',
+     "'variables[0].components' must be an integer of at least 1, not 0"),
+    ('{"variables": [{"name": "p", "mesh": "wall", "components": 1}], "meshes": {"m": [[0.0, 1.0]]}}',
+     "variable 'p' is on mesh 'wall', which 'meshes' does not hold (it holds: m)"),
+    ('{"variables": [], "meshes": {}, "history_windows": -1}', "'history_windows' must be an integer of at least 0"),
+    ("[" * 100000 + "]" * 100000, "nested too deeply")])
 def test_a_damaged_interface_json_is_named_in_one_line(models, tmp_path, text, why):
     """The FMU's resources/interface.json (meshes and variables' placement) damaged: one line naming the file."""
     fmu = models["rbf"][1]
