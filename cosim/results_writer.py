@@ -14,8 +14,9 @@ dataset once, then flushes. A window's write thus wakes no process. So:
   sync or close), with every window before it written;
 - ``lengths`` (before a checkpoint) and ``close`` wait until everything sent is written.
 
-After closing the file, the writer draws the run's plots (``run.png`` and the scene's own), having imported
-matplotlib in the background while the run went on: the end of a run waits for the drawing only.
+After closing the file, the writer writes ``run.xdmf`` beside it (``cosim.xdmf``: the run as ParaView opens it)
+and draws the run's plots (``run.png`` and the scene's own), having imported matplotlib in the background while the
+run went on: the end of a run waits for the drawing only.
 """
 
 from __future__ import annotations
@@ -358,6 +359,8 @@ class _Writer:
         if self.store is not None:
             try:
                 self.store.close()
+                from cosim.xdmf import write_xdmf
+                write_xdmf(self.store.path)
             except Exception as exc:
                 if not self.failed:
                     self.fail(exc)

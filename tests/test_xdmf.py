@@ -1,0 +1,101 @@
+"""run.xdmf: every run opens in ParaView's XDMF reader (VTK's vtkXdmfReader), with the fields of results.h5."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cosim.results import ResultsStore, RunResults
+from cosim.scene import load_scene
+from cosim.xdmf import XDMF_NAME, main, write_xdmf
+from coupler.run import run_scene
+from tests.conftest import TUBE_SCENE
+
+vtk_xdmf = pytest.importorskip("vtkmodules.vtkIOXdmf2", reason="VTK's Python wheel (pip install vtk) reads XDMF")
+
+
+def read_series(path) -> dict[float, dict[str, tuple[np.ndarray, dict[str, np.ndarray]]]]:
+    """time -> block name -> (points, point data) as VTK's XDMF reader gives them."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
+
+    reader = vtk_xdmf.vtkXdmfReader()
+    reader.SetFileName(str(path))
+    reader.UpdateInformation()
+    times = reader.GetOutputInformation(0).Get(vtkStreamingDemandDrivenPipeline.TIME_STEPS()) or ()
+    series = {}
+    for time in times:
+        reader.UpdateTimeStep(time)
+        blocks = reader.GetOutputDataObject(0)
+        step = {}
+        for index in range(blocks.GetNumberOfBlocks()):
+            block = blocks.GetBlock(index)
+            name = blocks.GetMetaData(index).Get(blocks.NAME())
+            data = block.GetPointData()
+            step[name] = (vtk_to_numpy(block.GetPoints().GetData()).copy(),
+                          {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i)).copy()
+                           for i in range(data.GetNumberOfArrays())})
+        series[float(time)] = step
+    return series
+
+
+def test_a_tube_run_writes_run_xdmf_that_vtk_reads_with_the_fields_of_results_h5(tmp_path):
+    run_scene(load_scene(TUBE_SCENE, ["time.end=0.5"]), tmp_path / "tube", progress=False)
+    series = read_series(tmp_path / "tube" / XDMF_NAME)
+    with RunResults(tmp_path / "tube") as run:
+        fields, initial, times = run.fields(), run.initial(), run.windows.time
+        axis = run.component("fluid").meshes["axis"]
+    assert sorted(series) == pytest.approx([0.0, *times])          # the initial values, then every window
+    for window, time in enumerate([0.0, *times]):
+        step = series[min(series, key=lambda t: abs(t - time))]
+        points, data = step["fluid/axis"]
+        np.testing.assert_array_equal(points[:, 0], axis[:, 0])
+        np.testing.assert_array_equal(points[:, 1:], 0.0)
+        for name, block in (("pressure", "fluid/axis"), ("section", "solid/axis")):
+            expected = initial[name] if window == 0 else fields[name][window - 1]
+            np.testing.assert_array_equal(step[block][1][name], expected)
+
+
+def test_meshes_of_two_and_three_dimensions_with_vectors_and_substeps(tmp_path):
+    """2-D vectors come out padded with z = 0, as ParaView shows them; a substep field is left out and said so."""
+    rng = np.random.default_rng(1)
+    store = ResultsStore(tmp_path / "results.h5", "")
+    store.set_attributes(scene_resolved=json.dumps({"time": {"start": 0.5}, "exchange": [
+        {"data": "Force", "from": "A", "to": "B"}, {"data": "Disp", "from": "B", "to": "A"},
+        {"data": "T", "from": "B", "to": "A"}, {"data": "Steps", "from": "B", "to": "A"}]}))
+    plane, space = rng.random((5, 2)), rng.random((4, 3))
+    store.write_description("A", [{"name": "Force", "mesh": "plane", "components": 2}], {"plane": plane})
+    store.write_description("B", [{"name": n, "mesh": "space", "components": k} for n, k in (("Disp", 3), ("T", 1), ("Steps", 1))],
+                            {"space": space})
+    store.write_initial({"Force": np.ones((5, 2)), "Disp": np.zeros((4, 3)), "T": np.zeros(4),
+                         "Steps": np.zeros((2, 4))})
+    windows = [{"Force": rng.random((5, 2)), "Disp": rng.random((4, 3)), "T": rng.random(4),
+                "Steps": rng.random((2, 4))} for _ in range(3)]
+    for number, values in enumerate(windows, start=1):
+        store.append_window(0.5 + 0.25 * number, 2, True, 0.0, values, {}, {})
+    store.close()
+    path = write_xdmf(tmp_path / "results.h5")
+    assert "'Steps': rows of shape (2, 4)" in path.read_text()
+    series = read_series(path)
+    assert sorted(series) == [0.5, 0.75, 1.0, 1.25]
+    points, data = series[1.0]["A/plane"]
+    np.testing.assert_array_equal(points[:, :2], plane)
+    np.testing.assert_array_equal(data["Force"][:, :2], windows[1]["Force"])
+    np.testing.assert_array_equal(data["Force"][:, 2], 0.0)
+    points, data = series[1.25]["B/space"]
+    np.testing.assert_array_equal(points, space)
+    assert set(data) == {"Disp", "T"}
+    np.testing.assert_array_equal(data["Disp"], windows[2]["Disp"])
+    np.testing.assert_array_equal(data["T"], windows[2]["T"])
+    np.testing.assert_array_equal(series[0.5]["A/plane"][1]["Force"][:, :2], 1.0)
+
+
+def test_the_command_writes_it_for_an_older_run_and_refuses_what_is_not_a_run(tmp_path, capsys):
+    run_scene(load_scene(TUBE_SCENE, ["time.end=0.2"]), tmp_path / "old", progress=False)
+    (tmp_path / "old" / XDMF_NAME).unlink()
+    assert main([str(tmp_path / "old")]) == 0
+    assert (tmp_path / "old" / XDMF_NAME).is_file()
+    assert main([str(tmp_path / "nothing")]) == 2
+    assert capsys.readouterr().err.startswith("error: no results file at")
