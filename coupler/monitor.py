@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 from cosim.errors import CosimError
 from cosim.rundir import read_status
-from coupler.run_log import CONVERGENCE, ITERATIONS, read_table
+from coupler.run_log import CONVERGENCE, ITERATIONS, read_limits, read_table
 
 
 def status_lines(run_dir: str | Path) -> list[str]:
@@ -56,14 +57,9 @@ RUN_FILES = ("run.png", "results.h5", "status.json", "checkpoint.npz")    # what
 
 
 def plot_convergence(run_dir: str | Path, out: str | Path | None = None) -> Path:
-    """A PNG of the run's convergence history: every measure and the residual norm at every coupling iteration,
-    and the iterations of every window; returns its path (default ``DIR/convergence.png``)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-    from matplotlib.ticker import MaxNLocator
-
+    """A PNG of the run's convergence history: every measure at every coupling iteration with its limit (dashed), the
+    residual norm on its own axis, both broken between windows, and the iterations of every window; returns its
+    path (default ``DIR/convergence.png``)."""
     run_dir = Path(run_dir)
     path = run_dir / "logs" / CONVERGENCE
     if not path.is_file():
@@ -75,35 +71,66 @@ def plot_convergence(run_dir: str | Path, out: str | Path | None = None) -> Path
         raise CosimError(f"--out '{target}': the convergence plot is written as a PNG of its own, not over "
                          f"{'a file of the run' if target.suffix.lower() == '.png' else 'a ' + (target.suffix or 'file without suffix')} "
                          "(default: DIR/convergence.png)")
+    figure = convergence_figure(run_dir)
+    import matplotlib.pyplot as plt
+    figure.savefig(target, dpi=110)
+    plt.close(figure)
+    return target
+
+
+def convergence_figure(run_dir: Path) -> Any:
+    """The figure of ``plot_convergence`` (matplotlib, Agg), from the run's logs."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.ticker import MaxNLocator
+
+    path = run_dir / "logs" / CONVERGENCE
     columns, rows = read_table(path)
     iterations_log = run_dir / "logs" / ITERATIONS
     windows = read_table(iterations_log)[1] if iterations_log.is_file() else []
     if len(columns) < 3 or not rows:
         raise CosimError(f"'{path}' holds no iteration yet")
     table = np.array(rows)
-    figure, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=False, gridspec_kw={"height_ratios": [2, 1]})
-    step = np.arange(1, len(table) + 1)
-    for i, name in enumerate(columns[2:], start=2):
-        values = table[:, i]
-        shown = values > 0
-        top.semilogy(step[shown], values[shown], ".-", markersize=2, linewidth=0.6, label=name)
-    starts = step[table[:, 1] == 1]
-    if len(starts) <= 60:
-        for x in starts:
-            top.axvline(x, color="0.85", linewidth=0.5, zorder=0)
-    top.set_xlabel("coupling iteration (all windows)")
-    top.set_ylabel("measure")
+    limits = read_limits(run_dir / "logs")
+    step = np.arange(1, len(table) + 1, dtype=float)
+    breaks = np.flatnonzero(np.diff(table[:, 0]) != 0) + 1          # each window's first row: the lines break there
+
+    def broken(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        shown = np.where(values > 0, values, np.nan)                 # a log axis: zeros and below are not drawn
+        return np.insert(step, breaks, np.nan), np.insert(shown, breaks, np.nan)
+
+    has_residual = columns[-1] == "ResidualNorm"
+    measures = [(i, name) for i, name in enumerate(columns[2:len(columns) - has_residual], start=2)
+                if name in limits and limits[name] is not None or name not in limits]
+    panels = 2 + has_residual
+    figure, axes = plt.subplots(panels, 1, figsize=(9, 2.6 * panels + 0.6),
+                                gridspec_kw={"height_ratios": [2] + [1] * (panels - 1)})
+    top = axes[0]
+    for i, name in measures:
+        line, = top.semilogy(*broken(table[:, i]), ".-", markersize=2, linewidth=0.6, label=name)
+        limit = limits.get(name)
+        if limit is not None and limit > 0:
+            top.axhline(limit, color=line.get_color(), linestyle="--", linewidth=0.9, label=f"{name} limit {limit:g}")
+    top.set_xlabel("coupling iteration, counted over all windows (lines break between windows)")
+    top.set_ylabel("convergence measure")
     top.xaxis.set_major_locator(MaxNLocator(integer=True))
-    top.legend(fontsize=8)
+    top.legend(fontsize=7, ncol=2)
     top.set_title(f"{run_dir.name}: convergence, {len(windows)} windows, {len(table)} iterations")
+    if has_residual:
+        middle = axes[1]
+        middle.semilogy(*broken(table[:, -1]), ".-", markersize=2, linewidth=0.6, color="0.3")
+        middle.set_xlabel("coupling iteration, counted over all windows")
+        middle.set_ylabel("residual norm\n||H(x) - x||")
+        middle.xaxis.set_major_locator(MaxNLocator(integer=True))
+    bottom = axes[-1]
     if windows:
         counts = np.array(windows)
         bottom.plot(counts[:, 0], counts[:, 2], ".-", markersize=2, linewidth=0.6)
-        bottom.set_xlabel("time window")
-        bottom.set_ylabel("iterations")
-        bottom.yaxis.set_major_locator(MaxNLocator(integer=True))
-        bottom.xaxis.set_major_locator(MaxNLocator(integer=True))
+    bottom.set_xlabel("time window")
+    bottom.set_ylabel("iterations")
+    bottom.yaxis.set_major_locator(MaxNLocator(integer=True))
+    bottom.xaxis.set_major_locator(MaxNLocator(integer=True))
     figure.tight_layout()
-    figure.savefig(target, dpi=110)
-    plt.close(figure)
-    return target
+    return figure

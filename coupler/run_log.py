@@ -8,6 +8,9 @@
 - ``convergence.log``: a row per coupling iteration: ``TimeWindow Iteration``, every measure's value (as its
   ``type(data)``) and the norm of the accelerated data's residual.
 
+``measures.json`` names each measure's column with its limit (``null`` for those without a fixed one: min-iterations,
+any-of and all-of), for the convergence plot's limit lines.
+
 The files are whitespace-separated columns under one header line, flushed every window. A resumed run first cuts
 the two tables back to the checkpoint's window. The logs never stop a run: a log that cannot be written (a full
 disk) stops being written, and the results file's own checks stop the run with their message.
@@ -15,6 +18,7 @@ disk) stops being written, and the results file's own checks stop the run with t
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -22,6 +26,8 @@ from pathlib import Path
 from typing import Any, TextIO
 
 COUPLER, ITERATIONS, CONVERGENCE = "coupler.log", "iterations.log", "convergence.log"
+MEASURES = "measures.json"
+FIXED_LIMITS = ("absolute", "absolute-rms", "relative", "residual-relative")    # the measures met below a limit
 
 
 class RunLog:
@@ -56,6 +62,8 @@ class RunLog:
                                                                 "TotalIterations", "Converged", *labels])
             self.convergence = _table(self.folder / CONVERGENCE, ["TimeWindow", "Iteration", *labels,
                                                                   "ResidualNorm"])
+            limits = {m.label(): m.limit if m.type_name in FIXED_LIMITS else None for m in measures}
+            (self.folder / MEASURES).write_text(json.dumps(limits, indent=1) + "\n")
 
     def __enter__(self) -> RunLog:
         return self
@@ -124,3 +132,15 @@ def read_table(path: Path) -> tuple[list[str], list[list[float]]]:
         except ValueError:
             continue
     return columns, table
+
+
+def read_limits(folder: Path) -> dict[str, float | None]:
+    """Each measure's column and its limit (``measures.json``; empty if absent or damaged)."""
+    try:
+        limits = json.loads((folder / MEASURES).read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(limits, dict):
+        return {}
+    return {str(k): float(v) if isinstance(v, int | float) and not isinstance(v, bool) else None
+            for k, v in limits.items()}

@@ -3,6 +3,7 @@ manner of preCICE's), the component's log named by its error, ``cosim status`` a
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -12,7 +13,7 @@ import pytest
 from cosim.cli import main
 from cosim.results import RunResults
 from cosim.scene import load_scene
-from coupler.monitor import plot_convergence, status_lines
+from coupler.monitor import convergence_figure, plot_convergence, status_lines
 from coupler.run import run_scene
 from coupler.run_log import read_table
 from tests.conftest import ROOT, TUBE_SCENE, wait_for, windows_done
@@ -148,3 +149,34 @@ def test_the_convergence_plot_reads_damaged_or_unfinished_logs_and_never_writes_
     (logs / "convergence.log").write_text("")
     assert main(["plot", str(tmp_path / "run"), "--convergence"]) == 2
     assert "holds no iteration yet" in capsys.readouterr().err
+
+
+def test_the_convergence_plot_draws_each_measure_against_its_limit_and_breaks_between_windows(tmp_path):
+    """Measures on a log axis with their limits dashed in their colour, the residual on an axis of its own, no line
+    joining a window's last iteration to the next one's first, and every axis labelled."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import same_color
+
+    run_scene(load_scene(TUBE_SCENE, ["time.end=0.5", "coupling.convergence=[{data=\"pressure\", type=\"relative\", "
+                                      "limit=1e-4}, {data=\"section\", type=\"absolute\", limit=2e-7}, "
+                                      "{data=\"section\", type=\"min-iterations\", iterations=2}]"]),
+              tmp_path / "run", progress=False)
+    assert json.loads((tmp_path / "run" / "logs" / "measures.json").read_text()) == {
+        "relative(pressure)": 1e-4, "absolute(section)": 2e-7, "min-iterations(section)": None}
+    figure = convergence_figure(tmp_path / "run")
+    measures, residual, iterations = figure.axes
+    assert [a.get_yscale() for a in figure.axes] == ["log", "log", "linear"]
+    assert all(a.get_xlabel() and a.get_ylabel() for a in figure.axes)
+    drawn = {line.get_label(): line for line in measures.get_lines()}
+    assert set(drawn) == {"relative(pressure)", "absolute(section)", "relative(pressure) limit 0.0001",
+                          "absolute(section) limit 2e-07"}
+    for name, limit in (("relative(pressure)", 1e-4), ("absolute(section)", 2e-7)):
+        dashed = drawn[f"{name} limit {limit:g}"]
+        assert dashed.get_linestyle() == "--" and list(dashed.get_ydata()) == [limit, limit]
+        assert same_color(dashed.get_color(), drawn[name].get_color())
+    with RunResults(tmp_path / "run") as run:
+        windows, total = len(run.windows), int(run.windows.iterations.sum())
+    for line in (drawn["relative(pressure)"], residual.get_lines()[0]):
+        x = np.asarray(line.get_xdata(), dtype=float)
+        assert np.isnan(x).sum() == windows - 1 and len(x) == total + windows - 1     # one gap between windows
+    plt.close(figure)
