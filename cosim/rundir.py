@@ -178,7 +178,7 @@ def read_status(path: str | Path) -> dict[str, Any]:
 
 COUNTS = ("windows_completed", "windows_total", "windows_at_start", "iterations_total", "last_iterations",
           "windows_unconverged", "pid")
-TIMES = ("time", "started", "updated", "wall_seconds")
+TIMES = ("time", "started", "updated", "wall_seconds", "coupling_started", "coupling_seconds")
 
 
 def _well_formed(status: dict[str, Any]) -> dict[str, Any]:

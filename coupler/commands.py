@@ -27,7 +27,8 @@ def _run(args: argparse.Namespace) -> int:
                         resume=getattr(args, "resume", False))
     unconverged = f" ({summary.unconverged} did not converge)" if summary.unconverged else ""
     print(f"{summary.windows} windows{unconverged}, {summary.iterations} coupling iterations "
-          f"(mean {summary.mean_iterations:.3f} per window), wall {summary.wall_seconds:.2f} s; "
+          f"(mean {summary.mean_iterations:.3f} per window); coupling {summary.coupling_seconds:.2f} s "
+          f"({summary.windows_per_second:.3g} windows/s), elapsed {summary.wall_seconds:.2f} s; "
           f"results in {summary.out_dir / 'results.h5'}")
     return 0
 

@@ -30,11 +30,12 @@ def status_lines(run_dir: str | Path) -> list[str]:
     if state == "died":
         pid = f" {status['pid']}" if "pid" in status else ""
         lines[0] += f" (its process{pid} is gone without saying why: killed, or the machine stopped)"
-    started, ran = status.get("started"), done - int(status.get("windows_at_start", 0))
+    started = status.get("coupling_started", status.get("started"))
+    ran = done - int(status.get("windows_at_start", 0))
     if started and ran > 0:
-        seconds = max(float(status.get("updated", time.time())) - float(started), 1e-9)
-        rate = ran / seconds
-        line = f"rate {rate:.3g} windows/s over {seconds:.1f} s"
+        seconds = status.get("coupling_seconds") or float(status.get("updated", time.time())) - float(started)
+        rate = ran / max(seconds, 1e-9)
+        line = f"rate {rate:.3g} windows/s over the coupling's {seconds:.2f} s"
         if state == "running" and total:
             left = (total - done) / rate
             eta = time.strftime("%H:%M:%S", time.localtime(time.time() + left))
@@ -49,7 +50,7 @@ def status_lines(run_dir: str | Path) -> list[str]:
     if state == "failed" and status.get("error"):
         lines.append(f"error: {str(status['error']).splitlines()[0]}")
     if state == "finished" and "wall_seconds" in status:
-        lines.append(f"wall {status['wall_seconds']:.2f} s")
+        lines.append(f"elapsed {status['wall_seconds']:.2f} s (start-up and close included)")
     return lines
 
 

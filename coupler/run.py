@@ -55,8 +55,15 @@ class RunSummary:
     out_dir: Path
     windows: int
     iterations: int
-    wall_seconds: float
+    wall_seconds: float                 # elapsed: from the run's start (components' start-up included) to its end
     unconverged: int = 0
+    coupling_seconds: float = 0.0       # coupling: from the first window's start to the last one's end
+    windows_run: int = 0                # the windows this invocation computed (a resumed run's later ones)
+
+    @property
+    def windows_per_second(self) -> float:
+        """The coupling's rate: the windows this invocation computed over the coupling time."""
+        return self.windows_run / self.coupling_seconds if self.coupling_seconds > 0 else 0.0
 
     @property
     def mean_iterations(self) -> float:
@@ -342,6 +349,9 @@ class Run:
             self.store.set_attributes(scene_resolved=json.dumps(scene.data))
         self.wall_start = time.perf_counter()
         self.wall = 0.0
+        self.coupling_start: float | None = None         # the first window's start (perf_counter)
+        self.coupling = 0.0
+        self.windows_at_start = 0
         self.windows = self.iterations = self.unconverged = self.warned = 0
         if self.saved is not None:
             counts = self.saved[0]
@@ -397,7 +407,8 @@ class Run:
             if not finished:
                 self.close()
         self._tell("finished", self)
-        return RunSummary(self.out_dir, self.windows, self.iterations, self.wall, self.unconverged)
+        return RunSummary(self.out_dir, self.windows, self.iterations, self.wall, self.unconverged, self.coupling,
+                          windows_run=self.windows - self.windows_at_start)
 
     def start_components(self, launcher: Launcher) -> None:
         """Start, instantiate and initialise every backend, build the scheme, and write or restore the start."""
@@ -444,6 +455,7 @@ class Run:
                                    {self.participants[n].name: r for n, r in self.recorders.items()})
         store.set_attributes(components_startup_seconds=time.perf_counter() - components_started,
                              first_window_started=time.time())
+        self.coupling_start, self.windows_at_start = time.perf_counter(), self.windows
         check_plot(scene["output"], self.scheme.values)
         if self.saved is None:
             store.write_initial(self.scheme.values)
@@ -503,6 +515,7 @@ class Run:
         assert self.scheme is not None
         store = self.store
         store.set_attributes(last_window_ended=time.time())
+        self._coupling_ended()
         self.phase = "terminate"
         self.scheme.release_states()
         for b in self.backends:
@@ -526,9 +539,15 @@ class Run:
         if self.scheme is not None and self.scheme.model is not None:
             self.scheme.model.close()
 
+    def _coupling_ended(self) -> None:
+        if self.coupling_start is not None:
+            self.coupling = time.perf_counter() - self.coupling_start
+
     def close(self) -> None:
         """A run that did not finish: what it knows is kept (an error under way is the one reported)."""
         self.wall = time.perf_counter() - self.wall_start
+        if not self.coupling:
+            self._coupling_ended()
         try:
             self._final_attributes()
             self.store.close()
@@ -539,7 +558,8 @@ class Run:
         """The run's closing attributes: its wall time, the windows accepted unconverged, the warnings, the ROM's
         fallback windows, the coupling model's counts."""
         schedules = [p for p in (self.participants or {}).values() if isinstance(p, BackendSchedule)]
-        self.store.set_attributes(wall_seconds=self.wall, windows_unconverged=self.unconverged,
+        self.store.set_attributes(wall_seconds=self.wall, coupling_seconds=self.coupling,
+                                  windows_unconverged=self.unconverged,
                                   component_warnings=self.warned,
                                   rom_fallback_windows=sum(len(p.fallback_windows) for p in schedules))
         if self.scheme is not None and self.scheme.model is not None:

@@ -176,11 +176,12 @@ class PreciceFormatLogs(RunObserver):
 
 
 class StatusFile(RunObserver):
-    """``status.json``: where the run stands, for ``cosim status`` (the rate counts from this start)."""
+    """``status.json``: where the run stands, for ``cosim status`` (the rate counts from the first window's start)."""
 
     def __init__(self, directory: RunDirectory, n_windows: int):
         self.directory, self.n_windows = directory, n_windows
         self.started, self.windows_at_start = time.time(), 0
+        self.coupling_started: float | None = None      # the first window's start: the rate counts from it
         self.measure_names: list[str] = []
 
     def starting(self, run: Run) -> None:
@@ -190,18 +191,22 @@ class StatusFile(RunObserver):
     def first_window(self, run: Run) -> None:
         assert run.scheme is not None
         self.measure_names = [m.label() for m in run.scheme.measures]
+        self.coupling_started = time.time()
 
     def window_reported(self, run: Run, window: int, result: WindowResult, iterations: int) -> None:
         self.directory.status("running", windows_total=self.n_windows, windows_completed=window, time=result.time,
                               iterations_total=iterations, started=self.started,
+                              coupling_started=self.coupling_started,
                               windows_at_start=self.windows_at_start, last_iterations=result.iterations,
                               measures=dict(zip(self.measure_names, result.measure_history[-1]))
                               if result.measure_history else {})
 
     def finished(self, run: Run) -> None:
         self.directory.status("finished", force=True, windows_total=self.n_windows, windows_completed=run.windows,
-                              windows_unconverged=run.unconverged, wall_seconds=run.wall, iterations_total=run.iterations,
-                              started=self.started, windows_at_start=self.windows_at_start,
+                              windows_unconverged=run.unconverged, wall_seconds=run.wall,
+                              coupling_seconds=run.coupling, iterations_total=run.iterations,
+                              started=self.started, coupling_started=self.coupling_started,
+                              windows_at_start=self.windows_at_start,
                               time=run.time.window_start(run.windows))
 
     def failed(self, run: Run, error: Exception) -> None:
@@ -224,7 +229,8 @@ class ProgressBar(RunObserver):
         if not self.enabled:
             return
         from tqdm import tqdm
-        self.bar = tqdm(total=run.n_windows, unit="win", dynamic_ncols=True, mininterval=0.25)
+        # smoothing 0: the rate shown is the coupling's, windows since the first one's start over the time since
+        self.bar = tqdm(total=run.n_windows, unit="win", dynamic_ncols=True, mininterval=0.25, smoothing=0)
         if run.windows:
             self.bar.update(run.windows)
 

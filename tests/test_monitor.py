@@ -180,3 +180,28 @@ def test_the_convergence_plot_draws_each_measure_against_its_limit_and_breaks_be
         x = np.asarray(line.get_xdata(), dtype=float)
         assert np.isnan(x).sum() == windows - 1 and len(x) == total + windows - 1     # one gap between windows
     plt.close(figure)
+
+
+def test_one_definition_of_each_time_and_rate_in_the_summary_the_status_and_the_results(tmp_path, capsys):
+    """Elapsed (start-up included) and coupling (first window's start to last window's end) times, and the rate as
+    the windows over the coupling time, agree between ``cosim run``'s summary, ``cosim status`` and results.h5."""
+    import re
+
+    from cosim.rundir import read_status
+    assert main(["run", str(TUBE_SCENE), "--out", str(tmp_path / "run"), "--quiet", "--set", "time.end=2"]) == 0
+    summary = capsys.readouterr().out.strip().splitlines()[-1]
+    coupling, rate, elapsed = map(float, re.search(
+        r"; coupling ([\d.]+) s \(([\d.]+) windows/s\), elapsed ([\d.]+) s;", summary).groups())
+    status = read_status(tmp_path / "run")
+    with RunResults(tmp_path / "run") as run:
+        attributes = run.attributes
+    assert attributes["coupling_seconds"] == status["coupling_seconds"] < attributes["wall_seconds"]
+    assert attributes["wall_seconds"] == status["wall_seconds"]
+    assert (coupling, elapsed) == (round(status["coupling_seconds"], 2), round(status["wall_seconds"], 2))
+    assert rate == float(f"{20 / status['coupling_seconds']:.3g}")                # printed to 3 digits
+    assert attributes["coupling_seconds"] == pytest.approx(attributes["last_window_ended"]
+                                                           - attributes["first_window_started"], abs=0.05)
+    assert main(["status", str(tmp_path / "run")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1] == f"rate {20 / status['coupling_seconds']:.3g} windows/s over the coupling's {coupling:.2f} s"
+    assert lines[-1] == f"elapsed {elapsed:.2f} s (start-up and close included)"
