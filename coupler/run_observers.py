@@ -33,6 +33,7 @@ class Run(Protocol):
     iterations: int
     unconverged: int
     wall: float
+    coupling: float
 
 
 class RunObserver:
