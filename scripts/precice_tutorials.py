@@ -7,12 +7,17 @@ their folders), runs it twice, under ``cosim run CASE.toml`` and with the partic
 coupling iterations (in all, and in the first window), the exit codes, and the last line each participant printed.
 
 Usage: python -m scripts.precice_tutorials TUTORIALS --out DIR [--case NAME ...] [--python STACK=PY ...]
-[--mode cosim-run] [--timeout S]. ``--python nutils7=/venv/bin/python`` runs the participants that need nutils 7 with that
-interpreter (a venv with their own needs and ``pip install ./precice_compat/participant``); stacks: python, nutils7,
-nutils9 (the perpendicular flap's nutils solid), nutils6 (its nutils fluid), micromanager (the two-scale case's Micro
-Manager, micro-manager-precice with nutils 7), fenics (Debian's python3-dolfin with fenicsprecice), fmi (preCICE's
-FMI runner fmiprecice with fmpy); default python3. Results go to
-``DIR/<case>-<mode>/`` and ``DIR/table.json`` as each run ends; a rerun goes on with the runs it lacks.
+[--mode cosim-run] [--timeout S] [--call-timeout S]. ``--python nutils7=/venv/bin/python`` runs the participants
+that need nutils 7 with that interpreter (a venv with their own needs and ``pip install ./precice_compat/participant``;
+a participant started by a console script, the Micro Manager's, takes the one beside it); stacks: python, nutils6
+(the perpendicular flap's nutils fluid: nutils 6.3, treelog<2, numpy<2; with SciPy, else nutils 6 solves dense),
+nutils7, nutils9 (the perpendicular flap's nutils solid), micromanager (nutils 7 and micro-manager-precice 0.5.0
+installed --no-deps, with mpi4py: 0.4.0, which the tutorial's requirements.txt pins, reads neither its
+micro-manager-config.json nor has the run.sh's command), fenics (Debian's python3-dolfin with fenicsprecice), fmi
+(preCICE's FMI runner fmiprecice with fmpy); default python3. ``--timeout`` bounds a run (default 1800 s),
+``--call-timeout`` the coupler's wait for a participant's call under ``cosim run`` (default 600 s; the serial Micro
+Manager's first window takes longer). Results go to ``DIR/<case>-<mode>/`` and ``DIR/table.json`` as each run ends;
+a rerun goes on with the runs it lacks.
 """
 
 from __future__ import annotations
@@ -98,6 +103,7 @@ CASES: dict[str, tuple[str, dict[str, tuple[str, str, dict[str, str], str]]]] = 
 }
 MODES = ("cosim-run", "by-hand")
 TIMEOUT = 1800.0
+CALL_TIMEOUT = 600.0       # what the case file gives the coupler to wait for a participant's call (a window's work)
 
 
 def slug(name: str) -> str:
@@ -122,7 +128,7 @@ def write_case(tutorials: Path, name: str, pythons: dict[str, str], where: Path)
              f'config = "{tutorials / folder / "precice-config.xml"}"']
     for participant, (cwd, command, environment, stack) in participants.items():
         lines += [f'[participants.{participant}]', f'command = "{command_of(command, stack, pythons)}"',
-                  f'cwd = "{tutorials / folder / cwd}"', "timeout = 600"]
+                  f'cwd = "{tutorials / folder / cwd}"', f"timeout = {CALL_TIMEOUT:g}"]
         if environment:
             lines.append("environment = { " + ", ".join(f'{k} = "{v}"' for k, v in environment.items()) + " }")
     where.mkdir(parents=True, exist_ok=True)
@@ -209,19 +215,22 @@ def table(rows: dict[str, dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    global TIMEOUT
+    global TIMEOUT, CALL_TIMEOUT
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("tutorials", type=Path, help="a checkout of preCICE's tutorials")
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--case", action="append", choices=list(CASES), help="only these cases (default: all)")
     parser.add_argument("--mode", action="append", choices=MODES, help="only these ways to start (default: both)")
     parser.add_argument("--timeout", type=float, default=TIMEOUT, help="seconds a run may take (default %(default)g)")
+    parser.add_argument("--call-timeout", type=float, default=CALL_TIMEOUT,
+                        help="seconds cosim run waits for a participant's call (default %(default)g)")
     parser.add_argument("--python", action="append", default=[], metavar="STACK=PY",
-                        help="the Python of the participants of a stack (python, nutils7, nutils9, fenics): a venv "
+                        help="the Python of the participants of a stack (python, nutils6, nutils7, nutils9, "
+                             "micromanager, fenics, fmi): a venv "
                              "with what they need and this project's pyprecice (pip install "
                              "./precice_compat/participant); default python3")
     args = parser.parse_args(argv)
-    TIMEOUT = args.timeout
+    TIMEOUT, CALL_TIMEOUT = args.timeout, args.call_timeout
     pythons = dict(item.split("=", 1) for item in args.python)
     store = args.out / "table.json"
     rows = json.loads(store.read_text()) if store.exists() else {}
