@@ -15,6 +15,7 @@ from coupler.accelerations.quasi_newton import IQNILS
 from coupler.mapping import make_mapping
 from coupler.run import run_scene
 from tests.conftest import needs_kratos
+from tests.xdmf_check import assert_xdmf_holds_the_run
 
 pytestmark = needs_kratos
 
@@ -205,6 +206,7 @@ def test_three_windows_through_real_processes(three_windows):
         assert run.fields()["displacement"].shape == (3, 265, 2)
     for png in ("run.png", "tips.png", "last_window.png"):
         assert (out / png).stat().st_size > 10_000
+    assert assert_xdmf_holds_the_run(out) == 2 * 4         # force and displacement, initial and three windows
 
 
 def test_a_rom_learns_the_full_field_and_serves_its_interface_part(three_windows, three_window_rom):

@@ -14,6 +14,7 @@ import pytest
 from cosim.cli import main
 from coupler.accelerations import ACCELERATIONS
 from tests.conftest import needs_kratos
+from tests.xdmf_check import assert_xdmf_holds_the_run
 
 needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None,
                                 reason="needs gmsh (pip install -e '.[mesh]') for the cases' meshes")
@@ -301,6 +302,7 @@ def test_a_rom_trains_on_the_recorded_calls_it_is_told_to(wall_case, tmp_path):
     assert first_unconverged == windows             # no window converged at its first iteration here
     assert len(later) == len(every) - first_unconverged and ((later.iteration > 1) | later.converged).all()
     np.testing.assert_array_equal(later.outputs["disp_field"], every.outputs["disp_field"][every.iteration > 1])
+    assert assert_xdmf_holds_the_run(tmp_path / "run") >= 2 * windows     # the case's run opens in ParaView
 
 
 def arc(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
