@@ -38,6 +38,8 @@ def _check_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value (repeatable)")
     parser.add_argument("--static", action="store_true",
                         help="check the scene without starting its components (their variables are not checked)")
+    parser.add_argument("--print", action="store_true",
+                        help="print the resolved scene (every default filled in) as JSON on stdout, after the verdict")
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -51,16 +53,17 @@ def _check(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, args.set or [])
     windows = prepare(scene)
     described = [] if args.static else probe(scene, windows)
-    print(json.dumps(scene.data, indent=2))
+    how = "without starting components" if args.static else "every component started and instantiated"
+    print(f"{scene.source}: valid ({how}); {windows} windows, components {', '.join(scene['components'])}",
+          file=sys.stderr)
     for note in filter(None, scene.notes.splitlines()):
         print(f"  note: {note}", file=sys.stderr)
     for key in sorted(scene.translated):
         print(f"  note: '{key}' comes from --set, which wins over what {Path(scene.source).name} gave", file=sys.stderr)
     for line in described:
         print(f"  {line}", file=sys.stderr)
-    how = "without starting components" if args.static else "every component started and instantiated"
-    print(f"{scene.source}: valid ({how}); {windows} windows, components {', '.join(scene['components'])}",
-          file=sys.stderr)
+    if args.print:
+        print(json.dumps(scene.data, indent=2))
     return 0
 
 
@@ -83,7 +86,8 @@ check = Command(
     "Check the scene as a run would before it starts a process (schema and ranges, every plug-in's settings, "
     "every component's parameters, input files, run plots, the time grid); then start every component as a run "
     "would, reach those served by hand within 5 s, instantiate each and check the exchanged variables against "
-    "what they declare (--static: not this part). Print the resolved scene, every default filled in, as JSON. "
+    "what they declare (--static: not this part). The verdict comes first, then the notes and each component's "
+    "variables; --print adds the resolved scene, every default filled in, as JSON on stdout. "
     "Exit code 0 if valid, 2 with a one-line error otherwise.",
     "cosim check scenes/double_flap.toml --set flow.reynolds=300")
 def _status_arguments(parser: argparse.ArgumentParser) -> None:

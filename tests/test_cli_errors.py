@@ -179,12 +179,18 @@ def test_check_validates_without_running_and_prints_the_resolved_scene(capsys, t
     import json
     assert main(["check", str(TUBE_SCENE), "--set", "time.end=2"]) == 0
     captured = capsys.readouterr()
+    assert captured.out == ""                                  # the resolved scene only on request
+    lines = captured.err.splitlines()
+    assert lines[0] == (f"{TUBE_SCENE}: valid (every component started and instantiated); 20 windows, "
+                        "components fluid, solid")                 # the verdict first, then the notes
+    assert "  solid: input pressure (101,), output section (101,)" in lines[1:]
+    assert main(["check", str(TUBE_SCENE), "--set", "time.end=2", "--print"]) == 0
+    captured = capsys.readouterr()
     resolved = json.loads(captured.out)
     assert resolved["time"]["end"] == 2 and resolved["coupling"]["acceleration"]["type"] == "iqn-ils"
     assert resolved["coupling"]["acceleration"]["on_map_change"] == "drop-span"   # a default the scene omits
-    assert captured.err.strip().endswith("valid (every component started and instantiated); 20 windows, "
-                                         "components fluid, solid")
-    assert "  solid: input pressure (101,), output section (101,)" in captured.err
+    assert captured.err.splitlines()[0].endswith("valid (every component started and instantiated); 20 windows, "
+                                                 "components fluid, solid")
     assert main(["check", str(TUBE_SCENE), "--set", "components.solid.parameters.E_smal=1"]) == 2
     assert capsys.readouterr().err.strip().splitlines() == [
         "cosim check: error: unknown key 'components.solid.parameters.E_smal' in " + str(TUBE_SCENE)
