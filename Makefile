@@ -35,10 +35,10 @@ demo: $(VENV)/.tube
 
 # the short double-flap ROM protocol (about 15 minutes) and the paper's whole campaign (hours; rerun to resume)
 demo-flap: $(VENV)/.all
-	$(BIN)/cosim campaign scenes/double_flap_short.toml --out runs/flap_demo
+	$(BIN)/cosim campaign campaigns/double_flap_short.toml --out runs/flap_demo
 
 campaign: $(VENV)/.all
-	$(BIN)/cosim campaign scenes/double_flap_campaign.toml --out runs/campaign
+	$(BIN)/cosim campaign campaigns/double_flap_campaign.toml --out runs/campaign
 
 # the ROM with memory of Mok's wall: FOM-FOM, training, ROM-FOM and FMU-FOM switching at 12 s, other inflows
 # (12 minutes here; runs/mok_rom_demo/report)

@@ -111,7 +111,7 @@ def cases(out: Path, small: bool) -> dict[str, tuple[Path, list[str]]]:
     subprocess.run([sys.executable, "-m", "cosim", "run", str(TUBE), "--out", str(out / "train"), "--quiet",
                     "--set", f"time.end={train_end:g}"], cwd=ROOT, check=True, capture_output=True)
     subprocess.run([sys.executable, "-m", "cosim", "train", str(out / "train" / "results.h5"), "--config",
-                    str(ROOT / "scenes" / "tube_rom.toml"), "--set", f"snapshots.t_max={train_end:g}", "--out",
+                    str(ROOT / "rom_configs" / "tube_rom.toml"), "--set", f"snapshots.t_max={train_end:g}", "--out",
                     str(model)], cwd=ROOT, check=True, capture_output=True)
     subprocess.run([sys.executable, "-m", "cosim", "export-fmu", str(model), "--out", str(fmu)], cwd=ROOT,
                    check=True, capture_output=True)

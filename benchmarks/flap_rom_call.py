@@ -84,7 +84,7 @@ def synthetic_snapshots(m: int = 400, seed: int = 0):
 
 
 def recorded_snapshots(results: list[str], t_max: float):
-    config = load_config(ROOT / "scenes" / "double_flap_rom.toml", [f"snapshots.t_max={t_max}"])
+    config = load_config(ROOT / "rom_configs" / "double_flap_rom.toml", [f"snapshots.t_max={t_max}"])
     F, U, _, _ = read_training_set(results, config["snapshots"])
     variables, meshes = read_interface(results[0], config["snapshots"])
     return F, U, interface_index(results[0], config["snapshots"]), meshes, variables
@@ -210,8 +210,8 @@ def main(argv: list[str] | None = None) -> dict:
         ("FMU ROM through fmpy setReal/doStep/getReal (baseline)", per_call(fmpy_convenience, repeat)),
     ]
     fmu.terminate()
-    # the double flap's configuration (scenes/double_flap_rom.toml): products of the q leading reduced forces only
-    q = int(load_config(ROOT / "scenes" / "double_flap_rom.toml")["model"]["regressor"]["quadratic_modes"])
+    # the double flap's configuration (rom_configs/double_flap_rom.toml): products of the q leading reduced forces only
+    q = int(load_config(ROOT / "rom_configs" / "double_flap_rom.toml")["model"]["regressor"]["quadratic_modes"])
     leading = clone(estimator).set_params(regressor__quadratic_modes=q).fit(F, U)
     leading_arrays = {**leading.online_arrays(K), **{MESH_PREFIX + k: v for k, v in meshes.items()}}
     leading_fast = OnlineRom(leading_arrays, {"regressor": "poly"}, arithmetic="fast")

@@ -44,7 +44,7 @@ from rom_component.static.train import load_config, train
 ROOT = Path(__file__).resolve().parent.parent
 
 SCENE = ROOT / "scenes" / "double_flap.toml"
-ROM_CONFIG = ROOT / "scenes" / "double_flap_rom.toml"
+ROM_CONFIG = ROOT / "rom_configs" / "double_flap_rom.toml"
 DT = 0.008
 ROM_SETTINGS = ("arithmetic", "on_out_of_range", "transient_calls", "transient_margin", "keep_warm")   # shown in the table
 SMALL = {"windows": 8, "train_windows": 4, "reynolds": 250.0}

@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> dict:
         run_scene(load_scene(ROOT / "scenes/tube_fom.toml", [f"time.end={train_end:g}"]), out / "fom_train",
                   progress=False)
         results = out / "fom_train" / "results.h5"
-    config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={train_end:g}"])
+    config = load_config(ROOT / "rom_configs/tube_rom.toml", [f"snapshots.t_max={train_end:g}"])
     F, U, _, _ = read_snapshots(results, config["snapshots"])
     started = time.perf_counter()
     estimator = SolidRom.from_settings(config["model"]).fit(F, U)

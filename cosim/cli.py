@@ -14,6 +14,10 @@ from cosim.command import GROUP, Command
 from cosim.errors import CosimError
 
 DISTRIBUTION = "cosim-rom-fsi"
+# the commands in the order of a user's work: check and run a case, watch it, train and export a ROM, weigh it, run
+# many; serving a component by hand and its keys last (others' commands after these, by name)
+ORDER = ("check", "run", "status", "plot", "train", "export-fmu", "report", "sweep", "campaign", "stability",
+         "serve", "keys")
 
 
 def _serve_arguments(parser: argparse.ArgumentParser) -> None:
@@ -69,7 +73,8 @@ def commands(only: str | None = None) -> dict[str, Command]:
         points = [point for point in points if point.name == only]
     for point in points:
         found.setdefault(point.name, point.load())
-    return found
+    rank = {name: i for i, name in enumerate(ORDER)}
+    return dict(sorted(found.items(), key=lambda item: (rank.get(item[0], len(ORDER)), item[0])))
 
 
 def version() -> str:

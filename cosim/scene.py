@@ -435,12 +435,25 @@ def _names(names: Mapping[str, Any], where: str, source: str) -> None:
         raise SceneError(f"{source}: '{where}' gives one variable of the component two names")
 
 
+# the tables that tell the project's other TOML files from a scene, and the command each is for
+OTHER_KINDS = ((("snapshots", "model", "dynamics"), "a ROM configuration, for cosim train RESULTS --config FILE"),
+               (("fom", "models", "recipes", "predictions"), "a campaign file, for cosim campaign FILE --out DIR"))
+
+
+def _other_kind(raw: dict[str, Any]) -> str:
+    """"this is ..., not a scene; " when ``raw`` has the tables of another kind of file, else ""."""
+    for tables, kind in OTHER_KINDS:
+        if not raw.get("components") and sum(table in raw for table in tables) >= 2:
+            return f"this is {kind}, not a scene: "
+    return ""
+
+
 def validate_scene(raw: dict[str, Any], source: str = "scene") -> dict[str, Any]:
     """Validated scene dict (defaults filled in); raises SceneError naming the key."""
     raw = dict(raw)
     components_raw = raw.get("components", {})
     if not isinstance(components_raw, dict) or not components_raw:
-        raise SceneError(f"{source}: the scene defines no [components.<name>] table")
+        raise SceneError(f"{source}: {_other_kind(raw)}the scene defines no [components.<name>] table")
     components = {name: validate(spec, COMPONENT, f"components.{name}.", source)
                   for name, spec in components_raw.items()}
     for name, spec in components.items():

@@ -8,9 +8,12 @@ import sys
 
 from cosim.command import Command
 
+INPUT_KINDS = ("what to couple: a scene (TOML, as in scenes/), a case file (case.toml) of a preCICE or Kratos case, "
+               "a preCICE precice-config.xml, or a Kratos ProjectParametersCoSim.json")
+
 
 def _arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scene", help="scene file (TOML)")
+    parser.add_argument("scene", help=INPUT_KINDS)
     parser.add_argument("--out", default="runs/latest", help="output directory (default: runs/latest)")
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value (repeatable)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -34,7 +37,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _check_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scene", help="scene file (TOML)")
+    parser.add_argument("scene", help=INPUT_KINDS)
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value (repeatable)")
     parser.add_argument("--static", action="store_true",
                         help="check the scene without starting its components (their variables are not checked)")
@@ -75,9 +78,10 @@ def _run_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 run = Command(
-    "run a scene", _run_arguments, _run,
+    "run a scene, or a preCICE or Kratos case", _run_arguments, _run,
     "Couple the scene's components over its time windows and write DIR/results.h5 (every window, every "
-    "coupling iteration's residual, the recorded calls), DIR/status.json and DIR/run.png. A directory that "
+    "coupling iteration's residual, the recorded calls), DIR/run.xdmf (the run in ParaView), DIR/status.json and "
+    "DIR/run.png. A directory that "
     "holds another run is refused unless --overwrite (never one in progress). With output.checkpoint_every set, "
     "the run writes DIR/checkpoint.npz as it goes, and --resume goes on from it.",
     "cosim run scenes/tube_fom.toml --out runs/fom_mu1 --set inlet.f=0.9 --set inlet.h=4")

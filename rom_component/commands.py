@@ -13,7 +13,7 @@ from cosim.errors import SceneError
 def _train_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("results", nargs="+", help="results.h5 of one or more runs that recorded the solid")
     parser.add_argument("--out", required=True, help="model file to write (.npz)")
-    parser.add_argument("--config", help="ROM configuration (TOML), e.g. scenes/tube_rom.toml")
+    parser.add_argument("--config", help="ROM configuration (TOML), e.g. rom_configs/tube_rom.toml")
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a configuration value")
 
 
@@ -80,7 +80,7 @@ train = Command(
     "Fit the solid ROM (POD of forces, POD or quadratic manifold of displacements, RBF or sparse polynomial "
     "regression) on the calls a run recorded, print the hold-out table over the mode numbers, and save the "
     "model (.npz, no pickle) with its training plots beside it.",
-    "cosim train runs/fom_mu1/results.h5 --config scenes/tube_rom.toml --set snapshots.t_max=18 --out runs/model.npz")
+    "cosim train runs/fom_mu1/results.h5 --config rom_configs/tube_rom.toml --set snapshots.t_max=18 --out runs/model.npz")
 report = Command(
     "compare ROM-FOM runs with FOM-FOM references", _report_arguments, _report,
     "Compare each ROM-FOM run with its FOM-FOM reference (same scene): errors of the monitored value and of the "

@@ -35,7 +35,7 @@ modes = 9
 ```
 
 A part given as a table without `type` is the default part (`pod`, `rbf`, `linear`) with those settings.
-`scenes/tube_rom.toml` and `scenes/double_flap_rom.toml` are complete examples.
+`rom_configs/tube_rom.toml` and `rom_configs/double_flap_rom.toml` are complete examples.
 """
 
 

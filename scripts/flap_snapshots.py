@@ -38,7 +38,7 @@ def main() -> None:
     parser.add_argument("--t-max", type=float, default=3.0)
     parser.add_argument("--out", default=str(ROOT / "tests" / "data" / "flap_snapshots.npz"))
     args = parser.parse_args()
-    config = load_config(ROOT / "scenes" / "double_flap_rom.toml", [f"snapshots.t_max={args.t_max}"])
+    config = load_config(ROOT / "rom_configs" / "double_flap_rom.toml", [f"snapshots.t_max={args.t_max}"])
     F, U, times, windows = read_snapshots(args.results, config["snapshots"])
     keep = slice(None, None, args.every)
     F, U, windows = F[keep], U[keep], windows[keep]

@@ -24,7 +24,7 @@ from benchmarks.kratos_case import MOK_MESH
 from cases.kratos_wall.write import write_case
 
 ROM_CONFIGS = {
-    # the quasi-static ROM, as the double flap's (scenes/double_flap_rom.toml), its sizes for the wall's 86 values
+    # the quasi-static ROM, as the double flap's (rom_configs/double_flap_rom.toml), its sizes for the wall's 86 values
     "static": """[snapshots]
 component = "structure"
 input = "load"
@@ -49,7 +49,7 @@ disp_modes = [2, 4]
 test_fraction = 0.05
 split = "windows"
 """,
-    # the ROM with memory, as Mok's (scenes/mok_rom.toml), without each window's first call: this case predicts a
+    # the ROM with memory, as Mok's (rom_configs/mok_rom.toml), without each window's first call: this case predicts a
     # window by the last one's values (Kratos's linear predictor), so the first iterate strays from the trajectory;
     # fitted to every sub-iteration the step map's hold-out error was 3.0e-2 (ROM-FOM: NaN at 13.1 s), without the
     # first calls 4.3e-3 (iterations -6 %), on the converged calls alone 1.1e-3 (iterations +44 %)

@@ -16,7 +16,7 @@ velocity() { python3 -c "print(repr(0.06067 * $1))"; }
 
 run --out $OUT/fom
 echo "== cosim train (t <= 12 s)"
-"$COSIM" train $OUT/fom/results.h5 --config scenes/mok_rom.toml --out $OUT/model.npz
+"$COSIM" train $OUT/fom/results.h5 --config rom_configs/mok_rom.toml --out $OUT/model.npz
 run --out $OUT/rom --set components.structure.backend=rom --set components.structure.rom.model=$OUT/model.npz \
     --set components.structure.rom.switch_time=12
 echo "== cosim export-fmu"
@@ -25,7 +25,7 @@ run --out $OUT/fmu --set components.structure.backend=fmu --set components.struc
     --set components.structure.fmu.switch_time=12
 
 echo "== cosim train (t <= 25 s) for other inflows"
-"$COSIM" train $OUT/fom/results.h5 --config scenes/mok_rom.toml --set snapshots.t_max=25 --out $OUT/model_25s.npz
+"$COSIM" train $OUT/fom/results.h5 --config rom_configs/mok_rom.toml --set snapshots.t_max=25 --out $OUT/model_25s.npz
 pairs=()
 for factor in 0.8 1.2; do
   v=$(velocity $factor)

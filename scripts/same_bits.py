@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     model, fmu = out / "model.npz", out / "rom.fmu"
     if not fmu.exists():          # a rerun into the same directory goes on with the runs not done
         cosim(trees[0], "run", SCENE, "--out", str(out / "train"), "--quiet", "--set", "time.end=18", "--overwrite")
-        cosim(trees[0], "train", str(out / "train" / "results.h5"), "--config", "scenes/tube_rom.toml",
+        cosim(trees[0], "train", str(out / "train" / "results.h5"), "--config", "rom_configs/tube_rom.toml",
               "--set", "snapshots.t_max=18", "--out", str(model))
         cosim(trees[0], "export-fmu", str(model), "--out", str(fmu))
     different = 0

@@ -20,7 +20,7 @@ rom() { local model=$1 switch=$2; shift 2
 
 run --out $OUT/fom_mu1
 echo "== cosim train"
-"$COSIM" train $OUT/fom_mu1/results.h5 --config scenes/tube_rom.toml --out $OUT/model.npz
+"$COSIM" train $OUT/fom_mu1/results.h5 --config rom_configs/tube_rom.toml --out $OUT/model.npz
 rom $OUT/model.npz 18 --out $OUT/rom_mu1
 run --out $OUT/fom_mu2 "${MU2[@]}"
 rom $OUT/model.npz 0.1 --out $OUT/rom_mu2 "${MU2[@]}"
@@ -32,7 +32,7 @@ for spec in "energy:--set selection.choose=energy" "no_smoothing:--set model.reg
             "poly:--set model.regressor=poly"; do
   name=${spec%%:*}; args=${spec#*:}
   # shellcheck disable=SC2086
-  "$COSIM" train $OUT/fom_mu1/results.h5 --config scenes/tube_rom.toml --out $OUT/variants/$name.npz \
+  "$COSIM" train $OUT/fom_mu1/results.h5 --config rom_configs/tube_rom.toml --out $OUT/variants/$name.npz \
     --set selection.table=false $args > $OUT/variants_$name.log
   rom $OUT/variants/$name.npz 18 --out $OUT/variants/$name
   variants+=("$OUT/variants/$name=$OUT/fom_mu1")

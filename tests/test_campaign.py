@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 CAMPAIGN = """
 scene = "{root}/scenes/tube_fom.toml"
-rom_config = "{root}/scenes/tube_rom.toml"
+rom_config = "{root}/rom_configs/tube_rom.toml"
 
 [fom]
 mu1 = ["time.end=8.0"]
@@ -58,7 +58,7 @@ def one_run_plan(end: float, predictions: str) -> str:
     """A campaign of one FOM run (``mu1``, to ``end``) and one model (``a``, on t <= 6), with ``predictions``."""
     return f"""
 scene = "{ROOT}/scenes/tube_fom.toml"
-rom_config = "{ROOT}/scenes/tube_rom.toml"
+rom_config = "{ROOT}/rom_configs/tube_rom.toml"
 [fom]
 mu1 = ["time.end={end}"]
 [models]
@@ -177,7 +177,7 @@ def test_a_campaign_file_naming_unknown_runs_or_models_is_refused(tmp_path, text
 
 def test_recipes_expand_to_the_overrides_they_name_before_a_table_s_own(tmp_path):
     """The paper's campaign file names its recipes once: ROM 1's model overrides are the cubic recipe's, then its own."""
-    plan = load_plan(ROOT / "scenes/double_flap_campaign.toml", tmp_path)
+    plan = load_plan(ROOT / "campaigns/double_flap_campaign.toml", tmp_path)
     assert plan.models["rom1"]["set"] == ["snapshots.t_max=3.0", "model.regressor.method='ridge'",
                                           "model.regressor.cross_modes=5", "model.regressor.cubic_modes=3",
                                           "selection.compare_splits=true"]
@@ -230,7 +230,7 @@ def test_the_runs_a_model_trains_on_go_first_even_when_listed_last(tmp_path):
     plan = tmp_path / "campaign.toml"
     plan.write_text(f"""
 scene = "{ROOT}/scenes/tube_fom.toml"
-rom_config = "{ROOT}/scenes/tube_rom.toml"
+rom_config = "{ROOT}/rom_configs/tube_rom.toml"
 [fom]
 reference = ["time.end=3.0", "tube.stiffness_factor=1.1"]
 training = ["time.end=3.0"]
@@ -322,7 +322,7 @@ def test_rom_fom_runs_go_in_the_campaign_files_order_whatever_order_their_models
     plan = tmp_path / "campaign.toml"
     plan.write_text(f"""
 scene = "{ROOT}/scenes/tube_fom.toml"
-rom_config = "{ROOT}/scenes/tube_rom.toml"
+rom_config = "{ROOT}/rom_configs/tube_rom.toml"
 [fom]
 training = ["time.end=3.0"]
 [models]
@@ -367,7 +367,7 @@ def test_a_campaign_stopped_midway_goes_on_from_its_runs_checkpoints(tmp_path):
     from tests.conftest import wait_for, windows_done
     plan = tmp_path / "campaign.toml"
     plan.write_text(f"""scene = "{ROOT}/scenes/tube_fom.toml"
-rom_config = "{ROOT}/scenes/tube_rom.toml"
+rom_config = "{ROOT}/rom_configs/tube_rom.toml"
 predictions = []
 [fom]
 mu1 = ["time.end=120.0", "output.checkpoint_every=10"]

@@ -275,3 +275,11 @@ def test_special_files_named_as_inputs_are_refused_at_once(capsys, tmp_path):
     assert main(["status", str(tmp_path)]) == 0          # what it lost is left out, not printed as None
     out = capsys.readouterr().out
     assert "died, 4 windows" in out and "its process is gone" in out and "None" not in out, out
+
+
+@pytest.mark.parametrize(("path", "kind"), [("rom_configs/tube_rom.toml", "a ROM configuration, for cosim train"),
+                                            ("rom_configs/mok_rom.toml", "a ROM configuration, for cosim train"),
+                                            ("campaigns/double_flap_short.toml", "a campaign file, for cosim campaign")])
+def test_a_rom_configuration_or_a_campaign_run_as_a_scene_is_told_what_it_is(capsys, path, kind):
+    err = one_line_error(capsys, ["run", str(ROOT / path), "--out", "unused"])
+    assert f"{ROOT / path}: this is {kind}" in err and "not a scene" in err

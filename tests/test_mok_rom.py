@@ -28,7 +28,7 @@ def trained(tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:     # the meshes go to this session's cache, never to the user's
         patch.setenv("COSIM_CACHE", str(tmp_path_factory.getbasetemp() / "mok-cache"))
         run_scene(load_scene(SCENE, COARSE_SETTINGS), folder / "fom", progress=False)
-    config = load_config(ROOT / "scenes" / "mok_rom.toml", [f"snapshots.t_max={SWITCH}", "selection.force_modes=[4, 8]",
+    config = load_config(ROOT / "rom_configs" / "mok_rom.toml", [f"snapshots.t_max={SWITCH}", "selection.force_modes=[4, 8]",
                                                              "selection.disp_modes=[4]", "dynamics.history=[2, 3]"])
     metadata = train_step_map(folder / "fom" / "results.h5", folder / "model.npz", config, echo=lambda *_: None)
     return folder, metadata

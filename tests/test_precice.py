@@ -927,7 +927,7 @@ def participant_run(tmp_path_factory) -> Path:
 
 
 def train(results: Path, model: Path, component: str, inputs: str, outputs: str) -> None:
-    assert main(["train", str(results / "results.h5"), "--config", str(ROOT / "scenes" / "tube_rom.toml"),
+    assert main(["train", str(results / "results.h5"), "--config", str(ROOT / "rom_configs" / "tube_rom.toml"),
                  "--set", "snapshots.t_max=1.2", "--set", f"snapshots.component={component}",
                  "--set", f"snapshots.input={inputs}", "--set", f"snapshots.output={outputs}",
                  "--out", str(model)]) == 0

@@ -41,7 +41,7 @@ def fom(tmp_path_factory):
 @pytest.fixture(scope="module")
 def model(fom, tmp_path_factory):
     path = tmp_path_factory.mktemp("model") / "model.npz"
-    done = cosim("train", str(fom / "results.h5"), "--config", "scenes/tube_rom.toml", "--out", str(path),
+    done = cosim("train", str(fom / "results.h5"), "--config", "rom_configs/tube_rom.toml", "--out", str(path),
                  "--set", f"snapshots.t_max={TRAIN_END}", "--set", "selection.disp_modes=[1, 5, 9]",
                  "--set", "selection.force_modes=[1, 3]", "--set", "selection.table=true")
     assert done.returncode == 0, done.stderr
@@ -230,7 +230,7 @@ def test_a_reference_that_never_reached_the_maximum_serves_either_on_max_iterati
 
 
 def test_global_input_scaling_beats_per_mode_scaling_on_tube_snapshots(fom):
-    config = load_config(ROOT / "scenes/tube_rom.toml", [f"snapshots.t_max={END}"])
+    config = load_config(ROOT / "rom_configs/tube_rom.toml", [f"snapshots.t_max={END}"])
     F, U, _, _ = read_snapshots(fom / "results.h5", config["snapshots"])
     errors = {}
     for scaling in ("global", "standard", "minmax"):
@@ -241,7 +241,7 @@ def test_global_input_scaling_beats_per_mode_scaling_on_tube_snapshots(fom):
 
 def test_train_refuses_the_retired_options_by_their_scene_key(fom, tmp_path):
     """Leads that failed left the code (docs/notebook/2026-12-02-retired-leads.md): their keys are unknown."""
-    base = ["train", str(fom / "results.h5"), "--config", "scenes/tube_rom.toml", "--set", "output.plots=false"]
+    base = ["train", str(fom / "results.h5"), "--config", "rom_configs/tube_rom.toml", "--set", "output.plots=false"]
     for key in ("snapshots.probes=['p.npz']", "model.secant_weight=1.0", "model.force_basis='work'"):
         failed = cosim(*base, "--set", key, "--out", str(tmp_path / "n.npz"))
         assert failed.returncode == 2 and "Traceback" not in failed.stderr
@@ -409,7 +409,7 @@ def test_a_rom_serving_alone_from_the_start_is_recorded_under_its_participant(mo
 
 
 def test_train_with_fixed_modes_fits_them_without_a_hold_out_table(fom, tmp_path):
-    done = cosim("train", str(fom / "results.h5"), "--config", "scenes/tube_rom.toml", "--out",
+    done = cosim("train", str(fom / "results.h5"), "--config", "rom_configs/tube_rom.toml", "--out",
                  str(tmp_path / "model.npz"), "--set", f"snapshots.t_max={TRAIN_END}")
     assert done.returncode == 0, done.stderr
     assert "hold-out" not in done.stdout and "cross-validation time" not in done.stdout, done.stdout

@@ -440,7 +440,7 @@ def test_a_rom_trained_on_a_subcycled_run_is_trained_per_step_and_serves_subcycl
     calls, _ = recorded_calls(tmp_path / "fom" / "results.h5", {"component": "solid", "input": "pressure",
                                                                   "output": "section", "field": ""})
     assert len(calls.window) == 2 * iterations
-    assert main(["train", str(tmp_path / "fom" / "results.h5"), "--config", str(ROOT / "scenes" / "tube_rom.toml"),
+    assert main(["train", str(tmp_path / "fom" / "results.h5"), "--config", str(ROOT / "rom_configs" / "tube_rom.toml"),
                  "--set", "snapshots.t_max=4.0", "--out", str(tmp_path / "model.npz")]) == 0
     run_scene(load_scene(TUBE_SCENE, [*subcycled, "components.solid.backend=rom", "components.solid.rom.switch_time=0",
                                       f"components.solid.rom.model={tmp_path / 'model.npz'}"]),

@@ -151,7 +151,7 @@ stability = Command(
 
 
 def _campaign_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("campaign", help="campaign file (TOML), e.g. scenes/double_flap_campaign.toml")
+    parser.add_argument("campaign", help="campaign file (TOML), e.g. campaigns/double_flap_campaign.toml")
     parser.add_argument("--out", required=True, help="campaign directory: fom/, models/, rom/, report/")
     parser.add_argument("--workers", type=int, default=2, help="local Dask workers, one run each at a time (default 2)")
     scheduler_arguments(parser)
@@ -182,4 +182,4 @@ campaign = Command(
     "Run a protocol written as a campaign file: its FOM-FOM runs, the models trained on them, the ROM-FOM runs "
     "against their references (optionally through the exported FMU), and the report. A rerun resumes: what is "
     "done is kept, what changed is run again.",
-    "cosim campaign scenes/double_flap_short.toml --out runs/flap_demo")
+    "cosim campaign campaigns/double_flap_short.toml --out runs/flap_demo")
