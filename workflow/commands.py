@@ -71,8 +71,10 @@ def _stability_arguments(parser: argparse.ArgumentParser) -> None:
                                                      "case's theory files)")
     parser.add_argument("--grid", action="append", metavar="KEY=V1,V2,...",
                         help="a swept parameter (one or two; default: the scene's stability.grid)")
-    parser.add_argument("--methods", help=f"accelerations, comma-separated (default: the scene's stability.methods, "
-                                          f"else all: {','.join(METHODS)})")
+    parser.add_argument("--methods", help=f"accelerations, comma-separated: each the registered acceleration of its "
+                                          f"name with the matrix's settings, iqn-ils-no-reuse being iqn-ils that reuses "
+                                          f"no past window (default: the scene's stability.methods, else all: "
+                                          f"{','.join(METHODS)})")
     parser.add_argument("--windows", type=int, help="windows per run (default: the scene's stability.windows)")
     parser.add_argument("--set", action="append", metavar="KEY=VALUE",
                         help="override a scene value in every run (after the scene's stability.settings)")

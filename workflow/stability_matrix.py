@@ -29,7 +29,7 @@ METHODS: dict[str, dict[str, Any]] = {
     "constant": {"type": "constant", "relaxation": 0.1},
     "aitken": {"type": "aitken", "initial_relaxation": 0.01},
     "iqn-ils": {"type": "iqn-ils", "initial_relaxation": 0.01, "reused_time_windows": 8},
-    "iqn-ils-reuse0": {"type": "iqn-ils", "initial_relaxation": 0.01, "reused_time_windows": 0},
+    "iqn-ils-no-reuse": {"type": "iqn-ils", "initial_relaxation": 0.01, "reused_time_windows": 0},
     "iqn-imvj": {"type": "iqn-imvj", "initial_relaxation": 0.01},
     "iqn-surrogate": {"type": "iqn-surrogate", "initial_relaxation": 0.01, "reused_time_windows": 8},
 }
