@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from cosim.reference import MissingMeaning
@@ -52,3 +54,18 @@ def test_the_rom_configuration_reference_is_the_generated_one(monkeypatch):
     monkeypatch.delitem(PolynomialRegression.HELP, "cubic_modes")
     with pytest.raises(MissingMeaning, match="'poly' setting 'cubic_modes'"):
         config_reference.page()
+
+
+def test_the_front_door_points_to_every_way_in_and_the_notebook_sits_under_one_heading():
+    index = (ROOT / "docs" / "index.md").read_text()
+    for page in ("getting-started.md", "write-a-component.md", "precice.md", "kratos.md", "fmu.md"):
+        assert f"]({page})" in index, page
+    assert "FMI 3.0" in index
+    navigation = (ROOT / "mkdocs.yml").read_text()
+    notebook = ROOT / "docs" / "notebook"
+    linked = (notebook / "index.md").read_text()
+    for page in sorted(notebook.glob("20*.md")):
+        assert f"]({page.name})" in linked, f"{page.name} is not linked from the notebook's index"
+        assert page.name not in navigation, f"{page.name} is in the navigation: the notebook has one entry"
+    for picture in re.findall(r"\]\((img/[^)]+)\)", (ROOT / "docs" / "getting-started.md").read_text()):
+        assert (ROOT / "docs" / picture).is_file(), picture

@@ -66,3 +66,29 @@ def test_the_command_writes_it_for_an_older_run_and_refuses_what_is_not_a_run(tm
     assert (tmp_path / "old" / XDMF_NAME).is_file()
     assert main([str(tmp_path / "nothing")]) == 2
     assert capsys.readouterr().err.startswith("error: no results file at")
+
+
+def test_the_docs_picture_script_renders_the_run_from_its_xdmf(tmp_path):
+    """scripts/render_xdmf.py (the docs' picture) draws the field's colours from run.xdmf: the two ends of the
+    tube's pressure range, red and blue, are both on the picture."""
+    import subprocess
+    import sys
+
+    import matplotlib.image
+
+    from tests.conftest import ROOT
+    run_scene(load_scene(TUBE_SCENE, ["time.end=0.5"]), tmp_path / "tube", progress=False)
+    done = subprocess.run([sys.executable, "-m", "scripts.render_xdmf", str(tmp_path / "tube"), "--field", "pressure",
+                           "--out", str(tmp_path / "tube.png"), "--size", "400", "200"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    if done.returncode != 0 and ("OpenGL" in done.stderr or "EGL" in done.stderr or "GLX" in done.stderr):
+        pytest.skip(f"VTK cannot render off screen here: {done.stderr.strip().splitlines()[-1]}")
+    assert done.returncode == 0, done.stderr
+    picture = matplotlib.image.imread(tmp_path / "tube.png")[..., :3]
+    assert picture.shape == (200, 400, 3)
+    pixels = picture[:, :280]                  # left of the colour bar: the mesh alone
+    red = (pixels[..., 0] > 0.8) & (pixels[..., 1] < 0.3) & (pixels[..., 2] < 0.3)
+    blue = (pixels[..., 2] > 0.8) & (pixels[..., 0] < 0.3) & (pixels[..., 1] < 0.3)
+    assert red.sum() > 20 and blue.sum() > 20
+    from scripts.render_xdmf import main as render_main
+    assert render_main([str(tmp_path), "--field", "pressure", "--out", str(tmp_path / "none.png")]) == 2
