@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -60,7 +61,7 @@ def render(run_dir: Path, out: Path, field: str, time: float | None = None, size
     data = merged.GetOutput()
     data.GetPointData().SetActiveScalars(field)
     low, high = data.GetPointData().GetArray(field).GetRange()
-    source = merged
+    source: Any = merged
     if line:                          # the profile: the field's value across the line, scaled to a third of its length
         warp = vtkWarpScalar()
         warp.SetInputConnection(merged.GetOutputPort())
