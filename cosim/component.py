@@ -19,8 +19,10 @@ never exchanged.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -264,6 +266,16 @@ class Component:
         if handle not in self._states:
             raise ComponentError(self.name, f"unknown state handle {handle}")
         return self._states[handle]
+
+
+RUN_DIR_VARIABLE = "COSIM_RUN_DIR"    # set by the launcher: the run's directory, for a component's own output
+
+
+def run_directory() -> Path | None:
+    """The directory of the run that launched this component (None when it was started otherwise): where a
+    component writes output of its own (``kratos/<solver>/`` for a Kratos stage's VTK), never beside its inputs."""
+    given = os.environ.get(RUN_DIR_VARIABLE)
+    return Path(given) if given else None
 
 
 MESH_PREFIX = "mesh:"

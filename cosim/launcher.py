@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cosim import stop
+from cosim.component import RUN_DIR_VARIABLE
 from cosim.errors import ComponentDied, ComponentError
 
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
@@ -106,6 +107,7 @@ class Launcher:
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PROJECT_ROOT), env.get("PYTHONPATH", "")]))
         token = secrets.token_hex(16)
         env[TOKEN_VARIABLE] = token
+        env[RUN_DIR_VARIABLE] = str(self.log_dir.parent.resolve())
         # -P: no working directory before our packages (a scene's `cosim.py` must not run as cosim); the scene's
         # folders come first for its own modules, inside the server (--folder)
         command = [sys.executable, "-P", "-m", "cosim", "serve", entry, "--bind", "tcp://127.0.0.1:*",

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.component import Variable, check_inputs
+from cosim.component import Variable, check_inputs, run_directory
 from cosim.errors import ComponentError
 from cosim.schema import AnyTable, Choice, Required, Value, validate
 from kratos_compat.json_source import JsonSource
@@ -49,6 +49,9 @@ class KratosStage(KratosComponent):
             f["dimension"] = int(f["dimension"])
         os.chdir(prm["folder"])             # Kratos reads the case's paths relative to its folder
         self.project = JsonSource(Path(prm["project"])).data
+        run_dir = run_directory()
+        if run_dir is not None:
+            outputs_into(self.project, run_dir / "kratos" / self.name)
         self.by_name = {f["name"]: f for f in self.fields}
         quiet()
         set_threads(prm["threads"] or None)
@@ -212,3 +215,30 @@ class KratosStage(KratosComponent):
 def _first_line(exc: BaseException) -> str:
     lines = [line.strip() for line in str(exc).splitlines() if line.strip() and not line.startswith("in ")]
     return lines[0] if lines else type(exc).__name__
+
+
+# where Kratos's output processes write, by the key of their Parameters, and the default a process takes without it
+OUTPUT_KEYS = {"output_path": "VTK_Output", "output_name": None, "output_file_name": None}
+
+
+def outputs_into(project: dict[str, Any], folder: Path) -> list[str]:
+    """Point the stage's output processes (``output_processes``: VTK, VTU, GiD, ...) into ``folder`` (the run's
+    ``kratos/<solver>/``), so that two runs of one case never write over each other's files; relative paths keep
+    their names under it, absolute ones are left as the user gave them. Returns the paths it set."""
+    moved: list[str] = []
+    outputs = project.get("output_processes")
+    if not isinstance(outputs, dict):
+        return moved
+    for processes in outputs.values():
+        for process in processes if isinstance(processes, list) else []:
+            parameters = process.get("Parameters") if isinstance(process, dict) else None
+            if not isinstance(parameters, dict):
+                continue
+            module = str(process.get("python_module", ""))
+            for key, default in OUTPUT_KEYS.items():
+                given = parameters.get(key, default if ("vtk" in module or "vtu" in module) else None)
+                if isinstance(given, str) and not Path(given).is_absolute():
+                    parameters[key] = str(folder / given)
+                    (folder / given).parent.mkdir(parents=True, exist_ok=True)
+                    moved.append(parameters[key])
+    return moved

@@ -473,3 +473,39 @@ def test_a_kratos_case_resumes_only_with_the_solvers_files_it_started_with(tmp_p
                                                   r"is not the file the run started with"):
             run_scene(load_scene(case, overrides), tmp_path / "cut", progress=False, resume=True)
         path.write_text(original)
+
+
+@needs_kratos
+@needs_gmsh
+def test_a_kratos_cases_own_vtk_output_goes_into_each_runs_directory(tmp_path):
+    """The structure's vtk_output_process of the case writes under DIR/kratos/<solver>/ of each run, never into
+    the case's folder, so that two runs of one case keep their own files; VTK reads the last one back with the
+    displacement the run recorded."""
+    from cases.kratos_wall.write import write_case
+    from cosim.scene import load_scene
+    from coupler.run import run_scene
+    legacy = pytest.importorskip("vtkmodules.vtkIOLegacy", reason="VTK's Python wheel reads the files back")
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    case = write_case(tmp_path / "case", "dynamic", 2)
+    parameters = case.parent / "ProjectParametersCSM.json"
+    document = json.loads(parameters.read_text())
+    document["output_processes"] = {"vtk_output": [{
+        "python_module": "vtk_output_process", "kratos_module": "KratosMultiphysics", "process_name": "VtkOutputProcess",
+        "Parameters": {"model_part_name": "Structure", "output_control_type": "step", "output_interval": 1,
+                       "file_format": "ascii", "output_precision": 16, "output_path": "vtk_output",
+                       "nodal_solution_step_data_variables": ["DISPLACEMENT"]}}]}
+    parameters.write_text(json.dumps(document, indent=1))
+    before = sorted(p.name for p in case.parent.iterdir())
+    for run in ("first", "second"):
+        run_scene(load_scene(case), tmp_path / run, progress=False)
+    assert sorted(p.name for p in case.parent.iterdir()) == before          # nothing written into the case
+    written = [sorted((tmp_path / run / "kratos").rglob("*.vtk")) for run in ("first", "second")]
+    assert len(written[0]) == len(written[1]) >= 2 and written[0][0].parent.name == "vtk_output"
+    assert [p.name for p in written[0]] == [p.name for p in written[1]]
+    reader = legacy.vtkUnstructuredGridReader()
+    reader.SetFileName(str(max(written[0], key=lambda p: p.stat().st_mtime)))
+    reader.ReadAllVectorsOn()
+    reader.Update()
+    grid = reader.GetOutput()
+    displacement = vtk_to_numpy(grid.GetPointData().GetArray("DISPLACEMENT"))
+    assert grid.GetNumberOfPoints() > 0 and np.isfinite(displacement).all() and np.abs(displacement).max() > 0
