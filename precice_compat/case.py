@@ -87,6 +87,7 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
         "window": scheme["window"],
         "start": 0.0,
         "experimental": config.experimental,
+        "exports": [{k: v for k, v in export.items() if k != "line"} for export in participant.exports],
     }
 
 

@@ -27,6 +27,7 @@ MEASURES = {"relative-convergence-measure": "relative", "absolute-convergence-me
 FILTERS = {"QR1": "qr1", "QR2": "qr2", "QR1-absolute": "qr1-absolute"}
 V2_RBF = {f"rbf-{basis}": basis for basis in BASES}     # v2's mapping:rbf-<basis>, the basis's parameters on it
 V3_RBF = ("rbf", "rbf-global-direct", "rbf-global-iterative", "rbf-pum-direct")     # v3's, with <basis-function:...>
+EXPORT_FORMATS = ("vtu", "vtk", "csv")
 INTEGRATED_POLYNOMIAL = ("thin-plate-splines", "multiquadrics", "volume-splines")   # where preCICE takes polynomial="on"
 
 
@@ -52,6 +53,7 @@ class Participant:
     reads: dict[str, str] = field(default_factory=dict)
     mappings: list[Mapping] = field(default_factory=list)
     watch_points: list[dict[str, Any]] = field(default_factory=list)
+    exports: list[dict[str, Any]] = field(default_factory=list)   # <export:vtu|vtk|csv>: written by the participant
 
 
 @dataclass
@@ -297,15 +299,30 @@ def _participant(reader: _Reader, config: Config, element: Element) -> None:
                                              "mesh": _mesh_of(reader, config, child, reader.required(child, "mesh")),
                                              "coordinate": _coordinate(reader, child)})
             reader.done(child)
+        elif prefix == "export" and kind in EXPORT_FORMATS:
+            participant.exports.append(_export(reader, child, kind))
         elif prefix == "export" or prefix in ("intra-comm", "master"):
+            what = ("cosim writes exports as vtu, vtk and csv: run.xdmf beside results.h5 holds every field for "
+                    "ParaView" if prefix == "export" else "cosim's participants reach the coupler by its own "
+                    "transport")
             config.notes.append(f"<{child.tag}> of participant '{participant.name}' (line {child.line}) is "
-                                "accepted and not used: cosim's participants are serial, and results.h5 holds what "
-                                "an export would write")
+                                f"accepted and not used: {what}")
         elif prefix == "action":
             raise reader.fail(child, "actions are not supported by cosim: compute the quantity in the participant")
         else:
             raise reader.fail(child, "this element of a participant is not supported by cosim")
     config.participants[participant.name] = participant
+
+
+def _export(reader: Any, element: Element, kind: str) -> dict[str, Any]:
+    """An ``<export:vtu|vtk|csv>``: the folder (the participant's own, relative to where it runs), how often."""
+    export = {"format": kind, "directory": element.get("directory") or ".",
+              "every_n_time_windows": int(reader.number(element, "every-n-time-windows", 1, integer=True, low=1)),
+              "every_iteration": reader.flag(element, "every-iteration"), "line": element.line}
+    element.get("normals")           # v2: the mesh's normals, which cosim's meshes do not have
+    element.get("update-series")
+    reader.done(element)
+    return export
 
 
 def _coordinate(reader: _Reader, element: Element) -> list[float]:

@@ -1712,3 +1712,49 @@ def test_the_convergence_log_names_each_measure_as_precice_does(tmp_path):
     assert lines[1].split()[2:] == ["1.00000000e+00", "1.00000000e+00", "0.00000000e+00"]
     assert (tmp_path / "out" / "precice-M2-iterations.log").read_text().splitlines()[0] == \
         "  TimeWindow  TotalIterations  Iterations  Convergence"
+
+
+def test_a_participants_exports_write_its_meshes_as_precice_names_them_and_vtk_reads_them(tmp_path):
+    """``<export:vtu|vtk|csv>`` of a participant: <mesh>-<participant>.init / .dt<N> / .it<K> files and a .series in
+    the export's directory under the participant's folder, every-n-time-windows and every-iteration kept; VTK reads
+    the mesh and the data the participant wrote, equal to results.h5's fields; the run itself opens from run.xdmf."""
+    xml_reader = pytest.importorskip("vtkmodules.vtkIOXML", reason="VTK's Python wheel reads the exports")
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOLegacy import vtkUnstructuredGridReader
+
+    from tests.xdmf_check import assert_xdmf_holds_the_run
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
+    config = tmp_path / "case" / "precice-config.xml"
+    config.write_text(config.read_text().replace(
+        '<write-data name="Pressure" mesh="Fluid-Nodes" />',
+        '<write-data name="Pressure" mesh="Fluid-Nodes" />\n    <export:vtu directory="exports" />\n'
+        '    <export:vtk directory="legacy" every-n-time-windows="2" />\n'
+        '    <export:csv directory="iterations" every-iteration="true" />'))
+    out = case(tmp_path / "out", tmp_path / "case" / "case.toml", "time.end=0.4")
+    folder = tmp_path / "case" / "fluid-python"
+    with RunResults(out) as run:
+        pressure, times, iterations = run.fields()["Pressure"], run.windows.time, int(run.windows.iterations.sum())
+        nodes = run.component("Fluid").meshes["Fluid-Nodes"]
+    stem = "Fluid-Nodes-Fluid"
+    assert sorted(p.name for p in (folder / "exports").iterdir()) == sorted(
+        [f"{stem}.init.vtu", *(f"{stem}.dt{n}.vtu" for n in range(1, 5)), f"{stem}.vtu.series"])
+    assert sorted(p.name for p in (folder / "legacy").iterdir()) == sorted(
+        [f"{stem}.init.vtk", f"{stem}.dt2.vtk", f"{stem}.dt4.vtk", f"{stem}.vtk.series"])
+    assert len(list((folder / "iterations").glob(f"{stem}.it*.csv"))) == iterations
+    series = json.loads((folder / "exports" / f"{stem}.vtu.series").read_text())
+    assert series["file-series-version"] == "1.0"
+    assert [f["time"] for f in series["files"]] == pytest.approx([0.0, *times])
+    for window in range(1, 5):
+        reader = xml_reader.vtkXMLUnstructuredGridReader()
+        reader.SetFileName(str(folder / "exports" / f"{stem}.dt{window}.vtu"))
+        reader.Update()
+        grid = reader.GetOutput()
+        np.testing.assert_array_equal(vtk_to_numpy(grid.GetPoints().GetData())[:, :2], nodes)
+        np.testing.assert_array_equal(vtk_to_numpy(grid.GetPointData().GetArray("Pressure")), pressure[window - 1])
+        assert grid.GetPointData().GetArray("CrossSectionLength") is not None      # the data it reads, too
+    legacy = vtkUnstructuredGridReader()
+    legacy.SetFileName(str(folder / "legacy" / f"{stem}.dt4.vtk"))
+    legacy.Update()
+    np.testing.assert_allclose(vtk_to_numpy(legacy.GetOutput().GetPointData().GetArray("Pressure")), pressure[3],
+                               rtol=1e-15)
+    assert assert_xdmf_holds_the_run(out) > 0

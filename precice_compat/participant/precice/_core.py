@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from precice._connection import Connection, Error, find_coupler
+from precice._export import Exports, MeshView
 from precice._waveform import Waveform
 
 LINE = np.array([0.0, 0.0, 1.0, 1.0])     # the knots of the line through a window's start and end
@@ -73,6 +74,8 @@ class Core:
         self.write_checkpoint = False
         self.read_checkpoint = False
         self.read_available = False
+        self.exports = Exports(self.name, list(self.setup.get("exports") or []), Path.cwd())
+        self.windows_done = 0
 
     # --- errors ---------------------------------------------------------------------------------------------------
     def fail(self, call: str, why: str) -> Error:
@@ -353,6 +356,25 @@ class Core:
         arrays.update(self._gradient_arrays())
         self.state = "initialized"
         self._exchange("initialize", {}, arrays)
+        if self.exports:
+            self.exports.initialized(self.window_start, self._views())
+
+    def _views(self) -> dict[str, MeshView]:
+        """Each mesh whose vertices this participant knows, with its elements and the data it writes and reads there
+        (what an export writes)."""
+        views = {}
+        for mesh, info in self.meshes.items():
+            points = self.coordinates(mesh) if info["provided"] else self.received_vertices.get(mesh)
+            if points is None or not len(points):
+                continue
+            elements = {kind: np.concatenate(blocks) for kind, blocks in self.elements[mesh].items() if blocks}
+            if "edges" in elements:                     # a triangle brings its edges: each once
+                elements["edges"] = np.unique(np.sort(elements["edges"], axis=1), axis=0)
+            data = {name: self._buffer(mesh, name, spec) for (where, name), spec in self.write.items() if where == mesh}
+            data.update({name: self.received[name] for (where, name) in self.read
+                         if where == mesh and name in self.received})
+            views[mesh] = MeshView(points, elements, data)
+        return views
 
     def _gradient_arrays(self) -> dict[str, np.ndarray]:
         """The gradients written so far, for the coupler (each data item's, on all its mesh's vertices)."""
@@ -429,6 +451,9 @@ class Core:
             for data in self.substep_data:
                 arrays["substeps:" + data] = np.stack([sample[data] for _, sample in self.samples])
         self._exchange("advance", args, arrays)
+        if self.exports:
+            self.windows_done += self.window_complete
+            self.exports.iterated(self.window_start, self.windows_done, self.window_complete, self._views())
         for data in self.accumulated:         # a just-in-time write gathers a window's values from zero
             self.written.pop(data, None)
         self.accumulated.clear()
