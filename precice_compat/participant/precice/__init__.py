@@ -3,6 +3,10 @@
 ``precice.Participant`` is pyprecice 3's API, ``precice.Interface`` (with the ``action_*`` functions) pyprecice
 2.5's. A participant written against either runs unmodified under ``cosim run``, which starts it with this package
 first on its import path, or by hand once a coupler runs for its configuration (``cosim run CONFIG.xml``).
+
+Every method documents its parameters, what it returns, the calls that must come before it, and where cosim
+differs from preCICE: ``help(precice.Participant.write_data)``, say. A misuse raises ``precice.Error``, a
+``RuntimeError`` whose one line names the call and why.
 """
 
 from precice._connection import Error
@@ -18,8 +22,17 @@ __version__ = "3.0.0+cosim.0.1.0"
 
 
 def get_version_information() -> bytes:
-    """As pyprecice: bytes that start with the version of preCICE's API this package stands for, then, after ``;``,
-    whose coupler serves it."""
+    """The version of preCICE's API this package stands for, and what serves it.
+
+    Returns
+    -------
+    bytes
+        As pyprecice's: starting with the version (``3.0.0``), then, after ``;``, that cosim's coupler serves it.
+
+    Notes
+    -----
+    Any time; no coupler is needed.
+    """
     return b"3.0.0;served by cosim 0.1.0 (preCICE's v3 Participant and v2 Interface)"
 
 
