@@ -235,12 +235,12 @@ def test_a_participant_wire_message_is_cosims_both_ways():
 
 def test_cosim_check_prints_the_scene_a_case_becomes_and_what_set_overrides(capsys):
     assert main(["check", str(EXAMPLE / "case.toml"), "--set", "time.end=1",
-                 "--set", "coupling.max_iterations=40"]) == 0
+                 "--set", "coupling.max_iterations=40", "--print"]) == 0
     out, err = capsys.readouterr()
     assert '"scheme": "serial-implicit"' in out and '"reused_time_windows": 8' in out
     assert "'coupling.max_iterations' comes from --set, which wins" in err
     assert "<log> (line 4) is output only" in err
-    assert "valid" in err.splitlines()[-1]
+    assert "valid" in err.splitlines()[0]                      # the verdict first
 
 
 def test_resuming_a_case_with_participants_is_refused_in_one_line(tmp_path, capsys):
