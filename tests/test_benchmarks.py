@@ -273,3 +273,17 @@ def test_precice_cost_benchmark_small(capsys):
     assert native["iterations"] == participants["iterations"] > 20
     assert all(row[key] > 0 for row in (native, participants) for key in ("compute_us", "wire_us", "coupler_us"))
     assert "the participant path over the native one" in capsys.readouterr().out
+
+
+def test_precice_side_by_side_benchmark_small(capsys):
+    """cosim's half of the side-by-side benchmark: the run's wall time splits into start-up, windows and close."""
+    from benchmarks import precice_side_by_side
+    results = precice_side_by_side.main(["--small"])
+    runs = next(iter(results.values()))["cosim"]
+    assert len(runs) == 2 and all(r["iterations"] == runs[0]["iterations"] > 10 for r in runs)
+    for r in runs:
+        parts = r["startup"] + r["windows"] + r["close"]
+        assert 0 < r["windows"] < r["wall"] and r["startup"] > 0 and r["close"] > 0
+        assert parts == pytest.approx(r["wall"], abs=0.1)     # the three parts make the whole, to the clocks' gaps
+        assert r["cpu"] > 0
+    assert "| cosim start-up s |" in capsys.readouterr().out

@@ -1,0 +1,163 @@
+"""preCICE's own tutorial cases under cosim and under preCICE, side by side: the same unmodified participants, one
+BLAS thread each, in alternated pairs.
+
+Per run: the wall time of the whole run (from the first process's start to the last one's exit), the CPU time of
+every process of it (``wait4``'s rusage, children included), and the coupling iterations. cosim's wall time is split
+into its start-up (to the first window's start), its windows (``coupling_seconds``) and its close (the last window's
+end to the exit); preCICE's per-iteration cost is its whole wall time over its iterations, cosim's its windows' time
+over its iterations. Figures are medians [min-max] over the pairs, and cosim / preCICE their ratio, pair by pair.
+
+The preCICE half needs a Python whose ``precice`` is pyprecice on a real libprecice (``--precice-python``); without
+one, only cosim runs. Neither preCICE nor pyprecice is part of this project: build them yourself.
+
+Usage: python -m benchmarks.precice_side_by_side --tutorials TUTORIALS [--precice-python PY] [--case NAME ...]
+[--repeat N]; --small runs examples/precice_tube (10 windows) under cosim twice (the tests' mode).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.common import ROOT, machine
+from cosim.results import RunResults
+from scripts.precice_tutorials import CASES, command_of, write_case
+
+DEFAULT_CASES = ("elastic-tube-1d", "oscillator", "perpendicular-flap (fake)", "resonant-circuit")
+ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+TIMEOUT = 900.0
+
+
+def _wait(process: subprocess.Popen, deadline: float) -> tuple[int, float]:
+    """Wait for ``process`` (its exit code and the CPU seconds of it and its reaped descendants)."""
+    while True:
+        pid, status, usage = os.wait4(process.pid, os.WNOHANG)
+        if pid:
+            process.returncode = os.waitstatus_to_exitcode(status)
+            return process.returncode, usage.ru_utime + usage.ru_stime
+        if time.monotonic() > deadline:
+            process.kill()
+            raise TimeoutError(f"{process.args!r} ran longer than {TIMEOUT:g} s")
+        time.sleep(0.002)
+
+
+def run_cosim(case: Path, out: Path, *overrides: str) -> dict[str, Any]:
+    """``cosim run CASE`` in a process of its own: wall, CPU, iterations, and the wall split."""
+    env = {**os.environ, **ONE_THREAD}
+    started_at, started = time.time(), time.perf_counter()
+    process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(case), "--out", str(out), "--quiet",
+                                *(f"--set={item}" for item in overrides)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    code, cpu = _wait(process, time.monotonic() + TIMEOUT)
+    wall, ended_at = time.perf_counter() - started, time.time()
+    if code != 0:
+        raise RuntimeError(f"cosim run {case} exited {code}: {process.stderr.read().decode()[-400:]}")
+    with RunResults(out) as run:
+        attributes = run.attributes
+        iterations = int(run.windows.iterations.sum())
+    return {"wall": wall, "cpu": cpu, "iterations": iterations,
+            "startup": attributes["first_window_started"] - started_at,
+            "windows": attributes["coupling_seconds"], "close": ended_at - attributes["last_window_ended"]}
+
+
+def run_precice(tutorials: Path, name: str, python: str) -> dict[str, Any]:
+    """The tutorial's participants started at once as its run.sh starts them, with ``python``'s pyprecice."""
+    folder, participants = CASES[name]
+    shutil.rmtree(tutorials / folder / "precice-run", ignore_errors=True)
+    env = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}
+    started = time.perf_counter()
+    processes = {}
+    for participant, (cwd, command, extra, _) in participants.items():
+        processes[participant] = subprocess.Popen(command_of(command, "python", {"python": python}), shell=True,
+                                                  cwd=tutorials / folder / cwd, env={**env, **ONE_THREAD, **extra},
+                                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline, cpu, codes = time.monotonic() + TIMEOUT, 0.0, {}
+    for participant, process in processes.items():
+        codes[participant], seconds = _wait(process, deadline)
+        cpu += seconds
+    wall = time.perf_counter() - started
+    if any(codes.values()):
+        raise RuntimeError(f"preCICE's {name} exited {codes}")
+    logs = [tutorials / folder / cwd / f"precice-{participant}-iterations.log"
+            for participant, (cwd, *_) in participants.items()]
+    rows = [line.split() for log in logs if log.is_file() for line in log.read_text().splitlines()[1:]]
+    iterations = int(rows[-1][1]) if rows else 0       # TotalIterations of the last window
+    return {"wall": wall, "cpu": cpu, "iterations": iterations}
+
+
+def spread(values: list[float]) -> str:
+    return f"{np.median(values):.2f} [{min(values):.2f}-{max(values):.2f}]"
+
+
+def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
+    lines = ["| case | iterations (cosim / preCICE) | preCICE wall s | cosim wall s | cosim / preCICE | cosim start-up "
+             "s | cosim windows s | cosim close s | CPU s (cosim / preCICE) | us per iteration (cosim windows / "
+             "preCICE whole) |", "| --- " * 10 + "|"]
+    for name, runs in results.items():
+        ours, theirs = runs["cosim"], runs.get("precice", [])
+        pairs = list(zip(ours, theirs))
+        precice_wall = spread([r["wall"] for r in theirs]) if theirs else "-"
+        ratio = spread([a["wall"] / b["wall"] for a, b in pairs]) if pairs else "-"
+        per_iteration = f"{1e6 * np.median([r['windows'] / r['iterations'] for r in ours]):.0f}"
+        if theirs:
+            per_iteration += f" / {1e6 * np.median([r['wall'] / r['iterations'] for r in theirs]):.0f}"
+        cpu = f"{np.median([r['cpu'] for r in ours]):.2f}" + (
+            f" / {np.median([r['cpu'] for r in theirs]):.2f}" if theirs else "")
+        iterations = f"{ours[0]['iterations']}" + (f" / {theirs[0]['iterations']}" if theirs else "")
+        lines.append(f"| {name} | {iterations} | {precice_wall} | {spread([r['wall'] for r in ours])} | {ratio} | "
+                     f"{spread([r['startup'] for r in ours])} | {spread([r['windows'] for r in ours])} | "
+                     f"{spread([r['close'] for r in ours])} | {cpu} | {per_iteration} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tutorials", type=Path, help="a checkout of preCICE's tutorials")
+    parser.add_argument("--precice-python", help="a Python whose precice is pyprecice on a real libprecice")
+    parser.add_argument("--case", action="append", choices=list(CASES), help=f"default: {', '.join(DEFAULT_CASES)}")
+    parser.add_argument("--repeat", type=int, default=5, help="alternated pairs per case (default 5)")
+    parser.add_argument("--json", type=Path, help="also write every run's figures here")
+    parser.add_argument("--small", action="store_true", help="examples/precice_tube, 10 windows, cosim only, twice")
+    args = parser.parse_args(argv)
+    print(f"machine: {machine()}")
+    scratch = Path(tempfile.mkdtemp(prefix="cosim-side-by-side-"))
+    results: dict[str, dict[str, list[dict[str, Any]]]] = {}
+    try:
+        if args.small:
+            case = ROOT / "examples" / "precice_tube" / "case.toml"
+            results["elastic tube (examples/precice_tube, 10 windows)"] = {
+                "cosim": [run_cosim(case, scratch / f"run{i}", "time.end=1") for i in range(2)]}
+        else:
+            if args.tutorials is None:
+                parser.error("--tutorials is needed (or --small)")
+            for name in args.case or DEFAULT_CASES:
+                case = write_case(args.tutorials.resolve(), name, {}, scratch / name.replace(" ", "_"))
+                runs: dict[str, list[dict[str, Any]]] = {"cosim": [], "precice": []}
+                for repeat in range(args.repeat):        # alternated: preCICE first in even pairs
+                    order = ("precice", "cosim") if repeat % 2 == 0 else ("cosim", "precice")
+                    for engine in order:
+                        if engine == "cosim":
+                            runs["cosim"].append(run_cosim(case, scratch / f"{len(runs['cosim'])}-{case.parent.name}"))
+                        elif args.precice_python:
+                            runs["precice"].append(run_precice(args.tutorials.resolve(), name, args.precice_python))
+                results[name] = runs
+                print(f"{name}: done", flush=True)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    print(table(results))
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1))
+    return results
+
+
+if __name__ == "__main__":
+    main()
