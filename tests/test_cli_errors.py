@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -283,3 +284,17 @@ def test_special_files_named_as_inputs_are_refused_at_once(capsys, tmp_path):
 def test_a_rom_configuration_or_a_campaign_run_as_a_scene_is_told_what_it_is(capsys, path, kind):
     err = one_line_error(capsys, ["run", str(ROOT / path), "--out", "unused"])
     assert f"{ROOT / path}: this is {kind}" in err and "not a scene" in err
+
+
+def test_the_commands_are_listed_in_the_order_of_a_users_work_and_run_names_every_input_kind(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    listed = re.search(r"\{([a-z,-]+)\}", capsys.readouterr().out).group(1).split(",")
+    assert listed[:4] == ["check", "run", "status", "plot"] and listed[-2:] == ["serve", "keys"]
+    assert listed.index("train") < listed.index("export-fmu") < listed.index("report") < listed.index("campaign")
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for kind in ("a scene (TOML", "case file (case.toml) of a preCICE or Kratos case", "precice-config.xml",
+                 "ProjectParametersCoSim.json"):
+        assert kind in text, kind
