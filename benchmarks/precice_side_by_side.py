@@ -54,13 +54,17 @@ def _wait(process: subprocess.Popen, deadline: float) -> tuple[int, float]:
 def run_cosim(case: Path, out: Path, *overrides: str) -> dict[str, Any]:
     """``cosim run CASE`` in a process of its own: wall, CPU, iterations, and the wall split."""
     env = {**os.environ, **ONE_THREAD}
+    errors = out.with_name(f"{out.name}.stderr")
+    out.parent.mkdir(parents=True, exist_ok=True)
     started_at, started = time.time(), time.perf_counter()
-    process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(case), "--out", str(out), "--quiet",
-                                *(f"--set={item}" for item in overrides)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    code, cpu = _wait(process, time.monotonic() + TIMEOUT)
+    with errors.open("wb") as stderr:
+        process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(case), "--out", str(out), "--quiet",
+                                    *(f"--set={item}" for item in overrides)], env=env, stdout=subprocess.DEVNULL,
+                                   stderr=stderr)
+        code, cpu = _wait(process, time.monotonic() + TIMEOUT)
     wall, ended_at = time.perf_counter() - started, time.time()
     if code != 0:
-        raise RuntimeError(f"cosim run {case} exited {code}: {process.stderr.read().decode()[-400:]}")
+        raise RuntimeError(f"cosim run {case} exited {code}: {errors.read_text(errors='replace')[-400:]}")
     with RunResults(out) as run:
         attributes = run.attributes
         iterations = int(run.windows.iterations.sum())

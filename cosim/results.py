@@ -18,17 +18,26 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from time import monotonic, sleep
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import h5py
 import numpy as np
 
 from cosim.errors import CosimError, DiskFullError
 from cosim.versions import versions
 
+if TYPE_CHECKING:
+    import h5py
+
 WINDOW_COLUMNS = {"time": np.float64, "iterations": np.int32, "converged": np.bool_, "wall_seconds": np.float64}
 FILE_NAME = "results.h5"
 RESERVED_BYTES = 256 << 10   # kept free for HDF5's metadata (its B-trees, the attributes at close) and status.json
+
+
+def _h5py() -> Any:
+    """h5py, imported where a file is opened: the coupler's process builds a window's rows (``window_rows``) and
+    never opens the file, so it never pays for h5py's import."""
+    import h5py
+    return h5py
 
 
 class Layout:
@@ -112,7 +121,7 @@ class ResultsStore:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         try:
-            self.file = h5py.File(self.path, "w-")  # never truncate an existing file
+            self.file = _h5py().File(self.path, "w-")  # never truncate an existing file
         except FileExistsError:
             raise CosimError(f"'{self.path}' exists; a run never overwrites another") from None
         self._columns: dict[str, _GrowingDataset] = {}
@@ -137,12 +146,12 @@ class ResultsStore:
         store = cls.__new__(cls)
         store.path = Path(path)
         try:
-            store.file = h5py.File(store.path, "r+")
+            store.file = _h5py().File(store.path, "r+")
         except OSError as exc:
             raise CosimError(f"cannot open '{store.path}' to go on with it: {exc}") from None
         store._columns = {}
         grown: list[str] = []
-        store.file.visititems(lambda name, item: grown.append(name) if isinstance(item, h5py.Dataset)
+        store.file.visititems(lambda name, item: grown.append(name) if isinstance(item, _h5py().Dataset)
                               and item.maxshape[0] is None else None)
         for name in grown:
             if name not in lengths:
@@ -333,13 +342,13 @@ class RunResults:
         self.path = path / FILE_NAME if path.is_dir() else path
         if not self.path.is_file():
             raise CosimError(f"no results file at '{self.path}'")
-        if not h5py.is_hdf5(self.path):
+        if not _h5py().is_hdf5(self.path):
             raise CosimError(f"'{self.path}' is not an HDF5 results file")
         from cosim.rundir import SETTLE_SECONDS, settling
         deadline = monotonic() + SETTLE_SECONDS
         while True:
             try:
-                self.file = h5py.File(self.path, "r")
+                self.file = _h5py().File(self.path, "r")
                 break
             except BlockingIOError:
                 # a dead run's writer finishing the windows it was handed: whole within seconds
@@ -478,7 +487,7 @@ class _GrowingDataset:
         dataset_id.set_extent((self.length + count, *self.row_shape))
         file_space = dataset_id.get_space()
         file_space.select_hyperslab((self.length, *([0] * len(self.row_shape))), rows.shape)
-        dataset_id.write(h5py.h5s.create_simple(rows.shape), file_space, rows)
+        dataset_id.write(_h5py().h5s.create_simple(rows.shape), file_space, rows)
         self.length += count
 
 

@@ -569,7 +569,7 @@ class Run:
 def _import_while_components_start(scene: Scene | None = None) -> None:
     """What the coupler computes with, imported while its components start: the LAPACK of an acceleration that
     factorises (IQN-ILS and its kind; SciPy's import is half a second of CPU the components' start-up would share),
-    the window's rows of the results file (h5py), SciPy's KD-tree and sparse matrices where a mapping is built on
+    the window's rows of the results file (not h5py: the results writer's process opens the file), SciPy's KD-tree and sparse matrices where a mapping is built on
     meshes (their import would otherwise wait until the components are up), and the waveforms' B-splines where a
     scene interpolates in time."""
     if scene is None or issubclass(ACCELERATIONS.get(scene["coupling"]["acceleration"]["type"]), IQNILS):
