@@ -121,3 +121,14 @@ class RaisingSolid(TubeSolid):
         if t >= 0.3:
             raise ZeroDivisionError("a bug in the solid")
         super().do_step(t, dt)
+
+
+class JitterSolid(TubeSolid):
+    """Sections off by a relative 1e-12, in alternating sign from call to call: a solver converged to its tolerance,
+    whose answers differ in the digits it does not resolve. No exact fixed point exists, whatever the rounding of the
+    machine's BLAS (the tube's own solid may land on one, and then a limit of 1e-16 is met)."""
+
+    def do_step(self, t, dt):
+        super().do_step(t, dt)
+        self._calls = getattr(self, "_calls", 0) + 1
+        self.section = self.section * (1.0 + 1e-12 * (-1.0) ** self._calls)
