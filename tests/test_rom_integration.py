@@ -334,9 +334,11 @@ def test_a_rom_out_of_its_range_warns_or_hands_the_call_to_the_solid_fom(model, 
         assert error(warned) > 0.02 and warned.attributes["component_warnings"] > 0
         assert error(fell_back) < 0.01
         assert 0 < fell_back.attributes["rom_fallback_windows"] < len(fell_back.windows)
-        # IQN starts afresh at each change of backend: 3 % more iterations than FOM-FOM here (9 % when the ROM's
-        # columns stay in the solid FOM's windows and the other way round: the default, "drop-span")
-        assert fell_back.windows.iterations.sum() <= 1.05 * reference.windows.iterations.sum()
+        # IQN starts afresh at each change of backend: 1 to 5 % more iterations than FOM-FOM over OpenBLAS's kernels
+        # (Katmai to SkylakeX; each run's total moves with the rounding, FOM-FOM 647 to 672); the default, "drop-span",
+        # 3 to 9 %. Bound 10 %: the two runs' spread (2 x 2 %) above the largest seen, far below a restart that costs
+        # IQN its convergence
+        assert fell_back.windows.iterations.sum() <= 1.10 * reference.windows.iterations.sum()
         assert warned.attributes["rom_fallback_windows"] == 0
         calls = fell_back.calls("solid")          # the ROM's trust is on record with every call it served
         excess = calls.outputs["rom_excess"][:, 0]
