@@ -184,9 +184,10 @@ def test_an_fmi3_fmu_of_another_maker_couples_and_one_that_cannot_roll_back_is_r
         assert reference.returncode == 0 and coupled.returncode == 0, coupled.stderr
         (iterations, section), (their_iterations, their_section) = (fields(tmp_path / f"{name}_python"),
                                                                     fields(tmp_path / f"{name}_fmu"))
-        assert iterations.tolist() == their_iterations.tolist()
         # two runs whose solvers round differently meet the same criterion on the same fixed point: they agree to
-        # the criterion's relative change of the section, not to its rounding (AVX-512 BLAS kernels differ in ulps)
+        # the criterion's relative change of the section, not to its rounding (AVX-512 BLAS kernels differ in ulps),
+        # and a window whose last change sits within that rounding of the limit may take one iteration more or less
+        assert len(iterations) == len(their_iterations) and np.abs(iterations - their_iterations).max() <= 1
         limit = tomllib.loads((ROOT / scene).read_text())["coupling"]["convergence"][0]["limit"]
         np.testing.assert_allclose(their_section, section, rtol=0, atol=limit * np.abs(section).max())
 
