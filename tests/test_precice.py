@@ -1231,7 +1231,8 @@ def test_a_participants_message_is_one_short_line_and_close_numbers_read_apart(t
 
 def find_coupler_in(config: Path, env: dict | None = None) -> subprocess.CompletedProcess:
     """The participant package's search for the coupler of ``config``, in a process of its own."""
-    code = "import sys, pathlib; from precice._connection import find_coupler; find_coupler(pathlib.Path(sys.argv[1]))"
+    code = ("import sys, pathlib, precice; from precice._connection import find_coupler; "
+            "find_coupler(pathlib.Path(sys.argv[1]))")
     return subprocess.run([sys.executable, "-c", code, str(config)], capture_output=True, text=True, timeout=60,
                           env={"PYTHONPATH": str(SHIM), "PATH": "/usr/bin:/bin", **(env or {})})
 
@@ -1246,12 +1247,13 @@ def test_a_rendezvous_file_that_another_could_have_written_is_not_trusted(tmp_pa
     rendezvous.write_text('{"endpoint": "tcp://127.0.0.1:9", "token": "planted", "pid": 1}')
     rendezvous.chmod(0o666)
     done = find_coupler_in(config)
-    assert done.returncode != 0 and "is not trusted: it can be written by others" in done.stderr, done.stderr
+    assert done.returncode == 2 and "is not trusted: it can be written by others" in done.stderr, done.stderr
+    assert done.stderr.startswith("precice: error: ") and done.stderr.count("\n") == 1     # one line, no traceback
     if os.getuid() == 0:
         rendezvous.chmod(0o644)
         os.chown(rendezvous, 65534, 65534)
         done = find_coupler_in(config)
-        assert done.returncode != 0 and "is not trusted: it belongs to another user" in done.stderr, done.stderr
+        assert done.returncode == 2 and "is not trusted: it belongs to another user" in done.stderr, done.stderr
 
 
 def test_a_rendezvous_naming_a_live_program_that_is_no_coupler_or_a_zombie_is_stale(tmp_path):
@@ -1758,3 +1760,33 @@ def test_a_participants_exports_write_its_meshes_as_precice_names_them_and_vtk_r
     np.testing.assert_allclose(vtk_to_numpy(legacy.GetOutput().GetPointData().GetArray("Pressure")), pressure[3],
                                rtol=1e-15)
     assert assert_xdmf_holds_the_run(out) > 0
+
+
+def test_a_participant_waiting_on_a_coupler_that_died_unreaped_sees_it_gone(tmp_path):
+    """A participant started by hand starts the coupler, so a coupler that dies stays its zombie until reaped; the
+    participant's wait for an answer asks whether the coupler runs, and a zombie does not (it hung forever)."""
+    dead = subprocess.Popen(["true"])
+    sleeper = subprocess.Popen(["sleep", "60"])
+    try:
+        wait_for(lambda: Path(f"/proc/{dead.pid}/stat").read_text().rpartition(")")[2][1:2] == "Z",
+                 "the child to be a zombie")
+        shim = ROOT / "precice_compat" / "participant"
+        done = subprocess.run([sys.executable, "-c", f"from precice._connection import _alive; "
+                               f"print(_alive({dead.pid}), _alive({sleeper.pid}))"],
+                              env={**os.environ, "PYTHONPATH": str(shim)}, capture_output=True, text=True, timeout=60)
+        assert done.stdout.split() == ["False", "True"], done.stderr
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+        dead.wait()
+
+
+def test_a_coupler_that_fails_at_start_up_leaves_no_rendezvous_behind(tmp_path, capsys):
+    """cosim run of a configuration whose participants never come: one line, exit 2, and cosim-run/coupler.json
+    removed (it stayed, and named a coupler that was gone)."""
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
+    code = main(["run", str(tmp_path / "case" / "precice-config.xml"), "--out", str(tmp_path / "out"), "--quiet",
+                 "--set", "components.Fluid.startup_timeout=2", "--set", "components.Solid.startup_timeout=2"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "did not call its hello" in err, err
+    assert not (tmp_path / "case" / "cosim-run" / "coupler.json").exists()

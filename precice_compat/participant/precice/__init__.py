@@ -6,10 +6,14 @@ first on its import path, or by hand once a coupler runs for its configuration (
 
 Every method documents its parameters, what it returns, the calls that must come before it, and where cosim
 differs from preCICE: ``help(precice.Participant.write_data)``, say. A misuse raises ``precice.Error``, a
-``RuntimeError`` whose one line names the call and why.
+``RuntimeError`` whose one line names the call and why. A participant that lets it go uncaught ends as preCICE ends
+one on its errors: the line on stderr (``precice: error: ...``, no traceback) and exit code 2.
 """
 
-from precice._connection import Error
+import os
+import sys
+
+from precice._connection import OPEN, Error
 from precice._interface import (
     Interface,
     action_read_iteration_checkpoint,
@@ -19,6 +23,30 @@ from precice._interface import (
 from precice._participant import Participant
 
 __version__ = "3.0.0+cosim.0.1.0"
+_previous_hook = sys.excepthook
+
+
+def _error_in_one_line(kind, value, traceback):  # type: ignore[no-untyped-def]
+    """An uncaught ``precice.Error``: its line and exit code 2; any other exception as Python shows it."""
+    if not issubclass(kind, Error):
+        _previous_hook(kind, value, traceback)
+        return
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    sys.stderr.write(f"precice: error: {value}\n")
+    sys.stderr.flush()
+    for connection in list(OPEN):        # the error told to the coupler leaves before the process does
+        try:
+            connection.close()
+        except Exception:
+            pass
+    os._exit(2)
+
+
+sys.excepthook = _error_in_one_line
 
 
 def get_version_information() -> bytes:

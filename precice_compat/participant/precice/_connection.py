@@ -13,6 +13,7 @@ import json
 import os
 import stat
 import time
+import weakref
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -139,11 +140,15 @@ def _start_coupler(config: Path, folder: Path) -> None:
     print(f"cosim: started the coupler for {config.name}; its run goes to {out}", file=sys.stderr)
 
 
+OPEN: weakref.WeakSet[Connection] = weakref.WeakSet()     # closed (their messages sent) before an exit on an error
+
+
 class Connection:
     """Requests to the coupler; a reply that says ``ok: false`` raises ``Error`` with the coupler's message."""
 
     def __init__(self, endpoint: str, token: str, coupler_pid: int):
         self.context = zmq.Context()
+        OPEN.add(self)
         self.socket = self.context.socket(zmq.DEALER)
         self.socket.setsockopt(zmq.LINGER, 1000)
         self.socket.setsockopt(zmq.RCVTIMEO, SLICE_MS)
@@ -185,5 +190,8 @@ class Connection:
             pass
 
     def close(self) -> None:
-        self.socket.close()
-        self.context.term()
+        """Close the socket, its queued messages sent first (LINGER: at most a second)."""
+        OPEN.discard(self)
+        if not self.socket.closed:
+            self.socket.close()
+            self.context.term()
