@@ -58,7 +58,7 @@ def setup_of(config: Config, name: str) -> dict[str, Any]:
                      if m.kind in ("nearest-element", "cell-interpolation") for mesh in (m.source, m.target)}
     meshes = {mesh: {"dimensions": config.meshes[mesh]["dimensions"], "provided": mesh in participant.provides,
                      "connectivity": mesh in with_elements, "direct_access": mesh in participant.direct,
-                     "from": participant.receives.get(mesh, name)}
+                     "from": participant.receives.get(mesh, name), "data": list(config.meshes[mesh]["data"])}
               for mesh in [*participant.provides, *participant.receives]}
     for mapping in participant.mappings:       # just in time: nearest-neighbor onto a mesh accessed directly
         if not mapping.source or not mapping.target:

@@ -317,7 +317,7 @@ def _participant(reader: _Reader, config: Config, element: Element) -> None:
 def _export(reader: Any, element: Element, kind: str) -> dict[str, Any]:
     """An ``<export:vtu|vtk|csv>``: the folder (the participant's own, relative to where it runs), how often."""
     export = {"format": kind, "directory": element.get("directory") or ".",
-              "every_n_time_windows": int(reader.number(element, "every-n-time-windows", 1, integer=True, low=1)),
+              "every_n_time_windows": int(reader.number(element, "every-n-time-windows", 1, integer=True)),
               "every_iteration": reader.flag(element, "every-iteration"), "line": element.line}
     element.get("normals")           # v2: the mesh's normals, which cosim's meshes do not have
     element.get("update-series")

@@ -1716,6 +1716,37 @@ def test_the_convergence_log_names_each_measure_as_precice_does(tmp_path):
         "  TimeWindow  TotalIterations  Iterations  Convergence"
 
 
+def test_the_export_writers_give_precices_files_to_the_byte():
+    """A 2-D mesh of four vertices with an edge and a triangle, a scalar and a 2-D vector: the vtu, vtk and csv
+    texts preCICE 3.4.1 writes for it (its files of the same mesh and data, compared byte for byte here)."""
+    sys.path.insert(0, str(SHIM))
+    try:
+        from precice._export import MeshView, csv_text, vtk_text, vtu_text
+    finally:
+        sys.path.remove(str(SHIM))
+        for name in [n for n in sys.modules if n == "precice" or n.startswith("precice.")]:
+            del sys.modules[name]
+    mesh = MeshView(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [1.5, 1.0]]),
+                    {"triangles": np.array([[1, 2, 3]]), "edges": np.array([[0, 1], [1, 2], [1, 3], [2, 3]])},
+                    {"Temperature": np.array([226.4, 326.4, 439.12, 539.12]),
+                     "Flux": np.array([[26.64, -1.1], [26.64, -1.1], [39.4032, -2.1], [39.4032, -2.1]])})
+    vtu = vtu_text(mesh).splitlines()
+    assert vtu[3] == '      <Piece NumberOfPoints="4" NumberOfCells="5" > '
+    assert vtu[9] == "               1.5  1  0  "
+    assert vtu[15] == "               1  2  3  0  1  1  2  1  3  2  3  "       # the triangle, then the edges
+    assert vtu[18] == "               3  5  7  9  11  " and vtu[21] == "               5  3  3  3  3  "
+    assert vtu[24] == '         <PointData Scalars="Rank Temperature " Vectors="Flux ">'
+    assert vtu[26] == "               0 0 0 0 " and vtu[29] == "               226.4 326.4 439.12 539.12 "
+    assert vtu[32] == "               26.64 -1.1 0.0  26.64 -1.1 0.0  39.4032 -2.1 0.0  39.4032 -2.1 0.0  "
+    vtk = vtk_text(mesh).split("\n")
+    assert vtk[:9] == ["# vtk DataFile Version 2.0", "", "ASCII", "", "DATASET UNSTRUCTURED_GRID", "",
+                       "POINTS 4 double ", "", "0.00000000000000000e+00  0.00000000000000000e+00  "
+                       "0.00000000000000000e+00"]
+    assert vtk[12:19] == ["", "CELLS 4 12", "", "2 0 1 ", "2 1 2 ", "2 1 3 ", "2 2 3 "]     # a 2-D mesh: edges
+    assert "VECTORS Flux double" in vtk and "3.94031999999999982e+01 -2.10000000000000009e+00 0" in vtk
+    assert csv_text(mesh).splitlines()[:2] == ["PosX;PosY;Rank;Temperature;FluxX;FluxY", "0;0;0;226.4;26.64;-1.1"]
+
+
 def test_a_participants_exports_write_its_meshes_as_precice_names_them_and_vtk_reads_them(tmp_path):
     """``<export:vtu|vtk|csv>`` of a participant: <mesh>-<participant>.init / .dt<N> / .it<K> files and a .series in
     the export's directory under the participant's folder, every-n-time-windows and every-iteration kept; VTK reads
@@ -1751,14 +1782,20 @@ def test_a_participants_exports_write_its_meshes_as_precice_names_them_and_vtk_r
         reader.SetFileName(str(folder / "exports" / f"{stem}.dt{window}.vtu"))
         reader.Update()
         grid = reader.GetOutput()
-        np.testing.assert_array_equal(vtk_to_numpy(grid.GetPoints().GetData())[:, :2], nodes)
-        np.testing.assert_array_equal(vtk_to_numpy(grid.GetPointData().GetArray("Pressure")), pressure[window - 1])
+        np.testing.assert_allclose(vtk_to_numpy(grid.GetPoints().GetData())[:, :2], nodes, rtol=5e-6, atol=1e-12)
+        np.testing.assert_allclose(vtk_to_numpy(grid.GetPointData().GetArray("Pressure")), pressure[window - 1],
+                                   rtol=5e-6)            # preCICE's vtu prints six significant digits
+        assert vtk_to_numpy(grid.GetPointData().GetArray("Rank")).tolist() == [0] * len(nodes)
         assert grid.GetPointData().GetArray("CrossSectionLength") is not None      # the data it reads, too
     legacy = vtkUnstructuredGridReader()
     legacy.SetFileName(str(folder / "legacy" / f"{stem}.dt4.vtk"))
+    legacy.ReadAllScalarsOn()          # Rank comes first; the reader takes only the first scalars otherwise
     legacy.Update()
-    np.testing.assert_allclose(vtk_to_numpy(legacy.GetOutput().GetPointData().GetArray("Pressure")), pressure[3],
-                               rtol=1e-15)
+    np.testing.assert_array_equal(vtk_to_numpy(legacy.GetOutput().GetPointData().GetArray("Pressure")),
+                                  pressure[3])           # 17 digits: every bit
+    header = (folder / "iterations" / f"{stem}.it1.csv").read_text().splitlines()[0]
+    assert header == "PosX;PosY;Rank;CrossSectionLength;Pressure"          # the mesh's <use-data> order
+    assert not list((folder / "iterations").glob("*.series"))       # csv and every-iteration keep no series
     assert assert_xdmf_holds_the_run(out) > 0
 
 

@@ -368,11 +368,14 @@ class Core:
             if points is None or not len(points):
                 continue
             elements = {kind: np.concatenate(blocks) for kind, blocks in self.elements[mesh].items() if blocks}
-            if "edges" in elements:                     # a triangle brings its edges: each once
+            if "edges" in elements:                     # a triangle brings its edges: each once, sorted
                 elements["edges"] = np.unique(np.sort(elements["edges"], axis=1), axis=0)
-            data = {name: self._buffer(mesh, name, spec) for (where, name), spec in self.write.items() if where == mesh}
-            data.update({name: self.received[name] for (where, name) in self.read
-                         if where == mesh and name in self.received})
+            values = {name: self._buffer(mesh, name, spec) for (where, name), spec in self.write.items()
+                      if where == mesh}
+            values.update({name: self.received[name] for (where, name) in self.read
+                           if where == mesh and name in self.received})
+            order = [name for name in info.get("data", []) if name in values]     # the mesh's <use-data> order
+            data = {name: values[name] for name in [*order, *(n for n in values if n not in order)]}
             views[mesh] = MeshView(points, elements, data)
         return views
 
