@@ -159,17 +159,20 @@ def test_the_convergence_plot_draws_each_measure_against_its_limit_and_breaks_be
 
     run_scene(load_scene(TUBE_SCENE, ["time.end=0.5", "coupling.convergence=[{data=\"pressure\", type=\"relative\", "
                                       "limit=1e-4}, {data=\"section\", type=\"absolute\", limit=2e-7}, "
-                                      "{data=\"section\", type=\"min-iterations\", iterations=2}]"]),
+                                      "{data=\"section\", type=\"min-iterations\", iterations=2}, "
+                                      "{data=\"pressure\", type=\"any-of\", measures=[{type=\"relative\", "
+                                      "limit=1e-3}, {type=\"absolute\", limit=1e-6}]}]"]),
               tmp_path / "run", progress=False)
     assert json.loads((tmp_path / "run" / "logs" / "measures.json").read_text()) == {
-        "relative(pressure)": 1e-4, "absolute(section)": 2e-7, "min-iterations(section)": None}
+        "relative(pressure)": 1e-4, "absolute(section)": 2e-7, "min-iterations(section)": None,
+        "any-of(pressure)": None}
     figure = convergence_figure(tmp_path / "run")
     measures, residual, iterations = figure.axes
     assert [a.get_yscale() for a in figure.axes] == ["log", "log", "linear"]
     assert all(a.get_xlabel() and a.get_ylabel() for a in figure.axes)
     drawn = {line.get_label(): line for line in measures.get_lines()}
-    assert set(drawn) == {"relative(pressure)", "absolute(section)", "relative(pressure) limit 0.0001",
-                          "absolute(section) limit 2e-07"}
+    assert set(drawn) == {"relative(pressure)", "absolute(section)", "any-of(pressure)",   # no limit line for any-of
+                          "relative(pressure) limit 0.0001", "absolute(section) limit 2e-07"}
     for name, limit in (("relative(pressure)", 1e-4), ("absolute(section)", 2e-7)):
         dashed = drawn[f"{name} limit {limit:g}"]
         assert dashed.get_linestyle() == "--" and list(dashed.get_ydata()) == [limit, limit]
