@@ -701,5 +701,6 @@ def _check(reader: _Reader, config: Config) -> None:
     if scheme.get("min_iterations", 1) > scheme.get("max_iterations", 100):
         raise SceneError(f"{where}: <min-iterations value=\"{scheme['min_iterations']}\"/> is above "
                          f"<max-iterations value=\"{scheme.get('max_iterations', 100)}\"/>: no window could converge")
-    if (scheme["kind"].endswith("implicit") or scheme["kind"] == "multi") and not scheme["measures"]:
-        raise SceneError(f"{where}: an implicit scheme needs a convergence measure")
+    if (scheme["kind"].endswith("implicit") or scheme["kind"] == "multi") and not scheme["measures"] \
+            and not scheme.get("min_iterations"):      # min-iterations alone: every window takes that many, as preCICE
+        raise SceneError(f"{where}: an implicit scheme needs a convergence measure or <min-iterations>")
