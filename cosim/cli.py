@@ -17,7 +17,7 @@ DISTRIBUTION = "cosim-rom-fsi"
 # the commands in the order of a user's work: check and run a case, watch it, train and export a ROM, weigh it, run
 # many; serving a component by hand and its keys last (others' commands after these, by name)
 ORDER = ("check", "run", "status", "plot", "train", "export-fmu", "report", "sweep", "campaign", "stability",
-         "serve", "keys")
+         "libprecice", "serve", "keys")
 
 
 def _serve_arguments(parser: argparse.ArgumentParser) -> None:

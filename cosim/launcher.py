@@ -128,14 +128,17 @@ class Launcher:
     def spawn_command(self, name: str, command: str, cwd: str | Path, environment: dict[str, str] | None = None,
                       cores: Sequence[int] = ()) -> ComponentProcess:
         """Start a program that connects to the coupler itself (a preCICE participant): ``command`` split as a shell
-        would, in ``cwd``, its output to its log. ``environment``'s ``PYTHONPATH`` goes before the inherited one."""
+        would, in ``cwd``, its output to its log. ``environment``'s ``PYTHONPATH`` and ``LD_LIBRARY_PATH`` go before
+        the inherited ones."""
         import shlex
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log_path = self.log_dir / f"{name}.log"
         extra = dict(environment or {})
         env = {**os.environ, "TMPDIR": self.scratch(name), **extra}
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [extra.get("PYTHONPATH", ""),
-                                                          os.environ.get("PYTHONPATH", "")]))
+        for name in ("PYTHONPATH", "LD_LIBRARY_PATH"):
+            joined = os.pathsep.join(filter(None, [extra.get(name, ""), os.environ.get(name, "")]))
+            if joined:
+                env[name] = joined
         # `python3` in a participant's command is the coupler's Python (a full path names another)
         env["PATH"] = os.pathsep.join(filter(None, [str(Path(sys.executable).parent), env.get("PATH", "")]))
         try:

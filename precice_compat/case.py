@@ -29,6 +29,7 @@ from typing import Any
 from cosim.errors import SceneError
 from cosim.schema import AnyTable, Choice, OpenTable, Positive, Value, unknown_key_message, validate
 from precice_compat.config import Config, read_config
+from precice_compat.libprecice.build import installed
 
 PARTICIPANT_SHIM = Path(__file__).resolve().parent / "participant"    # the folder holding `import precice`
 CASE = {"precice": {"config": ""}, "participants": AnyTable(), "name": "", "output": AnyTable()}
@@ -163,6 +164,10 @@ def _component(config: Config, name: str, spec: dict[str, Any], folder: Path) ->
     backend = spec.get("backend", "participant")
     environment = {str(k): str(v) for k, v in (spec.get("environment") or {}).items()}
     environment["PYTHONPATH"] = os.pathsep.join(filter(None, [str(PARTICIPANT_SHIM), environment.get("PYTHONPATH")]))
+    library = installed()      # a compiled participant links cosim's libprecice, where it is installed
+    if library is not None:
+        environment["LD_LIBRARY_PATH"] = os.pathsep.join(filter(None, [str(library / "lib"),
+                                                                       environment.get("LD_LIBRARY_PATH")]))
     if spec.get("command"):
         component.update(command=spec["command"], cwd=str((folder / spec.get("cwd", "")).resolve()),
                          environment=environment, parameters={"setup": setup})

@@ -238,6 +238,13 @@ void precicef_set_tetrahedron_(const char *meshName, const int *firstVertexID, c
                                  meshNameLength);
 }
 
+void precicef_set_tetrahedron(const char *meshName, const int *firstVertexID, const int *secondVertexID,
+                              const int *thirdVertexID, const int *fourthVertexID, int meshNameLength)
+{
+  precicef_set_mesh_tetrahedron_(meshName, firstVertexID, secondVertexID, thirdVertexID, fourthVertexID,
+                                 meshNameLength);
+}
+
 void precicef_set_mesh_tetrahedra_(const char *meshName, const int *size, const int *ids, int meshNameLength)
 {
   const char *call = "precicef_set_mesh_tetrahedra";

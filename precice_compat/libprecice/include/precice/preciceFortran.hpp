@@ -62,6 +62,9 @@ PRECICE_API void precicef_set_mesh_tetrahedron_(const char *meshName, const int 
                                                 const int *fourthVertexID, int meshNameLength);
 PRECICE_API void precicef_set_tetrahedron_(const char *meshName, const int *firstVertexID, const int *secondVertexID,
                                            const int *thirdVertexID, const int *fourthVertexID, int meshNameLength);
+/* the same, under the name preCICE's header declares without gfortran's underscore */
+PRECICE_API void precicef_set_tetrahedron(const char *meshName, const int *firstVertexID, const int *secondVertexID,
+                                          const int *thirdVertexID, const int *fourthVertexID, int meshNameLength);
 PRECICE_API void precicef_set_mesh_tetrahedra_(const char *meshName, const int *size, const int *ids,
                                                int meshNameLength);
 

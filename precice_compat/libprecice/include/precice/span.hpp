@@ -1,6 +1,8 @@
 #pragma once
 // A view of contiguous elements (pointer and count), as preCICE v3's API takes its arrays and names
-// (precice::span, precice::string_view). C++11: an adapter may build with any standard from 11 on.
+// (precice::span, precice::string_view). C++11: an adapter may build with any standard from 11 on. Its template
+// signature and layout are std::span's (element type and extent; pointer, then count), so that the API's symbols are
+// those an adapter built against preCICE calls.
 
 #include <array>
 #include <cstddef>
@@ -9,6 +11,8 @@
 #include <vector>
 
 namespace precice {
+
+constexpr std::size_t dynamic_extent = static_cast<std::size_t>(-1);
 
 namespace detail {
 // the count of a C array: a char array is a string, up to its first NUL (a literal's terminator is not in it)
@@ -25,7 +29,7 @@ template <typename T>
 struct is_char : std::integral_constant<bool, std::is_same<typename std::remove_cv<T>::type, char>::value> {};
 } // namespace detail
 
-template <typename T>
+template <typename T, std::size_t Extent = dynamic_extent>
 class span {
 public:
   using element_type    = T;
@@ -60,8 +64,8 @@ public:
   span(Container &&container) noexcept : data_(container.data()), size_(container.size()) {}
 
   // span<const T> from span<T>
-  template <typename U, typename std::enable_if<std::is_convertible<U (*)[], T (*)[]>::value, int>::type = 0>
-  span(const span<U> &other) noexcept : data_(other.data()), size_(other.size()) {}
+  template <typename U, std::size_t N, typename std::enable_if<std::is_convertible<U (*)[], T (*)[]>::value, int>::type = 0>
+  span(const span<U, N> &other) noexcept : data_(other.data()), size_(other.size()) {}
 
   pointer   data() const noexcept { return data_; }
   size_type size() const noexcept { return size_; }
@@ -72,6 +76,8 @@ public:
   reference back() const noexcept { return data_[size_ - 1]; }
   iterator  begin() const noexcept { return data_; }
   iterator  end() const noexcept { return data_ + size_; }
+  static constexpr std::size_t extent = Extent;
+
   span      subspan(size_type offset, size_type count) const noexcept { return span(data_ + offset, count); }
   span      first(size_type count) const noexcept { return span(data_, count); }
   span      last(size_type count) const noexcept { return span(data_ + size_ - count, count); }
