@@ -26,11 +26,12 @@ def _run(args: argparse.Namespace) -> int:
         prefix = install(args.prefix, jobs=args.jobs)
         print(f"# cosim's libprecice is in {prefix}; point an adapter's build and run at it with:")
     else:
-        prefix = installed(args.prefix)
-        if prefix is None:
+        found = installed(args.prefix)
+        if found is None:
             where = args.prefix or default_prefix()
             raise CosimError(f"cosim libprecice: no cosim libprecice in {where}; build it with `cosim libprecice "
                              f"install{f' --prefix {where}' if args.prefix else ''}`")
+        prefix = found
     for name, value in environment(prefix).items():
         print(f"export {name}={shlex.quote(value)}")
     return 0

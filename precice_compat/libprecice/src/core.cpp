@@ -446,7 +446,13 @@ int Core::data_dimensions(const std::string &call, const std::string &mesh_name,
   mesh(call, mesh_name);
   const DataSpec *spec = write_spec(mesh_name, data);
   if (!spec) spec = read_spec(mesh_name, data);
-  if (!spec) fail(call, "no data '" + data + "' on mesh '" + mesh_name + "' for participant '" + name_ + "'");
+  if (!spec) {
+    std::string uses;
+    for (const DataSpec &s : write_) uses += (uses.empty() ? "" : ", ") + s.data + " on " + s.mesh;
+    for (const DataSpec &s : read_) uses += (uses.empty() ? "" : ", ") + s.data + " on " + s.mesh;
+    fail(call, "participant '" + name_ + "' uses no data '" + data + "' on mesh '" + mesh_name + "' (it uses: " +
+                   (uses.empty() ? "none" : uses) + ")");
+  }
   return spec->dimensions;
 }
 

@@ -1,0 +1,195 @@
+"""cosim's libprecice: preCICE's C++, C and Fortran APIs served by cosim's coupler. Participants written here, built
+as adapters build (CMake's find_package(precice 3 CONFIG), pkg-config), coupled to Python participants and to each
+other through real processes: the tube's wall in three languages against the native run bit for bit, the install's
+layout, and how a compiled participant's misuse, crash or hang stops a run."""
+
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from cosim.errors import CosimError
+from tests.conftest import ROOT, children_of
+from tests.test_precice import EXAMPLE, case, native, same_run
+
+SOURCE = ROOT / "precice_compat" / "libprecice"
+DATA = ROOT / "tests" / "data" / "libprecice"
+needs_fortran = pytest.mark.skipif(shutil.which("gfortran") is None, reason="needs gfortran (Debian: gfortran)")
+
+
+def _sources_digest() -> str:
+    digest = hashlib.sha256()
+    for path in sorted(p for p in SOURCE.rglob("*") if p.is_file() and p.suffix in (".cpp", ".hpp", ".h", ".in", ".txt")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+@pytest.fixture(scope="session")
+def prefix(tmp_path_factory) -> Path:
+    """The drop-in built and installed once for the whole session (every xdist worker shares it), in a prefix of
+    its own."""
+    from precice_compat.libprecice.build import install, installed, missing_tools
+    missing = missing_tools()
+    if missing:
+        pytest.skip(f"cosim libprecice needs {', '.join(missing)} (Debian: g++ cmake pkg-config libzmq3-dev "
+                    "libmsgpack-dev)")
+    root = tmp_path_factory.getbasetemp().parent / f"libprecice-{_sources_digest()}"
+    root.mkdir(exist_ok=True)
+    with open(root / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if installed(root / "prefix") is None:
+            install(root / "prefix", build=root / "build", quiet=True)
+    return root / "prefix"
+
+
+@pytest.fixture
+def served(prefix, monkeypatch) -> Path:
+    """cosim run finds the drop-in where the session installed it (as it finds one in its Python environment)."""
+    import precice_compat.case
+    monkeypatch.setattr(precice_compat.case, "installed", lambda: prefix)
+    return prefix
+
+
+def cmake_build(source: Path, build: Path, prefix: Path, target: str) -> Path:
+    """``source`` built with its CMakeLists (find_package(precice 3 CONFIG) against ``prefix``): the target."""
+    for step in (["cmake", "-S", str(source), "-B", str(build), f"-DCMAKE_PREFIX_PATH={prefix}"],
+                 ["cmake", "--build", str(build)]):
+        done = subprocess.run(step, capture_output=True, text=True)
+        assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    return build / target
+
+
+def pkg_config_build(source: Path, out: Path, prefix: Path, compiler: str = "cc") -> Path:
+    """``source`` compiled and linked by the flags pkg-config gives for libprecice (no rpath: the library is found
+    on the library path cosim run sets)."""
+    env = {**os.environ, "PKG_CONFIG_PATH": str(prefix / "lib" / "pkgconfig")}
+    flags = subprocess.run(["pkg-config", "--cflags", "--libs", "libprecice"], capture_output=True, text=True,
+                           env=env, check=True).stdout.split()
+    done = subprocess.run([compiler, "-O2", "-ffp-contract=off", "-o", str(out), str(source), *flags, "-lm"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return out
+
+
+@pytest.fixture(scope="module")
+def native_run(tmp_path_factory) -> Path:
+    return native(tmp_path_factory.mktemp("native") / "run")
+
+
+def solid(language: str, tmp_path: Path, prefix: Path) -> Path:
+    if language == "cpp":
+        return cmake_build(EXAMPLE / "solid-cpp", tmp_path / "build", prefix, "SolidSolver")
+    if language == "c":
+        return pkg_config_build(EXAMPLE / "solid-c" / "SolidSolver.c", tmp_path / "SolidSolver", prefix)
+    if shutil.which("gfortran") is None:
+        pytest.skip("needs gfortran (Debian: gfortran)")
+    return cmake_build(EXAMPLE / "solid-fortran", tmp_path / "build", prefix, "SolidSolver")
+
+
+@pytest.mark.parametrize("language", ["cpp", "c", "fortran"])
+def test_the_tube_wall_in_cpp_c_and_fortran_gives_the_native_run_bit_for_bit(served, native_run, tmp_path, language):
+    """examples/precice_tube/solid-{cpp,c,fortran}: the wall in each language, built against the drop-in with
+    CMake (C++, Fortran) or pkg-config (C), coupled to the Python fluid participant: every window's iterations,
+    field and residual equal to the native tube run's."""
+    executable = solid(language, tmp_path, served)
+    out = case(tmp_path / "run", EXAMPLE / "case.toml", f"participants.Solid.command={executable} ../precice-config.xml")
+    same_run(native_run, out)
+    assert children_of(os.getpid()) == []
+
+
+def test_the_install_is_laid_out_as_precices(prefix, tmp_path):
+    """libprecice.so -> .so.3 -> .so.3.4.1 with SONAME libprecice.so.3, the headers preCICE installs, pkg-config's
+    libprecice at 3.4.1, and CMake's package: find_package(precice 3) found, precice 4 refused."""
+    lib = prefix / "lib"
+    assert os.readlink(lib / "libprecice.so") == "libprecice.so.3"
+    assert os.readlink(lib / "libprecice.so.3") == "libprecice.so.3.4.1"
+    dynamic = subprocess.run(["readelf", "-d", str(lib / "libprecice.so.3.4.1")], capture_output=True, text=True)
+    if dynamic.returncode == 0:
+        assert "Library soname: [libprecice.so.3]" in dynamic.stdout
+    headers = {p.name for p in (prefix / "include" / "precice").iterdir()}
+    assert {"precice.hpp", "Participant.hpp", "Types.hpp", "span.hpp", "Exceptions.hpp", "Version.h", "export.h",
+            "preciceC.h", "preciceFortran.hpp", "Tooling.hpp"} <= headers
+    env = {**os.environ, "PKG_CONFIG_PATH": str(lib / "pkgconfig")}
+    version = subprocess.run(["pkg-config", "--modversion", "libprecice"], capture_output=True, text=True, env=env)
+    assert version.stdout.strip() == "3.4.1"
+    for wanted, found in (("3", True), ("4", False)):
+        project = tmp_path / f"v{wanted}"
+        project.mkdir()
+        (project / "CMakeLists.txt").write_text(
+            f"cmake_minimum_required(VERSION 3.16)\nproject(p LANGUAGES C)\nfind_package(precice {wanted} CONFIG)\n"
+            "message(STATUS \"found=${precice_FOUND} cosim=${precice_SERVED_BY_COSIM}\")\n")
+        done = subprocess.run(["cmake", "-S", str(project), "-B", str(project / "build"),
+                               f"-DCMAKE_PREFIX_PATH={prefix}"], capture_output=True, text=True)
+        assert ("found=1 cosim=TRUE" in done.stdout) == found, done.stdout + done.stderr
+
+
+def misuse_build(language: str, tmp_path: Path, prefix: Path) -> Path:
+    if language == "cpp":
+        (tmp_path / "src").mkdir()
+        shutil.copy(DATA / "misuse.cpp", tmp_path / "src")
+        (tmp_path / "src" / "CMakeLists.txt").write_text(
+            "cmake_minimum_required(VERSION 3.16)\nproject(misuse LANGUAGES CXX)\nfind_package(precice 3 REQUIRED "
+            "CONFIG)\nadd_executable(misuse misuse.cpp)\ntarget_link_libraries(misuse PRIVATE precice::precice)\n")
+        return cmake_build(tmp_path / "src", tmp_path / "build", prefix, "misuse")
+    if language == "c":
+        return pkg_config_build(DATA / "misuse.c", tmp_path / "misuse", prefix)
+    if shutil.which("gfortran") is None:
+        pytest.skip("needs gfortran (Debian: gfortran)")
+    return pkg_config_build(DATA / "misuse.f90", tmp_path / "misuse", prefix, compiler="gfortran")
+
+
+@pytest.mark.parametrize("language, what, message", [
+    ("cpp", "values", r"component 'Solid' in window 3 .*: Participant::writeData: 100 values for 101 vertices of "
+                      r"scalar data 'CrossSectionLength'; expected 101$"),
+    ("cpp", "caught", r"Participant::advance: the step -1 must be positive$"),
+    ("cpp", "read-time", r"Participant::readData: relativeReadTime 0.2 is outside the step \(0 to 0.1, what is left "
+                         r"of the window\)$"),
+    ("c", "before-create", r"precicec_initialize: no participant: create it first \(precicec_createParticipant or "
+                           r"precicef_create\)$"),
+    ("c", "name", r"precicec_writeData: participant 'Solid' uses no mesh 'Solid-Mesh' \(its meshes: Fluid-Nodes, "
+                  r"Solid-Nodes\)$"),
+    ("fortran", "read", r"precicef_read_data: participant 'Solid' uses no data 'Section' on mesh 'Solid-Nodes' \(it "
+                        r"uses: CrossSectionLength on Solid-Nodes, Pressure on Solid-Nodes\)$"),
+])
+def test_a_compiled_participants_misuse_stops_the_run_in_one_line_naming_the_call(served, tmp_path, language, what,
+                                                                                  message):
+    """A misuse stops the run with its line, caught or not; left uncaught in C++ (and always in C and Fortran) it
+    ends the participant as preCICE ends one: the line on stderr, exit code 2. Nothing is left running."""
+    executable = misuse_build(language, tmp_path, served)
+    with pytest.raises(CosimError, match=message) as raised:
+        case(tmp_path / "run", EXAMPLE / "case.toml", f"participants.Solid.command={executable} ../precice-config.xml "
+                                                      f"{what}")
+    assert "\n" not in str(raised.value)
+    if what != "caught":        # the participant's own line: the run's, after its "component ... :" prefix
+        last = (tmp_path / "run" / "logs" / "Solid.log").read_text().strip().splitlines()[-1]
+        assert last.startswith("precice: error: ") and str(raised.value).endswith(last[len("precice: error: "):])
+    assert children_of(os.getpid()) == []
+
+
+@pytest.mark.parametrize("what, message", [
+    ("crash", r"component 'Solid' in window 3 .*(died|signal|SIGABRT|code -6)"),
+    ("exit", r"component 'Solid' in window 3 .*: exited \(code 0\) while the coupler waited for advance"),
+    ("hang", r"component 'Solid' in window 3 .*: did not call advance within 2 s"),
+])
+def test_a_compiled_participant_that_crashes_exits_or_hangs_stops_the_run_naming_it(served, tmp_path, what, message):
+    executable = misuse_build("cpp", tmp_path, served)
+    with pytest.raises(CosimError, match=message):
+        case(tmp_path / "run", EXAMPLE / "case.toml",
+             f"participants.Solid.command={executable} ../precice-config.xml {what}", "participants.Solid.timeout=2")
+    assert children_of(os.getpid()) == []
+
+
+def test_a_participant_that_returns_without_finalize_is_finalized_by_the_destructor(served, tmp_path):
+    """As preCICE's destructor: the run ends with every window converged."""
+    from cosim.results import RunResults
+    executable = misuse_build("cpp", tmp_path, served)
+    out = case(tmp_path / "run", EXAMPLE / "case.toml",
+               f"participants.Solid.command={executable} ../precice-config.xml no-finalize")
+    with RunResults(out) as results:
+        assert len(results.windows.time) == 20 and results.windows.converged.all()
