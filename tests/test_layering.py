@@ -57,7 +57,7 @@ def test_the_layering_check_catches_an_upward_import(tmp_path):
 
 def test_every_subcommand_is_registered_and_listed():
     assert set(commands()) == {"serve", "run", "check", "sweep", "stability", "train", "report", "export-fmu",
-                               "campaign", "status", "plot", "keys"}
+                               "campaign", "status", "plot", "keys", "libprecice"}
     text = parser().format_help()
     for name in commands():
         assert name in text
@@ -70,6 +70,7 @@ def test_the_studies_over_many_runs_are_the_workflow_s_and_the_coupler_holds_one
     owners = {point.name: point.value.split(":")[0] for point in entry_points(group="cosim.commands")}
     assert {owners[name] for name in ("sweep", "stability", "campaign")} == {"workflow.commands"}
     assert {owners[name] for name in ("run", "check", "status", "plot")} == {"coupler.commands"}
+    assert owners["libprecice"].startswith("precice_compat.libprecice")
     graph = module_graph(("coupler",))
     assert not {"coupler.sweep", "coupler.stability_matrix", "coupler.stability"} & set(graph)
     assert [path for path in sorted((ROOT / "coupler").rglob("*.py")) if imported_packages(path, ("dask",))] == []
