@@ -155,6 +155,8 @@ class ResultsWriter:
     # --- the pipes ---------------------------------------------------------------------------------------------------
     def _send(self, op: str, args: Mapping[str, Any], arrays: Mapping[str, np.ndarray] | None = None) -> None:
         """Put a message in the pipe; one that wants an answer (or a pipe found full) rings the writer's bell."""
+        if self._stopped:       # the writer has stopped on an error already raised: nothing more reaches the file
+            raise CosimError(f"results: the writer of '{self.path}' has stopped")
         view = memoryview(protocol.to_stream(protocol.encode({"op": op, "args": dict(args)}, arrays)))
         try:
             while view:

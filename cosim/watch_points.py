@@ -50,16 +50,19 @@ def check(points: Any, components: Mapping[str, Mapping[str, Any]], source: str)
 
 
 def write(results: str | Path, folder: str | Path, points: Sequence[Mapping[str, Any]]) -> list[Path]:
-    """Write every watch point's log into ``folder``; returns the files."""
+    """Write every watch point's log into ``folder``; returns the files. A component swapped for a ROM or an FMU is
+    watched through the process that served it: its calls are the component's, its meshes and variables its own."""
     written = []
     with RunResults(results) as run:
         times = run.windows.time
+        processes = [run.component(name) for name in run.component_names()]
         for point in points:
             component, mesh = point["component"], point["mesh"]
-            record = run.component(component)
-            nodes = record.meshes.get(mesh)
-            if nodes is None:
+            record = next((r for r in processes if r.attributes.get("participant", r.name) == component
+                           and mesh in r.meshes), None)
+            if record is None or component not in run.recorded():
                 continue            # the component gave no such mesh (a swapped participant declares its own)
+            nodes = record.meshes[mesh]
             coordinate = np.asarray(point["coordinate"], dtype=float)
             width = min(nodes.shape[1], len(coordinate))
             nearest = int(np.argmin(np.linalg.norm(nodes[:, :width] - coordinate[:width], axis=1)))
@@ -70,7 +73,8 @@ def write(results: str | Path, folder: str | Path, points: Sequence[Mapping[str,
                 else np.zeros(0, dtype=int)
             calls = calls.select(last)
             columns = ["Time", *(f"Coordinate{k}" for k in range(nodes.shape[1]))]
-            values = [np.asarray(times[:len(calls)])[:, None], np.repeat(nodes[nearest][None], len(calls), axis=0)]
+            values = [np.asarray(times)[calls.window - 1, None],            # windows count from 1
+                      np.repeat(nodes[nearest][None], len(calls), axis=0)]
             for variable in record.variables:
                 if variable.get("mesh") != mesh:
                     continue

@@ -1050,6 +1050,31 @@ def test_a_watch_point_writes_precices_log_of_the_data_at_its_vertex(tmp_path):
         assert np.array_equal(table[:, 4], used[:, 0])
 
 
+
+def test_a_watch_point_on_a_participant_swapped_for_its_rom_watches_the_rom(participant_run, tmp_path):
+    """The solid participant's watch point, the solid served by its ROM: the log has the participant's name and the
+    ROM's calls (the writer once looked for a component 'Solid' beside 'Solid_rom', and the run's closing then
+    reported 'Bad file descriptor' instead)."""
+    train(participant_run, tmp_path / "model.npz", "Solid", "Pressure", "CrossSectionLength")
+    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
+    config = tmp_path / "case" / "precice-config.xml"
+    config.write_text(config.read_text().replace(
+        '<write-data name="CrossSectionLength" mesh="Solid-Nodes" />',
+        '<write-data name="CrossSectionLength" mesh="Solid-Nodes" />\n    <watch-point mesh="Solid-Nodes" '
+        'name="Outlet" coordinate="10.0;0.0" />'))
+    out = case(tmp_path / "out", tmp_path / "case" / "case.toml", "participants.Solid.backend=rom",
+               f"participants.Solid.rom.model={tmp_path / 'model.npz'}")
+    header, *rows = (out / "precice-Solid-watchpoint-Outlet.log").read_text().splitlines()
+    table = np.array([[float(v) for v in row.split()] for row in rows])
+    with RunResults(out) as results:
+        assert results.component_names() == ["Fluid", "Solid_rom"]
+        served = results.calls("Solid", converged_only=True)
+        assert np.array_equal(table[:, 0], results.windows.time)
+        assert np.array_equal(table[:, header.split().index("CrossSectionLength")], served.outputs[
+            "CrossSectionLength"][:, -1])                                   # the last vertex, x = 10
+        assert np.array_equal(table[:, header.split().index("Pressure")], served.inputs["Pressure"][:, -1])
+
+
 # --- what pyprecice and preCICE do that unmodified participants rely on ----------------------------------------------
 def run_fluid_variant(tmp_path, name: str, old: str, new: str, *settings: str) -> tuple[int, Path]:
     """The test participant with ``old`` replaced by ``new``, against the example's solid, for ten windows."""
