@@ -287,3 +287,19 @@ def test_precice_side_by_side_benchmark_small(capsys):
         assert parts == pytest.approx(r["wall"], abs=0.1)     # the three parts make the whole, to the clocks' gaps
         assert r["cpu"] > 0
     assert "| cosim start-up s |" in capsys.readouterr().out
+
+
+def test_precice_rom_swap_benchmark_small(tmp_path, capsys):
+    """The tube's solid participant swapped for the ROM trained on its recorded calls: the ROM-FOM run's field is
+    the FOM-FOM run's to the ROM's error on its training calls, sigma and the bound are measured from the per-call CPU
+    times, and a rerun goes on with the runs it has (none is run again)."""
+    from benchmarks import precice_rom_swap
+    summary = precice_rom_swap.main(["--small", "--out", str(tmp_path)])
+    assert summary["fom"][0]["windows"] == summary["rom_runs"][0]["windows"] == 12
+    assert 0 < summary["errors"]["field_train"] < 1e-3
+    assert summary["sigma"][0] > 0 and summary["bound"][0] > 1 and summary["speedup"][0] > 0
+    assert (tmp_path / "rom-swap.png").stat().st_size > 0
+    assert "| coupling iterations |" in capsys.readouterr().out
+    stamp = (tmp_path / "runs" / "rom-1" / "results.h5").stat().st_mtime_ns
+    precice_rom_swap.main(["--small", "--out", str(tmp_path)])
+    assert (tmp_path / "runs" / "rom-1" / "results.h5").stat().st_mtime_ns == stamp

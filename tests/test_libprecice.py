@@ -6,12 +6,14 @@ layout, and how a compiled participant's misuse, crash or hang stops a run."""
 from __future__ import annotations
 
 import fcntl
+import json
 import hashlib
 import os
 import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cosim.errors import CosimError
@@ -193,3 +195,125 @@ def test_a_participant_that_returns_without_finalize_is_finalized_by_the_destruc
                f"participants.Solid.command={executable} ../precice-config.xml no-finalize")
     with RunResults(out) as results:
         assert len(results.windows.time) == 20 and results.windows.converged.all()
+
+
+# --- a tour of the API: each part a Python participant of tests/test_precice.py written again in a compiled language
+def tour_parts() -> dict[str, tuple[str, str, str, str, str | None]]:
+    """part -> (configuration, the tour's participant, the partner's name, the partner's program, the Python
+    participant the tour's part repeats, or None)."""
+    from tests import test_precice as p
+    field = p.FIELD_CONFIG.replace("MAPPING", "linear-cell-interpolation")
+    volume = field.replace('dimensions="2"', 'dimensions="3"')
+    target_3d = p.FIELD_TARGET.replace("[[0.1, 0.1], [0.55, 0.4], [0.9, 0.95], [1.2, 0.45]]",
+                                       "[[0.1, 0.2, 0.3], [0.5, 0.5, 0.5], [0.9, 0.1, 0.7], [0.3, 0.8, 0.2]]")
+    partner = p.PARTNER.replace("    t += dt", "    t = t if participant.requires_reading_checkpoint() else t + dt")
+    return {"subcycling": (p.SUBCYCLING_CONFIG, "A", "B", partner, p.SUBCYCLING),     # B repeats its window's time
+            "direct": (p.DIRECT_CONFIG, "Accessor", "Provider", p.DIRECT_PROVIDER, p.DIRECT_ACCESSOR),
+            "jit": (p.JIT_CONFIG, "B", "A", p.JIT_PROVIDER, p.JIT_PARTICLES),
+            "gradient": (p.GRADIENT_CONFIG, "A", "B", p.GRADIENT_READER, p.GRADIENT_WRITER),
+            "quads": (field, "Source", "Target", p.FIELD_TARGET, p.FIELD_SOURCE.replace("CONNECT", p.QUADS)),
+            "triangles": (field, "Source", "Target", p.FIELD_TARGET, None),
+            "edges": (p.FIELD_CONFIG.replace("MAPPING", "nearest-projection"), "Source", "Target", p.FIELD_TARGET,
+                      p.FIELD_SOURCE.replace("CONNECT", p.EDGES)),
+            "tetrahedra": (volume, "Source", "Target", target_3d, None)}
+
+
+def tour_case(folder: Path, part: str, tour: str | None) -> Path:
+    """The part's case: the partner in Python, the tour's participant compiled (``tour``: its executable) or the
+    Python participant it repeats (None); returns the run's folder."""
+    from tests.test_precice import write_case
+    config, name, partner, partner_program, python = tour_parts()[part]
+    case_file = write_case(folder, {partner: partner_program, **({name: python} if tour is None else {})}, config)
+    if tour is not None:
+        (folder / name).mkdir(exist_ok=True)
+        case_file.write_text(case_file.read_text() + f'[participants.{name}]\ncommand = "{tour} ../config.xml {part} '
+                                                     f'{name}"\ncwd = "{name}"\n')
+    from coupler.run import run_scene
+    from cosim.scene import load_scene
+    run_scene(load_scene(case_file), folder / "out", progress=False)
+    return folder
+
+
+def tour_build(language: str, tmp_path: Path, prefix: Path) -> Path:
+    if language == "cpp":
+        (tmp_path / "src").mkdir()
+        shutil.copy(DATA / "tour.cpp", tmp_path / "src")
+        (tmp_path / "src" / "CMakeLists.txt").write_text(
+            "cmake_minimum_required(VERSION 3.16)\nproject(tour LANGUAGES CXX)\nfind_package(precice 3 REQUIRED "
+            "CONFIG)\nadd_executable(tour tour.cpp)\ntarget_link_libraries(tour PRIVATE precice::precice)\n")
+        return cmake_build(tmp_path / "src", tmp_path / "build", prefix, "tour")
+    if language == "c":
+        return pkg_config_build(DATA / "tour.c", tmp_path / "tour", prefix)
+    if shutil.which("gfortran") is None:
+        pytest.skip("needs gfortran (Debian: gfortran)")
+    return pkg_config_build(DATA / "tour.f90", tmp_path / "tour", prefix, compiler="gfortran")
+
+
+@pytest.fixture(scope="module")
+def python_tours(tmp_path_factory) -> dict[str, Path]:
+    """Each part's run with the Python participant it repeats (where tests/test_precice.py has one)."""
+    return {part: tour_case(tmp_path_factory.mktemp(f"python-{part}"), part, None)
+            for part, spec in tour_parts().items() if spec[4] is not None}
+
+
+def same_calls(a: Path, b: Path) -> None:
+    """Two runs' windows, exchanged fields, residuals and every recorded call, bit for bit."""
+    from cosim.results import RunResults
+    with RunResults(a) as one, RunResults(b) as other:
+        assert np.array_equal(one.windows.iterations, other.windows.iterations)
+        assert all(np.array_equal(one.fields()[k], other.fields()[k]) for k in one.fields())
+        assert all(np.array_equal(x, y) for x, y in zip(one.residuals(), other.residuals()))
+        assert one.recorded() == other.recorded()
+        for name in one.recorded():
+            x, y = one.calls(name), other.calls(name)
+            assert np.array_equal(x.window, y.window) and np.array_equal(x.iteration, y.iteration)
+            for kind in ("inputs", "outputs"):
+                assert all(np.array_equal(getattr(x, kind)[k], getattr(y, kind)[k]) for k in getattr(x, kind))
+
+
+def seen_lines(folder: Path) -> list[list[float]]:
+    return [[float(v) for v in line.split()] for line in (folder / "seen.txt").read_text().splitlines()]
+
+
+@pytest.mark.parametrize("language", ["cpp", "c", "fortran"])
+def test_a_tour_of_the_api_in_each_language_gives_the_python_participants_runs(served, python_tours, tmp_path,
+                                                                               language):
+    """Every call of the language's API, in eight parts, each a Python participant written again, against the same
+    Python partner: what the compiled participant reads and what its partner reads are the Python run's, bit for
+    bit (the Python parts' values are preCICE 3.4.1's in tests/test_precice.py); the parts no Python participant
+    has are checked against the exact field (linear in the cells)."""
+    from cosim.results import RunResults
+    tour = tour_build(language, tmp_path, served)
+    for part, (_, name, partner, _, python) in tour_parts().items():
+        folder = tour_case(tmp_path / part, part, str(tour))
+        assert "3.4.1" in (folder / "out" / "logs" / f"{name}.log").read_text()        # getVersionInformation
+        if python is not None:
+            reference = python_tours[part]
+            same_calls(reference / "out", folder / "out")
+            for seen in ("seen.json", "reads.json"):
+                if (reference / partner / seen).exists():
+                    assert json.loads((folder / partner / seen).read_text()) == \
+                        json.loads((reference / partner / seen).read_text()), (part, seen)
+        if part == "subcycling":
+            assert seen_lines(folder / name) == json.loads((python_tours[part] / name / "seen.json").read_text())
+        elif part == "direct":
+            ids, coordinates = seen_lines(folder / name)
+            assert ids == [3, 4, 5, 6, 7] and coordinates == np.column_stack([np.linspace(0.0, 1.0, 11)[3:8],
+                                                                              np.zeros(5)]).ravel().tolist()
+        elif part == "jit":
+            assert seen_lines(folder / name) == json.loads((python_tours[part] / name / "reads.json").read_text())
+        elif part == "gradient":
+            assert seen_lines(folder / name) == [[1.0, 1.0]]
+        elif part in ("triangles", "tetrahedra"):
+            seen = np.array(json.loads((folder / partner / "seen.json").read_text()))
+            if part == "triangles":     # the quads' values: linear in y between the rows, whatever the diagonal
+                expected = np.array(json.loads((python_tours["quads"] / partner / "seen.json").read_text()))
+                np.testing.assert_allclose(seen, expected, rtol=0, atol=1e-12)
+            else:
+                points = np.array([[0.1, 0.2, 0.3], [0.5, 0.5, 0.5], [0.9, 0.1, 0.7], [0.3, 0.8, 0.2]])
+                for window, values in enumerate(seen, start=1):
+                    np.testing.assert_allclose(values, window + 2 * points[:, 0] + 3 * points[:, 1] - points[:, 2],
+                                               rtol=0, atol=1e-12)
+        with RunResults(folder / "out") as results:
+            assert results.windows.converged.all()
+    assert children_of(os.getpid()) == []
