@@ -6,8 +6,8 @@ layout, and how a compiled participant's misuse, crash or hang stops a run."""
 from __future__ import annotations
 
 import fcntl
-import json
 import hashlib
+import json
 import os
 import shutil
 import subprocess
@@ -228,8 +228,8 @@ def tour_case(folder: Path, part: str, tour: str | None) -> Path:
         (folder / name).mkdir(exist_ok=True)
         case_file.write_text(case_file.read_text() + f'[participants.{name}]\ncommand = "{tour} ../config.xml {part} '
                                                      f'{name}"\ncwd = "{name}"\n')
-    from coupler.run import run_scene
     from cosim.scene import load_scene
+    from coupler.run import run_scene
     run_scene(load_scene(case_file), folder / "out", progress=False)
     return folder
 
