@@ -317,3 +317,37 @@ def test_a_tour_of_the_api_in_each_language_gives_the_python_participants_runs(s
         with RunResults(folder / "out") as results:
             assert results.windows.converged.all()
     assert children_of(os.getpid()) == []
+
+
+def test_the_tours_call_every_function_of_the_three_apis():
+    """Every method of precice::Participant, every precicec_ function and every precicef_ subroutine the headers
+    declare is called in the tours (the Fortran names without gfortran's underscore), and both constructors."""
+    import re
+    include = SOURCE / "include" / "precice"
+    methods = set(re.findall(r"\b(?:void|bool|int|double|VertexID)\s+(\w+)\(",
+                             (include / "Participant.hpp").read_text())) | {"getVersionInformation"}
+    c_functions = set(re.findall(r"\b(precicec_\w+)\(", (include / "preciceC.h").read_text()))
+    fortran = {name.rstrip("_") for name in re.findall(r"\b(precicef_\w+)\(", (include / "preciceFortran.hpp")
+                                                                                  .read_text())}
+    assert len(methods) == 35 and len(c_functions) == 37 and len(fortran) == 43
+    assert "Participant>(argv[3], argv[1], 0, 1, &communicator)" in (DATA / "tour.cpp").read_text()   # both constructors
+    for names, source in ((methods, "tour.cpp"), (c_functions, "tour.c"), (fortran, "tour.f90")):
+        text = (DATA / source).read_text()
+        assert sorted(n for n in names if not re.search(rf"\b{n}\b", text)) == [], source
+
+
+@pytest.mark.parametrize("language, call", [("cpp", "Participant::resetMesh"), ("c", "precicec_resetMesh"),
+                                            ("fortran", "precicef_reset_mesh")])
+def test_remeshing_is_refused_in_one_line_naming_the_call(served, tmp_path, language, call):
+    from tests.test_precice import PARTNER, SUBCYCLING_CONFIG, write_case
+    tour = tour_build(language, tmp_path, served)
+    case_file = write_case(tmp_path, {"B": PARTNER}, SUBCYCLING_CONFIG)
+    (tmp_path / "A").mkdir()
+    case_file.write_text(case_file.read_text() + f'[participants.A]\ncommand = "{tour} ../config.xml reset A"\n'
+                                                 'cwd = "A"\n')
+    from cosim.scene import load_scene
+    from coupler.run import run_scene
+    with pytest.raises(CosimError, match=rf"component 'A' .*: {call}: remeshing is not supported by cosim: mesh "
+                                         r"'A-Mesh' keeps the vertices it had at initialize for the whole run$"):
+        run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert children_of(os.getpid()) == []
