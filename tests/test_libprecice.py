@@ -235,6 +235,7 @@ def tour_case(folder: Path, part: str, tour: str | None) -> Path:
 
 
 def tour_build(language: str, tmp_path: Path, prefix: Path) -> Path:
+    tmp_path.mkdir(parents=True, exist_ok=True)
     if language == "cpp":
         (tmp_path / "src").mkdir()
         shutil.copy(DATA / "tour.cpp", tmp_path / "src")
@@ -350,4 +351,35 @@ def test_remeshing_is_refused_in_one_line_naming_the_call(served, tmp_path, lang
     with pytest.raises(CosimError, match=rf"component 'A' .*: {call}: remeshing is not supported by cosim: mesh "
                                          r"'A-Mesh' keeps the vertices it had at initialize for the whole run$"):
         run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert children_of(os.getpid()) == []
+
+
+def test_compiled_participants_couple_to_each_other_as_the_python_pair_does(served, python_tours, tmp_path):
+    """The subcycling pair with both sides compiled, in three pairings of the languages: the same run, bit for bit,
+    whichever languages (the same libm's sine on both sides), and the Python pair's to round-off (NumPy's sine)."""
+    from cosim.results import RunResults
+    from cosim.scene import load_scene
+    from coupler.run import run_scene
+    from tests.test_precice import SUBCYCLING_CONFIG
+    languages = ["cpp", "c", "fortran"] if shutil.which("gfortran") else ["cpp", "c"]
+    tours = {language: tour_build(language, tmp_path / language, served) for language in languages}
+    runs = []
+    for first, second in zip(languages, languages[1:] + languages[:1]):
+        folder = tmp_path / f"{first}-{second}"
+        for name in ("A", "B"):
+            (folder / name).mkdir(parents=True)
+        (folder / "config.xml").write_text(SUBCYCLING_CONFIG)
+        (folder / "case.toml").write_text(
+            f'[precice]\nconfig = "config.xml"\n[participants.A]\ncommand = "{tours[first]} ../config.xml subcycling '
+            f'A"\ncwd = "A"\n[participants.B]\ncommand = "{tours[second]} ../config.xml partner B"\ncwd = "B"\n')
+        run_scene(load_scene(folder / "case.toml"), folder / "out", progress=False)
+        runs.append(folder)
+    for other in runs[1:]:
+        same_calls(runs[0] / "out", other / "out")
+        assert seen_lines(other / "A") == seen_lines(runs[0] / "A")
+    with RunResults(runs[0] / "out") as compiled, RunResults(python_tours["subcycling"] / "out") as python:
+        assert np.array_equal(compiled.windows.iterations, python.windows.iterations)
+        assert compiled.windows.converged.all()
+        for name, values in python.fields().items():
+            np.testing.assert_allclose(compiled.fields()[name], values, rtol=1e-13, atol=1e-15)
     assert children_of(os.getpid()) == []

@@ -2,6 +2,7 @@
  * the same partners and configuration (argv[1]); what the participant reads goes to seen.txt, a failed check ends
  * it with exit code 3. The participant is created with a communicator in the gradient part (cosim serves a
  * participant of one rank; the communicator is not used). */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -53,6 +54,22 @@ static void subcycling(void)
     int repeat = precicec_requiresReadingCheckpoint();
     check(complete != repeat, "the window completes unless it is repeated");
     if (repeat) memcpy(x, saved, sizeof x);
+  }
+}
+
+static void partner(void)
+{
+  double grid[4] = {0.0, 0.0, 1.0, 0.0}, x[2], b[2], t = 0.0;
+  int    ids[2];
+  precicec_setMeshVertices("B-Mesh", 2, grid, ids);
+  precicec_initialize();
+  while (precicec_isCouplingOngoing()) {
+    double dt = precicec_getMaxTimeStepSize();
+    precicec_readData("B-Mesh", "X", 2, ids, dt, x);
+    for (int i = 0; i < 2; ++i) b[i] = 0.5 * x[i] + sin(t + dt);
+    precicec_writeData("B-Mesh", "B", 2, ids, b);
+    precicec_advance(dt);
+    if (!precicec_requiresReadingCheckpoint()) t += dt;
   }
 }
 
@@ -216,6 +233,7 @@ int main(int argc, char **argv)
     precicec_createParticipant(argv[3], argv[1], 0, 1);
   }
   if (strcmp(part, "subcycling") == 0) subcycling();
+  else if (strcmp(part, "partner") == 0) partner();
   else if (strcmp(part, "direct") == 0) direct();
   else if (strcmp(part, "jit") == 0) jit();
   else if (strcmp(part, "gradient") == 0) gradient();

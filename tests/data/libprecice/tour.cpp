@@ -7,6 +7,7 @@
 //   jit         B of JIT_CONFIG: mapAndReadData and writeAndMapData at coordinates
 //   gradient    A of GRADIENT_CONFIG: requiresGradientDataFor and writeGradientData
 //   quads, triangles, edges, tetrahedra  Source of FIELD_CONFIG (tetrahedra: in 3-D): connectivity
+//   partner     B of SUBCYCLING_CONFIG (the partner of subcycling, as tests/test_libprecice.py gives it)
 //   reset       resetMesh, which cosim refuses
 #include <cmath>
 #include <cstdio>
@@ -67,6 +68,23 @@ void subcycling(precice::Participant &participant)
     bool repeat = participant.requiresReadingCheckpoint();
     check(complete != repeat, "the window completes unless it is repeated");
     if (repeat) x = saved;
+  }
+}
+
+void partner(precice::Participant &participant)
+{
+  std::vector<double> grid = {0.0, 0.0, 1.0, 0.0}, x(2), b(2);
+  std::vector<int>    ids(2);
+  participant.setMeshVertices("B-Mesh", grid, ids);
+  participant.initialize();
+  double t = 0.0;
+  while (participant.isCouplingOngoing()) {
+    double dt = participant.getMaxTimeStepSize();
+    participant.readData("B-Mesh", "X", ids, dt, x);
+    for (int i = 0; i < 2; ++i) b[i] = 0.5 * x[i] + std::sin(t + dt);
+    participant.writeData("B-Mesh", "B", ids, b);
+    participant.advance(dt);
+    if (!participant.requiresReadingCheckpoint()) t += dt;
   }
 }
 
@@ -214,6 +232,7 @@ int main(int argc, char **argv)
                                  : std::make_unique<precice::Participant>(argv[3], argv[1], 0, 1);
   precice::Participant &participant = *made;
   if (part == "subcycling") subcycling(participant);
+  else if (part == "partner") partner(participant);
   else if (part == "direct") direct(participant);
   else if (part == "jit") jit(participant);
   else if (part == "gradient") gradient(participant);

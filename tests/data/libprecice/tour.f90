@@ -21,6 +21,8 @@ program tour
   select case (trim(part))
   case ('subcycling')
     call subcycling()
+  case ('partner')
+    call partner()
   case ('direct')
     call direct()
   case ('jit')
@@ -96,6 +98,25 @@ contains
       call precicef_is_coupling_ongoing(ongoing)
     end do
   end subroutine subcycling
+
+  subroutine partner()
+    double precision :: grid(2, 2), x(2), b(2), t = 0.0d0, dt
+    integer :: ids(2), ongoing, reading
+    grid = reshape((/0.0d0, 0.0d0, 1.0d0, 0.0d0/), (/2, 2/))
+    call precicef_set_mesh_vertices('B-Mesh', 2, grid, ids)
+    call precicef_initialize()
+    call precicef_is_coupling_ongoing(ongoing)
+    do while (ongoing /= 0)
+      call precicef_get_max_time_step_size(dt)
+      call precicef_read_data('B-Mesh', 'X', 2, ids, dt, x)
+      b = 0.5d0 * x + sin(t + dt)
+      call precicef_write_data('B-Mesh', 'B', 2, ids, b)
+      call precicef_advance(dt)
+      call precicef_requires_reading_checkpoint(reading)
+      if (reading == 0) t = t + dt
+      call precicef_is_coupling_ongoing(ongoing)
+    end do
+  end subroutine partner
 
   subroutine direct()
     double precision :: origin(2) = (/0.0d0, 0.0d0/), box(4) = (/0.25d0, 0.75d0, -1.0d0, 1.0d0/), t = 0.0d0, dt
