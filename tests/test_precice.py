@@ -1122,6 +1122,43 @@ def test_get_version_information_gives_bytes_that_start_with_the_version():
     assert kind == "bytes" and version.split(".")[0] == "3" and len(version.split(".")) == 3
 
 
+GROWING = """
+import precice
+participant = precice.Participant("NAME", "../config.xml", 0, 1)
+ids = participant.set_mesh_vertices("NAME-Mesh", [[0.0, 0.0]])
+participant.initialize()
+while participant.is_coupling_ongoing():
+    participant.requires_writing_checkpoint()
+    dt = participant.get_max_time_step_size()
+    got = participant.read_data("NAME-Mesh", "READ", ids, dt)
+    participant.write_data("NAME-Mesh", "WRITE", ids, GAIN * got + 1.0)
+    participant.advance(dt)
+    participant.requires_reading_checkpoint()
+participant.finalize()
+"""
+
+
+def test_a_window_whose_residual_grows_is_accepted_at_max_iterations_as_precice_does(tmp_path):
+    """x -> 2x + 1 iterated without relaxation: the residual doubles every iteration, 2^11 times in the window's 12.
+    preCICE watches no growth and goes on after max-iterations; so does a preCICE case under cosim (a native scene
+    stops it as diverged). preCICE's elastic beam in CalculiX grows so in its first window."""
+    config = SUBCYCLING_CONFIG.replace('<max-iterations value="30"/>', '<max-iterations value="12"/>').replace(
+        '<max-time-windows value="10"/>', '<max-time-windows value="2"/>').replace(
+        '<acceleration:IQN-ILS>\n      <data name="B" mesh="B-Mesh"/><initial-relaxation value="0.5"/>\n    '
+        '</acceleration:IQN-ILS>', '<acceleration:constant><relaxation value="1.0"/></acceleration:constant>')
+    assert "acceleration:constant" in config and 'value="12"' in config
+    case_file = write_case(tmp_path, {
+        "A": GROWING.replace("NAME", "A").replace("READ", "B").replace("WRITE", "X").replace("GAIN", "1.0"),
+        "B": GROWING.replace("NAME", "B").replace("READ", "X").replace("WRITE", "B").replace("GAIN", "2.0")}, config)
+    summary = run_scene(load_scene(case_file), tmp_path / "out", progress=False)
+    assert summary.windows == 2 and summary.unconverged == 2 and summary.iterations == 24
+    with RunResults(tmp_path / "out") as results:
+        _, norms = results.residuals()
+        assert norms[11] > 1e3 * norms[0]          # what a native scene's divergence_factor (1e3) stops
+    with pytest.raises(CosimError, match="diverged: the coupling residual grew"):
+        run_scene(load_scene(case_file, ["coupling.divergence_factor=1e3"]), tmp_path / "native", progress=False)
+
+
 def test_constant_relaxation_naming_no_data_relaxes_what_the_scheme_iterates(tmp_path):
     """preCICE's <acceleration:constant> without <data> relaxes all of the scheme's iterated data: here the data the
     second participant sends (the heat case's config lists none)."""
