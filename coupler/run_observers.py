@@ -137,7 +137,8 @@ class PreciceFormatLogs(RunObserver):
         meshes: dict[str, str] = {}
         for e in scheme.exchanges:
             meshes.setdefault(e.data, getattr(getattr(e.source, "variables", {}).get(e.data), "mesh", ""))
-        names = [p.name for p in scheme.participants]
+        served = {id(client): name for name, client in (run.participants or {}).items()}
+        names = [served.get(id(p), p.name) for p in scheme.participants]     # a swapped participant keeps its name
         counts = getattr(scheme.acceleration, "column_counts", None)
         if counts is not None:
             self.counted = counts()[1:]

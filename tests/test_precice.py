@@ -1066,6 +1066,9 @@ def test_a_watch_point_on_a_participant_swapped_for_its_rom_watches_the_rom(part
                f"participants.Solid.rom.model={tmp_path / 'model.npz'}")
     header, *rows = (out / "precice-Solid-watchpoint-Outlet.log").read_text().splitlines()
     table = np.array([[float(v) for v in row.split()] for row in rows])
+    assert sorted(p.name for p in out.glob("precice-*-*.log")) == [       # preCICE's logs: the participants' names
+        "precice-Fluid-iterations.log", "precice-Solid-convergence.log", "precice-Solid-iterations.log",
+        "precice-Solid-watchpoint-Outlet.log"]
     with RunResults(out) as results:
         assert results.component_names() == ["Fluid", "Solid_rom"]
         served = results.calls("Solid", converged_only=True)
