@@ -383,3 +383,40 @@ def test_compiled_participants_couple_to_each_other_as_the_python_pair_does(serv
         for name, values in python.fields().items():
             np.testing.assert_allclose(compiled.fields()[name], values, rtol=1e-13, atol=1e-15)
     assert children_of(os.getpid()) == []
+
+
+BROKEN_CONFIG = """<?xml version="1.0"?>
+<precice-configuration>
+  <data:scalar name="X"/>
+  <mesh name="A-Mesh" dimensions="2"><use-data name="X"/></mesh>
+  <participant name="A"><provide-mesh name="A-Mesh"/><write-data name="X" mesh="A-Mesh"/></participant>
+  <coupling-scheme:serial-explicit>
+    <participants first="A" second="B"/><max-time-windows value="2"/><time-window-size value="1.0"/>
+    <exchange data="X" mesh="A-Mesh" from="A" to="B"/>
+  </coupling-scheme:serial-explicit>
+</precice-configuration>
+"""
+
+
+@pytest.mark.parametrize("language", ["python", "c"])
+def test_a_participant_started_by_hand_whose_coupler_stops_at_start_up_says_why_at_once(prefix, tmp_path, language):
+    """The first participant started by hand starts the coupler; the configuration names a participant it does not
+    define, so the coupler stops at once: the participant ends with the coupler's line, exit code 2, without
+    waiting out the 60 s it gives a coupler to answer."""
+    import sys
+    (tmp_path / "config.xml").write_text(BROKEN_CONFIG)
+    (tmp_path / "A").mkdir()
+    environment = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+                   "PYTHONPATH": str(ROOT / "precice_compat" / "participant"), "LD_LIBRARY_PATH": str(prefix / "lib")}
+    environment.pop("COSIM_PARTICIPANT_ENDPOINT", None)
+    if language == "python":
+        (tmp_path / "A" / "a.py").write_text('import precice\np = precice.Participant("A", "../config.xml", 0, 1)\n')
+        command = [sys.executable, "a.py"]
+    else:
+        command = [str(pkg_config_build(DATA / "tour.c", tmp_path / "tour", prefix)), "../config.xml", "reset", "A"]
+    done = subprocess.run(command, cwd=tmp_path / "A", env=environment, capture_output=True, text=True, timeout=50)
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2 and last.startswith("precice: error: ")
+    assert last.endswith("before it listened: cosim run: error: " + str(tmp_path / "config.xml") + ", line 6: "
+                         "<coupling-scheme:serial-explicit>: participant 'B' is not defined (participants: A)"), last
+    assert children_of(os.getpid()) == []

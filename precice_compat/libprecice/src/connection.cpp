@@ -8,6 +8,7 @@
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cctype>
@@ -166,7 +167,7 @@ std::string parent_of(const std::string &path)
 }
 
 // `cosim run CONFIG --out cosim-run/runs/<time>-<pid> --quiet` in a session of its own, its output in cosim-run's log.
-void start_coupler(const std::string &config, const std::string &folder)
+pid_t start_coupler(const std::string &config, const std::string &folder)
 {
   const char *given = std::getenv("COSIM");
   std::string cosim = given && *given ? given : "";
@@ -210,6 +211,17 @@ void start_coupler(const std::string &config, const std::string &folder)
   if (failed) throw Failure("could not start " + cosim + " for " + config + ": " + std::strerror(failed));
   std::string name = config.substr(config.rfind('/') + 1);
   std::cerr << "cosim: started the coupler for " << name << "; its run goes to " << out << std::endl;
+  return child;
+}
+
+// The last line a log holds (the coupler's error when it stopped at start-up).
+std::string last_line(const std::string &path)
+{
+  std::ifstream in(path);
+  std::string   line, last;
+  while (std::getline(in, line))
+    if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
+  return last.empty() ? "(nothing in " + path + ")" : last;
 }
 
 } // namespace
@@ -241,12 +253,17 @@ Coupler find_coupler(const std::string &config)
   if (lock < 0) throw Failure("cannot open " + lock_path + ": " + std::strerror(errno));
   flock(lock, LOCK_EX);      // one participant starts the coupler; the other waits for it
   try {
-    bool ready = running(rendezvous, found);
-    if (!ready) start_coupler(config, folder);
+    bool  ready   = running(rendezvous, found);
+    pid_t started = ready ? 0 : start_coupler(config, folder);
     auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(FIND_SECONDS);
     while (!ready) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
       ready = running(rendezvous, found);
+      int status = 0;
+      if (!ready && started > 0 && waitpid(started, &status, WNOHANG) == started)
+        throw Failure("the coupler started for " + config + " stopped (exit code " +
+                      std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ") before it listened: " +
+                      last_line(folder + "/coupler.log"));
       if (!ready && std::chrono::steady_clock::now() > deadline)
         throw Failure("the coupler started for " + config + " did not answer within 60 s (its log: " + folder +
                       "/coupler.log)");

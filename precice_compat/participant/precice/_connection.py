@@ -112,19 +112,30 @@ def find_coupler(config: Path) -> tuple[str, str, int]:
     with open(folder / ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)          # one participant starts the coupler; the other waits for it
         found = _running(rendezvous)
-        if found is None:
-            _start_coupler(config, folder)
+        started = _start_coupler(config, folder) if found is None else None
         deadline = time.monotonic() + FIND_SECONDS
         while found is None:
             time.sleep(0.05)
             found = _running(rendezvous)
+            if found is None and started is not None and started.poll() is not None:
+                raise Error(f"the coupler started for {config} stopped (exit code {started.returncode}) before it "
+                            f"listened: {_last_line(folder / 'coupler.log')}")
             if found is None and time.monotonic() > deadline:
                 raise Error(f"the coupler started for {config} did not answer within {FIND_SECONDS:g} s (its log: "
                             f"{folder / 'coupler.log'})")
     return found
 
 
-def _start_coupler(config: Path, folder: Path) -> None:
+def _last_line(log: Path) -> str:
+    """The last line a log holds (the coupler's error when it stopped at start-up)."""
+    try:
+        lines = [line.strip() for line in log.read_text(errors="replace").splitlines() if line.strip()]
+    except OSError:
+        return f"(no log at {log})"
+    return lines[-1] if lines else f"(nothing in {log})"
+
+
+def _start_coupler(config: Path, folder: Path) -> Any:
     """``cosim run CONFIG --out cosim-run/runs/<time>`` in a session of its own, its output in cosim-run's log."""
     import shutil
     import subprocess
@@ -135,9 +146,10 @@ def _start_coupler(config: Path, folder: Path) -> None:
                     f"set COSIM=/path/to/cosim, or start `cosim run {config}` first")
     out = folder / "runs" / f"{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
     with open(folder / "coupler.log", "ab") as log:
-        subprocess.Popen([cosim, "run", str(config), "--out", str(out), "--quiet"], stdin=subprocess.DEVNULL,
-                         stdout=log, stderr=log, start_new_session=True)
+        started = subprocess.Popen([cosim, "run", str(config), "--out", str(out), "--quiet"],
+                                   stdin=subprocess.DEVNULL, stdout=log, stderr=log, start_new_session=True)
     print(f"cosim: started the coupler for {config.name}; its run goes to {out}", file=sys.stderr)
+    return started
 
 
 OPEN: weakref.WeakSet[Connection] = weakref.WeakSet()     # closed (their messages sent) before an exit on an error
