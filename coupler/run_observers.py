@@ -28,6 +28,7 @@ class Run(Protocol):
     saved: Any                  # the checkpoint it resumed from, or None
     scheme: CouplingScheme | None
     backends: Sequence[Any]
+    participants: dict[str, Any] | None     # each scene component's driven object (a backend or their schedule)
     recorders: dict[str, CallRecorder]
     windows: int
     iterations: int
