@@ -9,7 +9,7 @@ BIN := $(VENV)/bin
 # the tube needs none of Kratos nor gmsh: `make demo` installs its extras only (about 0.4 GB); the Kratos cases and
 # the test suite install every extra on first use (Kratos and gmsh add about 0.4 GB)
 TUBE_EXTRAS := .[rom,fmu]
-EXTRAS := .[test,lint,docs,rom,fmu,kratos,mesh,sweep]
+EXTRAS := .[test,lint,docs,rom,fmu,kratos,mesh,sweep,mpi]
 LOCK := constraints.txt
 PIP := $(BIN)/pip install --progress-bar on --constraint $(LOCK)
 

@@ -196,6 +196,36 @@ def test_a_participant_in_ranks_gives_the_serial_runs_iterations_and_fields(nati
     assert children_of(os.getpid()) == []
 
 
+def mpi_launcher() -> Path | None:
+    """The MPI launcher beside this Python (the `mpi` extra: mpi4py and the mpich wheel), if mpi4py imports."""
+    try:
+        import mpi4py  # noqa: F401
+    except ImportError:
+        return None
+    launcher = Path(sys.executable).parent / "mpiexec"
+    return launcher if launcher.exists() else None
+
+
+@pytest.mark.parametrize("size", [2, 3])
+def test_a_participant_under_mpiexec_with_mpi4py_gives_the_serial_runs_iterations_and_fields(native_run, tmp_path,
+                                                                                              size):
+    """The Solid as an MPI program: mpiexec -n 2 and 3 (MPICH, from the registry), each rank's Participant(name,
+    config, comm.rank, comm.size) from mpi4py: the run is the serial one's, bit for bit."""
+    launcher = mpi_launcher()
+    if launcher is None:
+        pytest.skip("needs mpi4py and an mpiexec beside this Python (pip install '.[mpi]')")
+    case_file = ranks_case(tmp_path, size)
+    (tmp_path / "solid" / "solid_ranks.py").write_text(SOLID_RANKS.replace(
+        'rank, size = int(os.environ["RANK"]), int(os.environ["SIZE"])',
+        'from mpi4py import MPI\nrank, size = MPI.COMM_WORLD.rank, MPI.COMM_WORLD.size'))
+    case_file.write_text(case_file.read_text().replace(f"python3 ranks.py {size} solid_ranks.py",
+                                                       f"{launcher} -n {size} {sys.executable} solid_ranks.py"))
+    assert "mpiexec" in case_file.read_text() and "mpi4py" in (tmp_path / "solid" / "solid_ranks.py").read_text()
+    out = case(tmp_path / "out", case_file)
+    same_run(native_run, out)
+    assert children_of(os.getpid()) == []
+
+
 def test_a_rank_that_dies_stops_the_run_naming_it(tmp_path, monkeypatch):
     monkeypatch.setenv("DIE_AT_WINDOW", "3")
     # the launcher stops the other ranks when one fails (as mpirun does): the ranks found gone include the one that died
