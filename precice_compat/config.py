@@ -28,6 +28,10 @@ FILTERS = {"QR1": "qr1", "QR2": "qr2", "QR1-absolute": "qr1-absolute"}
 V2_RBF = {f"rbf-{basis}": basis for basis in BASES}     # v2's mapping:rbf-<basis>, the basis's parameters on it
 V3_RBF = ("rbf", "rbf-global-direct", "rbf-global-iterative", "rbf-pum-direct")     # v3's, with <basis-function:...>
 EXPORT_FORMATS = ("vtu", "vtk", "csv")
+# where preCICE solves an RBF system, by mapping (accepted, not used)
+EXECUTORS = {"rbf": (), "rbf-global-direct": ("cpu", "cuda", "hip"),
+             "rbf-global-iterative": ("cpu", "cuda", "hip", "openmp"),
+             "rbf-pum-direct": ("cpu", "cuda", "hip", "sycl", "openmp")}
 INTEGRATED_POLYNOMIAL = ("thin-plate-splines", "multiquadrics", "volume-splines")   # where preCICE takes polynomial="on"
 
 
@@ -309,6 +313,9 @@ def _participant(reader: _Reader, config: Config, element: Element) -> None:
                                 f"accepted and not used: {what}")
         elif prefix == "action":
             raise reader.fail(child, "actions are not supported by cosim: compute the quantity in the participant")
+        elif child.tag == "watch-integral":
+            raise reader.fail(child, "watch integrals are not supported by cosim: a <watch-point> logs the data at "
+                                     "a vertex, and results.h5 holds every field at every window")
         else:
             raise reader.fail(child, "this element of a participant is not supported by cosim")
     config.participants[participant.name] = participant
@@ -376,6 +383,10 @@ def _mapping(reader: _Reader, config: Config, element: Element, kind: str) -> Ma
     elif kind in ("axial-geometric-multiscale", "radial-geometric-multiscale"):
         raise reader.fail(element, f"the mapping {kind!r} is not supported by cosim: use nearest-neighbor, "
                                    "nearest-neighbor-gradient, nearest-projection, linear-cell-interpolation or rbf")
+    elif kind == "coarse-graining":
+        raise reader.fail(element, "the mapping 'coarse-graining' (particles to a continuum) is not supported by "
+                                   "cosim: use nearest-neighbor, nearest-neighbor-gradient, nearest-projection, "
+                                   "linear-cell-interpolation or rbf")
     else:
         raise reader.fail(element, f"unknown mapping kind {kind!r}")
     reader.done(element)
@@ -393,8 +404,25 @@ def _rbf_settings(reader: _Reader, config: Config, element: Element, kind: str) 
     """An RBF mapping's basis, its parameters, polynomial and dead axes, as cosim's ``rbf`` mapping's settings."""
     if kind in V3_RBF:
         bases = [c for c in element.children if c.kind()[0] == "basis-function"]
-        if len(bases) != 1 or len(element.children) != 1:
-            raise reader.fail(element, "an RBF mapping holds one <basis-function:...> element")
+        executors = [c for c in element.children if c.kind()[0] == "executor"]
+        others = [c for c in element.children if c not in bases and c not in executors]
+        if others:
+            raise reader.fail(others[0], "no element goes here: an RBF mapping holds a <basis-function:...> and "
+                                         "at most one <executor:...>")
+        if len(bases) != 1 or len(executors) > 1:
+            raise reader.fail(element, "an RBF mapping holds one <basis-function:...> element and at most one "
+                                       "<executor:...>")
+        for executor in executors:
+            if executor.kind()[1] not in EXECUTORS[kind]:
+                raise reader.fail(executor, f"<mapping:{kind}> takes no executor {executor.kind()[1]!r} (preCICE's "
+                                            f"for it: {', '.join(EXECUTORS[kind]) or 'none'})")
+            for attribute in ("gpu-device-id", "n-threads"):
+                if executor.get(attribute) is not None:
+                    reader.number(executor, attribute, integer=True, low=0)
+            executor.get("execution-mode")
+            reader.done(executor)
+            config.notes.append(f"<{executor.tag}> (line {executor.line}) is accepted and not used: cosim solves "
+                                "the RBF system on the CPU (the same interpolant, to the solver's round-off)")
         holder, basis = bases[0], bases[0].kind()[1]
         if basis not in BASES:
             raise reader.fail(holder, f"unknown basis function {basis!r}; preCICE's: {', '.join(BASES)}")
