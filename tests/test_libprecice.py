@@ -131,19 +131,21 @@ def test_the_install_is_laid_out_as_precices(prefix, tmp_path):
         assert ("found=1 cosim=TRUE" in done.stdout) == found, done.stdout + done.stderr
 
 
-def misuse_build(language: str, tmp_path: Path, prefix: Path) -> Path:
+def program_build(name: str, language: str, tmp_path: Path, prefix: Path) -> Path:
+    """tests/data/libprecice/NAME.{cpp,c,f90} built against ``prefix``: C++ with CMake, C and Fortran by pkg-config."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
     if language == "cpp":
         (tmp_path / "src").mkdir()
-        shutil.copy(DATA / "misuse.cpp", tmp_path / "src")
+        shutil.copy(DATA / f"{name}.cpp", tmp_path / "src")
         (tmp_path / "src" / "CMakeLists.txt").write_text(
-            "cmake_minimum_required(VERSION 3.16)\nproject(misuse LANGUAGES CXX)\nfind_package(precice 3 REQUIRED "
-            "CONFIG)\nadd_executable(misuse misuse.cpp)\ntarget_link_libraries(misuse PRIVATE precice::precice)\n")
-        return cmake_build(tmp_path / "src", tmp_path / "build", prefix, "misuse")
+            f"cmake_minimum_required(VERSION 3.16)\nproject({name} LANGUAGES CXX)\nfind_package(precice 3 REQUIRED "
+            f"CONFIG)\nadd_executable({name} {name}.cpp)\ntarget_link_libraries({name} PRIVATE precice::precice)\n")
+        return cmake_build(tmp_path / "src", tmp_path / "build", prefix, name)
     if language == "c":
-        return pkg_config_build(DATA / "misuse.c", tmp_path / "misuse", prefix)
+        return pkg_config_build(DATA / f"{name}.c", tmp_path / name, prefix)
     if shutil.which("gfortran") is None:
         pytest.skip("needs gfortran (Debian: gfortran)")
-    return pkg_config_build(DATA / "misuse.f90", tmp_path / "misuse", prefix, compiler="gfortran")
+    return pkg_config_build(DATA / f"{name}.f90", tmp_path / name, prefix, compiler="gfortran")
 
 
 @pytest.mark.parametrize("language, what, message", [
@@ -163,7 +165,7 @@ def test_a_compiled_participants_misuse_stops_the_run_in_one_line_naming_the_cal
                                                                                   message):
     """A misuse stops the run with its line, caught or not; left uncaught in C++ (and always in C and Fortran) it
     ends the participant as preCICE ends one: the line on stderr, exit code 2. Nothing is left running."""
-    executable = misuse_build(language, tmp_path, served)
+    executable = program_build("misuse", language, tmp_path, served)
     with pytest.raises(CosimError, match=message) as raised:
         case(tmp_path / "run", EXAMPLE / "case.toml", f"participants.Solid.command={executable} ../precice-config.xml "
                                                       f"{what}")
@@ -180,7 +182,7 @@ def test_a_compiled_participants_misuse_stops_the_run_in_one_line_naming_the_cal
     ("hang", r"component 'Solid' in window 3 .*: did not call advance within 2 s"),
 ])
 def test_a_compiled_participant_that_crashes_exits_or_hangs_stops_the_run_naming_it(served, tmp_path, what, message):
-    executable = misuse_build("cpp", tmp_path, served)
+    executable = program_build("misuse", "cpp", tmp_path, served)
     with pytest.raises(CosimError, match=message):
         case(tmp_path / "run", EXAMPLE / "case.toml",
              f"participants.Solid.command={executable} ../precice-config.xml {what}", "participants.Solid.timeout=2")
@@ -190,7 +192,7 @@ def test_a_compiled_participant_that_crashes_exits_or_hangs_stops_the_run_naming
 def test_a_participant_that_returns_without_finalize_is_finalized_by_the_destructor(served, tmp_path):
     """As preCICE's destructor: the run ends with every window converged."""
     from cosim.results import RunResults
-    executable = misuse_build("cpp", tmp_path, served)
+    executable = program_build("misuse", "cpp", tmp_path, served)
     out = case(tmp_path / "run", EXAMPLE / "case.toml",
                f"participants.Solid.command={executable} ../precice-config.xml no-finalize")
     with RunResults(out) as results:
@@ -234,22 +236,6 @@ def tour_case(folder: Path, part: str, tour: str | None) -> Path:
     return folder
 
 
-def tour_build(language: str, tmp_path: Path, prefix: Path) -> Path:
-    tmp_path.mkdir(parents=True, exist_ok=True)
-    if language == "cpp":
-        (tmp_path / "src").mkdir()
-        shutil.copy(DATA / "tour.cpp", tmp_path / "src")
-        (tmp_path / "src" / "CMakeLists.txt").write_text(
-            "cmake_minimum_required(VERSION 3.16)\nproject(tour LANGUAGES CXX)\nfind_package(precice 3 REQUIRED "
-            "CONFIG)\nadd_executable(tour tour.cpp)\ntarget_link_libraries(tour PRIVATE precice::precice)\n")
-        return cmake_build(tmp_path / "src", tmp_path / "build", prefix, "tour")
-    if language == "c":
-        return pkg_config_build(DATA / "tour.c", tmp_path / "tour", prefix)
-    if shutil.which("gfortran") is None:
-        pytest.skip("needs gfortran (Debian: gfortran)")
-    return pkg_config_build(DATA / "tour.f90", tmp_path / "tour", prefix, compiler="gfortran")
-
-
 @pytest.fixture(scope="module")
 def python_tours(tmp_path_factory) -> dict[str, Path]:
     """Each part's run with the Python participant it repeats (where tests/test_precice.py has one)."""
@@ -284,7 +270,7 @@ def test_a_tour_of_the_api_in_each_language_gives_the_python_participants_runs(s
     bit (the Python parts' values are preCICE 3.4.1's in tests/test_precice.py); the parts no Python participant
     has are checked against the exact field (linear in the cells)."""
     from cosim.results import RunResults
-    tour = tour_build(language, tmp_path, served)
+    tour = program_build("tour", language, tmp_path, served)
     for part, (_, name, partner, _, python) in tour_parts().items():
         folder = tour_case(tmp_path / part, part, str(tour))
         assert "3.4.1" in (folder / "out" / "logs" / f"{name}.log").read_text()        # getVersionInformation
@@ -341,7 +327,7 @@ def test_the_tours_call_every_function_of_the_three_apis():
                                             ("fortran", "precicef_reset_mesh")])
 def test_remeshing_is_refused_in_one_line_naming_the_call(served, tmp_path, language, call):
     from tests.test_precice import PARTNER, SUBCYCLING_CONFIG, write_case
-    tour = tour_build(language, tmp_path, served)
+    tour = program_build("tour", language, tmp_path, served)
     case_file = write_case(tmp_path, {"B": PARTNER}, SUBCYCLING_CONFIG)
     (tmp_path / "A").mkdir()
     case_file.write_text(case_file.read_text() + f'[participants.A]\ncommand = "{tour} ../config.xml reset A"\n'
@@ -362,7 +348,7 @@ def test_compiled_participants_couple_to_each_other_as_the_python_pair_does(serv
     from coupler.run import run_scene
     from tests.test_precice import SUBCYCLING_CONFIG
     languages = ["cpp", "c", "fortran"] if shutil.which("gfortran") else ["cpp", "c"]
-    tours = {language: tour_build(language, tmp_path / language, served) for language in languages}
+    tours = {language: program_build("tour", language, tmp_path / language, served) for language in languages}
     runs = []
     for first, second in zip(languages, languages[1:] + languages[:1]):
         folder = tmp_path / f"{first}-{second}"

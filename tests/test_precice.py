@@ -1061,18 +1061,28 @@ def test_a_participant_in_its_own_venv_with_numpy_1_runs(old_numpy_python, tmp_p
     assert "site-packages" in installed and OLD_NUMPY in installed     # the package installed alone imports there
 
 
-def test_a_watch_point_writes_precices_log_of_the_data_at_its_vertex(tmp_path):
-    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
-    config = tmp_path / "case" / "precice-config.xml"
+def example_with_watch_point(folder: Path, write: str, mesh: str, name: str, coordinate: str) -> Path:
+    """A copy of the example whose configuration watches ``mesh`` at ``coordinate`` (after its ``write`` data);
+    its case file."""
+    shutil.copytree(EXAMPLE, folder, ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
+    config = folder / "precice-config.xml"
+    tag = f'<write-data name="{write}" mesh="{mesh}" />'
     config.write_text(config.read_text().replace(
-        '<write-data name="Pressure" mesh="Fluid-Nodes" />',
-        '<write-data name="Pressure" mesh="Fluid-Nodes" />\n    <watch-point mesh="Fluid-Nodes" name="Inlet" '
-        'coordinate="0.04;0.0" />'))
-    out = case(tmp_path / "out", tmp_path / "case" / "case.toml", "time.end=1")
-    log = out / "precice-Fluid-watchpoint-Inlet.log"
-    header, *rows = log.read_text().splitlines()
-    assert header.split() == ["Time", "Coordinate0", "Coordinate1", "Pressure", "CrossSectionLength"]
-    table = np.array([[float(v) for v in row.split()] for row in rows])
+        tag, f'{tag}\n    <watch-point mesh="{mesh}" name="{name}" coordinate="{coordinate}" />'))
+    return folder / "case.toml"
+
+
+def watch_point_log(path: Path) -> tuple[list[str], np.ndarray]:
+    """A preCICE watch point log: its columns' names and its rows."""
+    header, *rows = path.read_text().splitlines()
+    return header.split(), np.array([[float(v) for v in row.split()] for row in rows])
+
+
+def test_a_watch_point_writes_precices_log_of_the_data_at_its_vertex(tmp_path):
+    out = case(tmp_path / "out", example_with_watch_point(tmp_path / "case", "Pressure", "Fluid-Nodes", "Inlet",
+                                                          "0.04;0.0"), "time.end=1")
+    header, table = watch_point_log(out / "precice-Fluid-watchpoint-Inlet.log")
+    assert header == ["Time", "Coordinate0", "Coordinate1", "Pressure", "CrossSectionLength"]
     with RunResults(out) as results:
         assert np.array_equal(table[:, 0], results.windows.time)
         assert np.array_equal(table[:, 3], results.fields()["Pressure"][:, 0])          # the vertex nearest x = 0.04
@@ -1086,16 +1096,10 @@ def test_a_watch_point_on_a_participant_swapped_for_its_rom_watches_the_rom(part
     ROM's calls (the writer once looked for a component 'Solid' beside 'Solid_rom', and the run's closing then
     reported 'Bad file descriptor' instead)."""
     train(participant_run, tmp_path / "model.npz", "Solid", "Pressure", "CrossSectionLength")
-    shutil.copytree(EXAMPLE, tmp_path / "case", ignore=shutil.ignore_patterns("*.npz", "*.fmu", "cosim-run"))
-    config = tmp_path / "case" / "precice-config.xml"
-    config.write_text(config.read_text().replace(
-        '<write-data name="CrossSectionLength" mesh="Solid-Nodes" />',
-        '<write-data name="CrossSectionLength" mesh="Solid-Nodes" />\n    <watch-point mesh="Solid-Nodes" '
-        'name="Outlet" coordinate="10.0;0.0" />'))
-    out = case(tmp_path / "out", tmp_path / "case" / "case.toml", "participants.Solid.backend=rom",
+    case_file = example_with_watch_point(tmp_path / "case", "CrossSectionLength", "Solid-Nodes", "Outlet", "10.0;0.0")
+    out = case(tmp_path / "out", case_file, "participants.Solid.backend=rom",
                f"participants.Solid.rom.model={tmp_path / 'model.npz'}")
-    header, *rows = (out / "precice-Solid-watchpoint-Outlet.log").read_text().splitlines()
-    table = np.array([[float(v) for v in row.split()] for row in rows])
+    header, table = watch_point_log(out / "precice-Solid-watchpoint-Outlet.log")
     assert sorted(p.name for p in out.glob("precice-*-*.log")) == [       # preCICE's logs: the participants' names
         "precice-Fluid-iterations.log", "precice-Solid-convergence.log", "precice-Solid-iterations.log",
         "precice-Solid-watchpoint-Outlet.log"]
@@ -1103,9 +1107,9 @@ def test_a_watch_point_on_a_participant_swapped_for_its_rom_watches_the_rom(part
         assert results.component_names() == ["Fluid", "Solid_rom"]
         served = results.calls("Solid", converged_only=True)
         assert np.array_equal(table[:, 0], results.windows.time)
-        assert np.array_equal(table[:, header.split().index("CrossSectionLength")], served.outputs[
+        assert np.array_equal(table[:, header.index("CrossSectionLength")], served.outputs[
             "CrossSectionLength"][:, -1])                                   # the last vertex, x = 10
-        assert np.array_equal(table[:, header.split().index("Pressure")], served.inputs["Pressure"][:, -1])
+        assert np.array_equal(table[:, header.index("Pressure")], served.inputs["Pressure"][:, -1])
 
 
 # --- what pyprecice and preCICE do that unmodified participants rely on ----------------------------------------------
@@ -1223,13 +1227,12 @@ def test_a_watch_point_on_a_subcycling_participant_gives_a_row_per_window(tmp_pa
         (tmp_path / name).parent.mkdir(exist_ok=True)
         (tmp_path / name).write_text(text)
     run_scene(load_scene(tmp_path / "case.toml"), tmp_path / "out", progress=False)
-    header, *rows = (tmp_path / "out" / "precice-A-watchpoint-End.log").read_text().splitlines()
-    table = np.array([[float(v) for v in row.split()] for row in rows])
+    header, table = watch_point_log(tmp_path / "out" / "precice-A-watchpoint-End.log")
     with RunResults(tmp_path / "out") as results:
         assert results.windows.converged.all()
         assert len(results.calls("A", converged_only=True)) == 4 * len(results.windows)   # a call a step
         assert np.array_equal(table[:, 0], results.windows.time)
-        assert np.array_equal(table[:, header.split().index("X")], results.fields()["X"][:, 1])   # x = 1's vertex
+        assert np.array_equal(table[:, header.index("X")], results.fields()["X"][:, 1])   # x = 1's vertex
 
 
 WRAP = '''
