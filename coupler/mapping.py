@@ -448,7 +448,7 @@ class _RbfOperator:
             K = sp.bmat([[sp.csr_matrix(K), sp.csr_matrix(P_c)], [sp.csr_matrix(P_c.T), None]], format="csc")
             B = sp.hstack([sp.csr_matrix(B), sp.csr_matrix(P_p)], format="csr")
         self.solve = _factorised(K)
-        self.B = B
+        self.B, self.B_T = B, B.T       # the transpose once (a view of B's arrays; each call's .T was a new one)
         if polynomial == "separate":
             self.Q, self.R = np.linalg.qr(P_c)         # P_c^+ = R^-1 Q^T
             self.P_p = P_p
@@ -465,7 +465,7 @@ class _RbfOperator:
         return np.asarray(self.B @ self.solve(values - self.Q @ (self.R @ beta))) + self.P_p @ beta
 
     def _conservative(self, values: np.ndarray) -> np.ndarray:
-        spread = np.asarray(self.B.T @ values)
+        spread = np.asarray(self.B_T @ values)
         if self.polynomial == "on":
             return self.solve(spread)[:self.n]
         if self.polynomial == "off":

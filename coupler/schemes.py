@@ -109,6 +109,7 @@ class CouplingScheme:
         self.series: Series = {}                  # the last window's substep samples, per data item
         self._window_start: dict[str, np.ndarray] = {}    # the window's start values (the last window's ends)
         self._start_gradients: dict[str, np.ndarray] = {}   # and the gradients written with them
+        self._start_mapped: dict[int, tuple[np.ndarray, np.ndarray]] = {}   # an exchange's start: (it, mapped)
         self._with_substeps = {e.data for e in exchanges if e.substeps}    # data whose samples are exchanged
         self._grid: dict[str, np.ndarray] = {}    # the accelerated data's times inside the window, as the
                                                   # acceleration's columns hold them
@@ -237,6 +238,15 @@ class CouplingScheme:
             return mapped
         return mapped + e.mapping.correction(gradients, mapped.shape)    # type: ignore[attr-defined]
 
+    def _mapped_start(self, e: Exchange, start: np.ndarray) -> np.ndarray:
+        """The window's start values mapped for ``e`` and corrected by the gradients written with them: mapped once
+        a window (the start does not change between its iterations)."""
+        cached = self._start_mapped.get(id(e))
+        if cached is None or cached[0] is not start:
+            cached = self._start_mapped[id(e)] = (start, e.mapping(start))
+        end = self._gradients(e)
+        return cached[1] if end is None else self._corrected(e, cached[1], self._start_gradients.get(e.data, end))
+
     def _corrected_in_time(self, e: Exchange, mapped: np.ndarray) -> np.ndarray:
         """Samples in time, each mapped, from the window's start to its end, corrected by the gradients written
         with them: the start's from the window before, the others' the last written (the end's)."""
@@ -250,10 +260,11 @@ class CouplingScheme:
     def block_sizes(self, names: Sequence[str]) -> list[int]:
         return [self.values[n].size * (1 + len(self._grid.get(n, ()))) for n in names]
 
-    def waveforms_for(self, target: Coupled, values: Mapping[str, np.ndarray],
-                      series: Series) -> dict[str, Any]:
+    def waveforms_for(self, target: Coupled, values: Mapping[str, np.ndarray], series: Series,
+                      inputs: Mapping[str, np.ndarray]) -> dict[str, Any]:
         """``{"waveforms": {data: (knots, coefficients)}}`` for a target that reads in time (a participant), for its
-        data of degree >= 1: the B-spline through the window's start, the samples and the end, on its mesh."""
+        data of degree >= 1: the B-spline through the window's start, the samples and the end, on its mesh
+        (``inputs``: ``inputs_for(target, values)``, the end mapped)."""
         if not target.reads_waveforms:
             return {}
         waveforms = {}
@@ -261,8 +272,8 @@ class CouplingScheme:
             if e.target is not target or e.degree < 1:
                 continue
             start, end = self._window_start.get(e.data, values[e.data]), values[e.data]
-            if e.data not in series:       # start and end: the line through them
-                waveforms[e.data] = (LINE, self._corrected_in_time(e, e.mapping.in_time(np.stack([start, end]))))
+            if e.data not in series:       # start and end: the line through them, the end as ``inputs`` has it
+                waveforms[e.data] = (LINE, np.stack([self._mapped_start(e, start), inputs[e.data]]))
                 continue
             times, samples = series[e.data]
             mapped = self._corrected_in_time(e, e.mapping.in_time(np.concatenate([start[None], samples, end[None]])))
@@ -419,6 +430,7 @@ class CouplingScheme:
 
     def _begin(self, t: float, dt: float) -> None:
         self._window_start = dict(self.values)
+        self._start_mapped.clear()
         self._start_gradients = {e.data: g for e in self.exchanges if (g := self._gradients(e)) is not None}
         self.window += 1
         self.t, self.dt = t, dt
@@ -531,7 +543,7 @@ class SerialExplicit(CouplingScheme):
         self.iteration = 1
         for proxy in self.participants:
             inputs = self.inputs_for(proxy, self.values)
-            proxy.send_step(t, dt, inputs, **self.waveforms_for(proxy, self.values, self.series))
+            proxy.send_step(t, dt, inputs, **self.waveforms_for(proxy, self.values, self.series, inputs))
             self.run_deferred()
             outputs = proxy.receive_step()
             self._record(proxy, 1, inputs, outputs)
@@ -552,7 +564,7 @@ class ParallelExplicit(CouplingScheme):
         proxies = self.participants
         inputs = {p.name: self.inputs_for(p, self.values) for p in proxies}
         for p in proxies:
-            p.send_step(t, dt, inputs[p.name], **self.waveforms_for(p, self.values, self.series))
+            p.send_step(t, dt, inputs[p.name], **self.waveforms_for(p, self.values, self.series, inputs[p.name]))
         self.run_deferred()
         outputs: dict[str, np.ndarray] = {}
         series = dict(self.series)
@@ -584,7 +596,7 @@ class SerialImplicit(CouplingScheme):
             self.iteration = iteration
             inputs_first = self.inputs_for(self.first, values)
             self.first.send_step(t, dt, inputs_first, **self._step_options(self.first, iteration),
-                                 **self.waveforms_for(self.first, values, series))
+                                 **self.waveforms_for(self.first, values, series, inputs_first))
             self.run_deferred()
             out_first = self.first.receive_step()
             self._stepped(self.first, iteration)
@@ -592,7 +604,7 @@ class SerialImplicit(CouplingScheme):
             self._take_series(self.first, series)
             inputs_second = self.inputs_for(self.second, out_first)
             out_second = self.second.step(t, dt, inputs_second, **self._step_options(self.second, iteration),
-                                          **self.waveforms_for(self.second, out_first, series))
+                                          **self.waveforms_for(self.second, out_first, series, inputs_second))
             out_series: Series = {}
             self._take_series(self.second, out_series)
             self._stepped(self.second, iteration)
@@ -641,7 +653,7 @@ class ParallelImplicit(CouplingScheme):
             inputs = {p.name: self.inputs_for(p, values) for p in proxies}
             for p in proxies:
                 p.send_step(t, dt, inputs[p.name], **self._step_options(p, iteration),
-                            **self.waveforms_for(p, values, series))
+                            **self.waveforms_for(p, values, series, inputs[p.name]))
             self.run_deferred()
             outputs = {}
             out_series: Series = {}
