@@ -48,6 +48,29 @@ def plot_run(results: str | Path, png: str | Path, output: Mapping[str, Any]) ->
     return Path(png)
 
 
+def plot_finished_run(run_dir: str | Path, out: str | Path | None = None) -> Path:
+    """``run.png`` of a run that has ended (``cosim plot DIR --run``), drawn from its ``results.h5`` with the scene's
+    ``output`` settings, into ``out`` (default ``DIR/run.png``)."""
+    import json
+
+    from cosim.errors import CosimError
+    run_dir = Path(run_dir)
+    results = run_dir / "results.h5"
+    target = Path(out) if out else run_dir / "run.png"
+    if target.suffix.lower() != ".png" or target.resolve() in {(run_dir / name).resolve() for name in
+                                                               ("results.h5", "status.json", "checkpoint.npz")}:
+        raise CosimError(f"--out '{target}': the run plot is written as a PNG (default: DIR/run.png)")
+    if not results.is_file():
+        raise CosimError(f"'{results}' does not exist: '{run_dir}' holds no run's results")
+    try:
+        with RunResults(results) as run:
+            scene = json.loads(run.attributes.get("scene_resolved", "{}"))
+    except (OSError, ValueError) as exc:
+        raise CosimError(f"cannot read '{results}' (a run still writing it?): {exc}") from None
+    output = scene.get("output", {}) if isinstance(scene, dict) else {}
+    return plot_run(results, target, output if isinstance(output, dict) else {})
+
+
 def iterations_panel(axis: Any, time: np.ndarray, iterations: np.ndarray) -> None:
     """Coupling iterations per window over time, with their mean (the lower panel of every run plot)."""
     from matplotlib.ticker import MaxNLocator

@@ -392,7 +392,8 @@ def draw_plots(plots: Mapping[str, Any]) -> None:
 
     from cosim.plots import plot_run
     results = Path(plots["folder"]) / "results.h5"
-    plot_run(results, plots["png"], plots["output"])
+    if plots["png"]:
+        plot_run(results, plots["png"], plots["output"])
     if plots["output"].get("watch_points"):
         from cosim.watch_points import write as write_watch_points
         write_watch_points(results, plots["folder"], plots["output"]["watch_points"])

@@ -70,7 +70,7 @@ SCHEMA: dict[str, Any] = {
     "case": "",
     "time": {"start": 0.0, "end": Required(float), "dt": Positive()},
     "components": AnyTable(),
-    "output": {"plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
+    "output": {"run_plot": True, "plot_field": "", "plot_index": Value(0, low=0), "plot_label": "", "plot_unit": "",
                "plots": [],   # a scene's own run plots: names of cosim.run_plots entry points
                "watch_points": [],   # a component's data at a point, window by window (cosim.watch_points)
                "checkpoint_every": Value(0, low=0)},
@@ -89,6 +89,8 @@ MEANINGS = {
     "time.end": "the end of the last time window [s]; end - start must be a multiple of dt",
     "time.dt": "the time window (coupling time step) [s]",
     "components": "one table per component, `[components.<name>]`: the keys below",
+    "output.run_plot": "draw DIR/run.png when the run ends (a preCICE case: false, as preCICE draws nothing; "
+                       "`cosim plot DIR --run` draws it from results.h5 at any time)",
     "output.plot_field": "the exchanged data drawn in run.png (default: the first)",
     "output.plot_index": "the value of that field drawn",
     "output.plot_label": "its label in run.png",

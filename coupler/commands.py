@@ -106,11 +106,18 @@ def _status(args: argparse.Namespace) -> int:
 
 def _plot_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dir", help="a run's directory (--out of cosim run)")
-    parser.add_argument("--convergence", action="store_true", help="the convergence history (the default)")
-    parser.add_argument("--out", help="the PNG to write (default: DIR/convergence.png)")
+    kind = parser.add_mutually_exclusive_group()
+    kind.add_argument("--convergence", action="store_true", help="the convergence history (the default)")
+    kind.add_argument("--run", action="store_true", help="run.png of a run that has ended: the plotted field over "
+                                                         "time and the iterations of each window, from results.h5")
+    parser.add_argument("--out", help="the PNG to write (default: DIR/convergence.png, with --run DIR/run.png)")
 
 
 def _plot(args: argparse.Namespace) -> int:
+    if args.run:
+        from cosim.plots import plot_finished_run
+        print(f"wrote {plot_finished_run(args.dir, args.out)}")
+        return 0
     from coupler.monitor import plot_convergence
     print(f"wrote {plot_convergence(args.dir, args.out)}")
     return 0
@@ -123,8 +130,9 @@ status = Command(
     "process is gone while its status says running reads as died).",
     "cosim status runs/fom_mu1")
 plot = Command(
-    "plot a run's convergence history", _plot_arguments, _plot,
+    "plot a run's convergence history, or its run.png", _plot_arguments, _plot,
     "Draw every convergence measure and the residual norm at every coupling iteration, and the iterations of "
     "each window, from DIR/logs/convergence.log and DIR/logs/iterations.log (written as the run goes, so a "
-    "running run can be plotted too).",
+    "running run can be plotted too). With --run, draw run.png from DIR/results.h5 once the run has ended "
+    "(a preCICE case draws none itself: output.run_plot).",
     "cosim plot runs/fom_mu1 --convergence")

@@ -342,9 +342,10 @@ class Run:
         self.saved = read_checkpoint_for(scene, self.out_dir, n_windows, [b.name for b in self.backends]) \
             if resume else None
         # the results file's own process starts first: it is ready by the time the components are
+        output = scene["output"]
         self.store = ResultsWriter(self.out_dir / "results.h5", self.out_dir / "logs" / "results.log", scene.text,
                                    (self.saved[0]["results"], self.saved[0]["windows"]) if self.saved else None,
-                                   lock=directory.lock)
+                                   plots=bool(output["run_plot"] or output["plots"]), lock=directory.lock)
         if self.saved is None:
             self.store.set_attributes(scene_resolved=json.dumps(scene.data))
         self.wall_start = time.perf_counter()
@@ -526,7 +527,8 @@ class Run:
         self.wall = time.perf_counter() - self.wall_start      # the run's, before its plots are drawn
         self._final_attributes()
         output = self.scene["output"]
-        store.close(plots={"png": str(self.out_dir / "run.png"), "output": output, "folder": str(self.out_dir),
+        store.close(plots={"png": str(self.out_dir / "run.png") if output["run_plot"] else "", "output": output,
+                           "folder": str(self.out_dir),
                            "hooks": list(output["plots"])}, wait=False)
         shutdown_proxies([b.proxy for b in self.backends if b.proxy is not None])
         store.wait_closed()

@@ -155,7 +155,7 @@ def scene_of(config: Config, participants: dict[str, dict[str, Any]], folder: Pa
                     for point in participant.watch_points]
     return {"name": name or f"preCICE case {config.path.name}", "time": {"start": 0.0, "end": end, "dt": window},
             "components": components, "exchange": exchanges, "coupling": coupling,
-            "output": {"plot_field": config.exchanges[0].data, "watch_points": watch_points}}
+            "output": {"run_plot": False, "plot_field": config.exchanges[0].data, "watch_points": watch_points}}
 
 
 def _component(config: Config, name: str, spec: dict[str, Any], folder: Path) -> dict[str, Any]:

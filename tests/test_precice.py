@@ -956,6 +956,23 @@ def participant_run(tmp_path_factory) -> Path:
     return case(tmp_path_factory.mktemp("participants") / "run")
 
 
+def test_a_precice_case_draws_no_run_plot_and_cosim_plot_draws_it_on_request(participant_run, tmp_path, capsys):
+    """preCICE draws nothing at a run's end, and neither does a preCICE case (output.run_plot = false: the run's end
+    does not wait for matplotlib); ``cosim plot DIR --run`` draws run.png from results.h5, the field the case plots
+    (its first exchanged data) over its windows; it writes a PNG only, never over the run's files."""
+    from matplotlib.image import imread
+    assert not (participant_run / "run.png").exists()
+    with RunResults(participant_run) as results:
+        assert json.loads(results.attributes["scene_resolved"])["output"]["run_plot"] is False
+    assert main(["plot", str(participant_run), "--run", "--out", str(tmp_path / "run.png")]) == 0
+    assert imread(tmp_path / "run.png").shape[:2] == (660, 990)          # 9 x 6 inches at 110 dpi
+    for out in (participant_run / "results.h5", tmp_path / "run.pdf"):
+        assert main(["plot", str(participant_run), "--run", "--out", str(out)]) == 2
+        assert "the run plot is written as a PNG" in capsys.readouterr().err
+    assert main(["plot", str(tmp_path), "--run"]) == 2
+    assert "holds no run's results" in capsys.readouterr().err
+
+
 def train(results: Path, model: Path, component: str, inputs: str, outputs: str) -> None:
     assert main(["train", str(results / "results.h5"), "--config", str(ROOT / "rom_configs" / "tube_rom.toml"),
                  "--set", "snapshots.t_max=1.2", "--set", f"snapshots.component={component}",
