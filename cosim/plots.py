@@ -54,11 +54,12 @@ def plot_finished_run(run_dir: str | Path, out: str | Path | None = None) -> Pat
     import json
 
     from cosim.errors import CosimError
+    from cosim.rundir import RUN_FILES
     run_dir = Path(run_dir)
     results = run_dir / "results.h5"
     target = Path(out) if out else run_dir / "run.png"
-    if target.suffix.lower() != ".png" or target.resolve() in {(run_dir / name).resolve() for name in
-                                                               ("results.h5", "status.json", "checkpoint.npz")}:
+    if target.suffix.lower() != ".png" or target.resolve() in {(run_dir / name).resolve() for name in RUN_FILES
+                                                               if name != "run.png"}:
         raise CosimError(f"--out '{target}': the run plot is written as a PNG (default: DIR/run.png)")
     if not results.is_file():
         raise CosimError(f"'{results}' does not exist: '{run_dir}' holds no run's results")
