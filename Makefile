@@ -12,6 +12,12 @@ TUBE_EXTRAS := .[rom,fmu]
 EXTRAS := .[test,lint,docs,rom,fmu,kratos,mesh,sweep,mpi]
 LOCK := constraints.txt
 PIP := $(BIN)/pip install --progress-bar on --constraint $(LOCK)
+# the project's own modules compiled to bytecode once: pip compiles a package it installs, but not an editable one,
+# and where PYTHONDONTWRITEBYTECODE is set every process (each component, participant and test run) would compile
+# the modules it imports again; a module edited since is compiled anew where it is imported, as always
+SOURCES := cosim coupler fluid_component solid_component fmu_component rom_component kratos_solvers cases workflow \
+	precice_compat kratos_compat benchmarks scripts examples tests
+COMPILE := $(BIN)/python -m compileall -q -j 0 $(SOURCES) > /dev/null
 
 .PHONY: demo demo-flap demo-mok-rom campaign mok test lint docs test-latest lock bench figures clean
 
@@ -21,6 +27,7 @@ $(VENV)/.tube: pyproject.toml $(LOCK)
 	@echo "installing the tube's dependencies into $(VENV) (numpy, scipy, pyzmq, h5py, matplotlib, scikit-learn, fmpy)"
 	$(PIP) --quiet --upgrade pip
 	$(PIP) -e '$(TUBE_EXTRAS)'
+	$(COMPILE)
 	touch $@
 
 $(VENV)/.all: pyproject.toml $(LOCK)
@@ -28,9 +35,11 @@ $(VENV)/.all: pyproject.toml $(LOCK)
 	@echo "installing every extra into $(VENV): Kratos Multiphysics, gmsh, Dask, the test and lint tools"
 	$(PIP) --quiet --upgrade pip
 	$(PIP) -e '$(EXTRAS)'
+	$(COMPILE)
 	touch $@ $(VENV)/.tube
 
 demo: $(VENV)/.tube
+	$(COMPILE)
 	COSIM=$(BIN)/cosim bash scripts/tube_demo.sh
 
 # the short double-flap ROM protocol (about 15 minutes) and the paper's whole campaign (hours; rerun to resume)
@@ -52,6 +61,7 @@ mok: $(VENV)/.all
 
 # the suite on two workers, then the tests that race a run against the clock alone (tests/conftest.py: serial)
 test: lint docs
+	$(COMPILE)
 	$(BIN)/python -m pytest -q -n 2 -m "not serial" --durations=15
 	$(BIN)/python -m pytest -q -m serial --durations=5
 
@@ -87,9 +97,11 @@ lock:
 	rm -rf .venv-lock
 
 figures: $(VENV)/.all
+	$(COMPILE)
 	$(BIN)/python -m scripts.figures
 
 bench: $(VENV)/.all
+	$(COMPILE)
 	$(BIN)/python -m benchmarks.tube_run
 	$(BIN)/python -m benchmarks.rom_call
 

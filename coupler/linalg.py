@@ -1,6 +1,6 @@
 """The coupler's small linear algebra, bit for bit as NumPy and SciPy compute it, without their wrappers' cost:
 the QR factorisation and triangular solve of the quasi-Newton accelerations (``numpy.linalg.qr``, reduced;
-``scipy.linalg.solve_triangular``) and the 2-norms of the measures and residuals (``numpy.linalg.norm``).
+``scipy.linalg.solve_triangular``), the small solves of the RBF mappings' polynomial (``numpy.linalg.solve``) and the 2-norms of the measures and residuals (``numpy.linalg.norm``).
 
 The coupled runs amplify a difference in the last bit until an iteration count changes, so the arithmetic is
 theirs exactly. An acceleration refactorises a matrix of some tens of columns at every coupling iteration, and again after each
@@ -19,11 +19,13 @@ import numpy as np
 
 _FACTOR: Any = None
 _Q: Any = None
+_SOLVE: Any = None
 _LAPACK: Any = None
 try:
     from numpy.linalg import _umath_linalg
     _FACTOR, _Q = _umath_linalg.qr_r_raw, _umath_linalg.qr_reduced
-except (ImportError, AttributeError):     # another NumPy: its public qr, the same arithmetic
+    _SOLVE = (_umath_linalg.solve1, _umath_linalg.solve)
+except (ImportError, AttributeError):     # another NumPy: its public qr and solve, the same arithmetic
     pass
 
 
@@ -60,6 +62,17 @@ class QR:
         if n and n <= self._raw.shape[0] and self._raw.flags.c_contiguous:    # R's rows, as C-ordered as triu's R
             return solve_upper(self._raw[:n], b)
         return solve_upper(self.R, b)
+
+
+def solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with a x = b for a real square ``a``, as ``numpy.linalg.solve(a, b)`` computes it (its gufunc; a singular
+    ``a`` raises ``LinAlgError`` as NumPy's does)."""
+    if _SOLVE is None:
+        return np.linalg.solve(a, b)
+    x = (_SOLVE[0] if b.ndim == 1 else _SOLVE[1])(a, b, signature="dd->d")
+    if not np.isfinite(x).all():        # singular, or operands not finite: NumPy's own call says which
+        return np.linalg.solve(a, b)
+    return x
 
 
 def norm(x: np.ndarray) -> float:

@@ -33,6 +33,7 @@ import numpy as np
 from cosim.errors import SceneError
 from cosim.registry import Registry
 from cosim.schema import Choice, Value
+from coupler.linalg import solve
 
 if TYPE_CHECKING:
     import scipy.sparse as sp  # imported where a mapping is built: a scene of matching meshes needs no SciPy
@@ -425,6 +426,9 @@ class RadialBasisFunctions(Mapping):
         return _RbfOperator(target, source, kernel, polynomial, transpose=True)
 
 
+DENSE_VALUES = 1 << 20    # an RBF mapping whose kernel matrix between points and centres has no more values is dense
+
+
 class _RbfOperator:
     """RBF interpolation from ``centres`` to ``points`` (consistent), or its transpose (conservative), factorised once.
 
@@ -447,6 +451,8 @@ class _RbfOperator:
         if polynomial == "on":
             K = sp.bmat([[sp.csr_matrix(K), sp.csr_matrix(P_c)], [sp.csr_matrix(P_c.T), None]], format="csc")
             B = sp.hstack([sp.csr_matrix(B), sp.csr_matrix(P_p)], format="csr")
+        if len(points) * len(centres) <= DENSE_VALUES:     # small meshes: dense arrays, each product one BLAS call
+            K, B = (m.toarray() if sp.issparse(m) else np.asarray(m, float) for m in (K, B))
         self.solve = _factorised(K)
         self.B, self.B_T = B, B.T       # the transpose once (a view of B's arrays; each call's .T was a new one)
         if polynomial == "separate":
@@ -461,7 +467,7 @@ class _RbfOperator:
             return np.asarray(self.B @ self.solve(np.concatenate([values, np.zeros((self.m,) + values.shape[1:])])))
         if self.polynomial == "off":
             return np.asarray(self.B @ self.solve(values))
-        beta = np.linalg.solve(self.R, self.Q.T @ values)
+        beta = solve(self.R, self.Q.T @ values)
         return np.asarray(self.B @ self.solve(values - self.Q @ (self.R @ beta))) + self.P_p @ beta
 
     def _conservative(self, values: np.ndarray) -> np.ndarray:
@@ -472,7 +478,7 @@ class _RbfOperator:
             return self.solve(spread)
         inner = self.solve(spread)
         inner = inner - self.Q @ (self.Q.T @ inner)       # (I - P_c P_c^+), a symmetric projector
-        return inner + self.Q @ np.linalg.solve(self.R.T, self.P_p.T @ values)
+        return inner + self.Q @ solve(self.R.T, self.P_p.T @ values)
 
 
 def _factorised(matrix: Any) -> Callable[[np.ndarray], np.ndarray]:
@@ -482,9 +488,16 @@ def _factorised(matrix: Any) -> Callable[[np.ndarray], np.ndarray]:
         from scipy.sparse.linalg import splu
         lu = splu(sp.csc_matrix(matrix))
         return lambda b: lu.solve(np.asarray(b, float))
-    from scipy.linalg import lu_factor, lu_solve
-    factors = lu_factor(np.asarray(matrix, float))
-    return lambda b: lu_solve(factors, b)
+    from scipy.linalg import lu_factor
+    from scipy.linalg.lapack import dgetrs
+    lu, pivots = lu_factor(np.asarray(matrix, float))
+
+    def solve(b: np.ndarray) -> np.ndarray:     # scipy.linalg.lu_solve's LAPACK call, without its checks' cost
+        x, info = dgetrs(lu, pivots, b)
+        if info != 0:
+            raise ValueError(f"the RBF system's solve failed (LAPACK getrs info {info})")
+        return x
+    return solve
 
 
 def _within(points: np.ndarray, centres: np.ndarray, radius: float,

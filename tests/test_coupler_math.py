@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from cosim.errors import SceneError
+from coupler import mapping as mapping_module
 from coupler.accelerations import Acceleration
 from coupler.accelerations.quasi_newton import IQNILS
 from coupler.accelerations.relaxation import Aitken, ConstantRelaxation
@@ -543,6 +544,22 @@ def test_each_rbf_basis_and_polynomial_maps_as_precice_does(case):
                 if key in case}
     mapping = make_mapping({"type": "rbf", **settings}, a, b, (25,), (15,), "test")
     np.testing.assert_allclose(mapping(field), case["mapped"], rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("constraint", ["consistent", "conservative"])
+@pytest.mark.parametrize("polynomial", ["separate", "on", "off"])
+def test_an_rbf_mapping_maps_alike_with_dense_and_with_sparse_factors(polynomial, constraint, monkeypatch):
+    """Small meshes map with dense kernel matrices and a dense LU, larger ones with sparse matrices and a sparse LU:
+    the same map to round-off, on preCICE's reference case."""
+    a, b, field = rbf_probe(False)
+    settings = {"type": "rbf", "basis": "compact-polynomial-c2", "support_radius": 0.6, "polynomial": polynomial,
+                "constraint": constraint}
+    dense = make_mapping(settings, a, b, (25,), (15,), "test")
+    monkeypatch.setattr(mapping_module, "DENSE_VALUES", 0)
+    sparse = make_mapping(settings, a, b, (25,), (15,), "test")
+    assert isinstance(dense.matrix.B, np.ndarray) and not isinstance(sparse.matrix.B, np.ndarray)
+    values = np.column_stack([field, field ** 2])
+    np.testing.assert_allclose(dense(values), sparse(values), rtol=0, atol=1e-12 * np.abs(sparse(values)).max())
 
 
 @pytest.mark.parametrize("polynomial", ["separate", "on"])

@@ -1,4 +1,4 @@
-"""The accelerations' QR and triangular solve give NumPy's and SciPy's bits (the coupled runs amplify any
+"""The accelerations' QR and triangular solve, and the RBF mappings' small solves, give NumPy's and SciPy's bits (the coupled runs amplify any
 difference in the last bit until an iteration count changes)."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_triangular
 
-from coupler.linalg import QR, column_norms, norm, solve_upper
+from coupler.linalg import QR, column_norms, norm, solve, solve_upper
 
 
 @pytest.mark.parametrize("rows, columns", [(101, 1), (101, 8), (101, 37), (6, 6), (5, 9)])
@@ -31,3 +31,14 @@ def test_qr_and_solve_are_numpys_and_scipys_bit_for_bit(rows, columns, order):
 def test_a_singular_triangle_is_refused():
     with pytest.raises(np.linalg.LinAlgError, match="singular"):
         solve_upper(np.array([[1.0, 2.0], [0.0, 0.0]]), np.ones(2))
+
+
+@pytest.mark.parametrize("shape", [(3,), (3, 2), (4, 1)])
+def test_solve_is_numpys_bit_for_bit_and_refuses_a_singular_matrix(shape):
+    rng = np.random.default_rng(len(shape) * 10 + shape[0])
+    a = np.triu(rng.standard_normal((shape[0], shape[0]))) + 3 * np.eye(shape[0])
+    b = rng.standard_normal(shape)
+    assert np.array_equal(solve(a, b), np.linalg.solve(a, b))
+    assert np.array_equal(solve(a.T, b), np.linalg.solve(a.T, b))      # a transposed view, as the mapping passes R.T
+    with pytest.raises(np.linalg.LinAlgError, match="[Ss]ingular"), np.errstate(invalid="ignore"):
+        solve(np.zeros_like(a), b)
