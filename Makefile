@@ -15,9 +15,10 @@ PIP := $(BIN)/pip install --progress-bar on --constraint $(LOCK)
 # the project's own modules compiled to bytecode once: pip compiles a package it installs, but not an editable one,
 # and where PYTHONDONTWRITEBYTECODE is set every process (each component, participant and test run) would compile
 # the modules it imports again; a module edited since is compiled anew where it is imported, as always
-SOURCES := cosim coupler fluid_component solid_component fmu_component rom_component kratos_solvers cases workflow \
-	precice_compat kratos_compat benchmarks scripts examples tests
-COMPILE := $(BIN)/python -m compileall -q -j 0 $(SOURCES) > /dev/null
+TUBE_SOURCES := cosim coupler fluid_component solid_component fmu_component rom_component cases workflow precice_compat \
+	scripts
+SOURCES := $(TUBE_SOURCES) kratos_solvers kratos_compat benchmarks examples tests
+COMPILE = $(BIN)/python -m compileall -q -j 0 $(1) > /dev/null
 
 .PHONY: demo demo-flap demo-mok-rom campaign mok test lint docs test-latest lock bench figures clean
 
@@ -27,7 +28,7 @@ $(VENV)/.tube: pyproject.toml $(LOCK)
 	@echo "installing the tube's dependencies into $(VENV) (numpy, scipy, pyzmq, h5py, matplotlib, scikit-learn, fmpy)"
 	$(PIP) --quiet --upgrade pip
 	$(PIP) -e '$(TUBE_EXTRAS)'
-	$(COMPILE)
+	$(call COMPILE,$(TUBE_SOURCES))
 	touch $@
 
 $(VENV)/.all: pyproject.toml $(LOCK)
@@ -35,11 +36,11 @@ $(VENV)/.all: pyproject.toml $(LOCK)
 	@echo "installing every extra into $(VENV): Kratos Multiphysics, gmsh, Dask, the test and lint tools"
 	$(PIP) --quiet --upgrade pip
 	$(PIP) -e '$(EXTRAS)'
-	$(COMPILE)
+	$(call COMPILE,$(SOURCES))
 	touch $@ $(VENV)/.tube
 
 demo: $(VENV)/.tube
-	$(COMPILE)
+	$(call COMPILE,$(TUBE_SOURCES))
 	COSIM=$(BIN)/cosim bash scripts/tube_demo.sh
 
 # the short double-flap ROM protocol (about 15 minutes) and the paper's whole campaign (hours; rerun to resume)
@@ -61,7 +62,7 @@ mok: $(VENV)/.all
 
 # the suite on two workers, then the tests that race a run against the clock alone (tests/conftest.py: serial)
 test: lint docs
-	$(COMPILE)
+	$(call COMPILE,$(SOURCES))
 	$(BIN)/python -m pytest -q -n 2 -m "not serial" --durations=15
 	$(BIN)/python -m pytest -q -m serial --durations=5
 
@@ -97,11 +98,11 @@ lock:
 	rm -rf .venv-lock
 
 figures: $(VENV)/.all
-	$(COMPILE)
+	$(call COMPILE,$(SOURCES))
 	$(BIN)/python -m scripts.figures
 
 bench: $(VENV)/.all
-	$(COMPILE)
+	$(call COMPILE,$(SOURCES))
 	$(BIN)/python -m benchmarks.tube_run
 	$(BIN)/python -m benchmarks.rom_call
 

@@ -7,11 +7,11 @@ import argparse
 import sys
 import textwrap
 import warnings
-from importlib.metadata import entry_points
 from pathlib import Path
 
 from cosim.command import GROUP, Command
 from cosim.errors import CosimError
+from cosim.registry import entry_points
 
 DISTRIBUTION = "cosim-rom-fsi"
 # the commands in the order of a user's work: check and run a case, watch it, train and export a ROM, weigh it, run

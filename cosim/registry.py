@@ -11,13 +11,28 @@ from the validated settings.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
+from importlib.metadata import EntryPoints
 from typing import Any, Generic, TypeVar
 
 from cosim.errors import SceneError
 from cosim.schema import validate
 
 P = TypeVar("P")    # the plug-in kind's base class
+
+
+@functools.cache
+def _installed_entry_points() -> Any:     # EntryPoints from Python 3.12 on, SelectableGroups before: both select
+    import importlib.metadata
+    return importlib.metadata.entry_points()
+
+
+def entry_points(group: str) -> EntryPoints:
+    """The installed distributions' entry points of ``group`` (plug-ins of other rooms and packages), read from
+    their metadata once a process: a run looks up several groups, and each lookup read every distribution again."""
+    points: EntryPoints = _installed_entry_points().select(group=group)
+    return points
 
 
 class Registry(Generic[P]):

@@ -388,9 +388,8 @@ def _import_plotting() -> None:
 
 def draw_plots(plots: Mapping[str, Any]) -> None:
     """``run.png`` and the scene's own run plots (``cosim.run_plots`` entry points by name)."""
-    from importlib.metadata import entry_points
-
     from cosim.plots import plot_run
+    from cosim.registry import entry_points
     results = Path(plots["folder"]) / "results.h5"
     if plots["png"]:
         plot_run(results, plots["png"], plots["output"])

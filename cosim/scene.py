@@ -298,7 +298,7 @@ def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
 
 def backend_entry(kind: str, where: str, source: str) -> str:
     """The ``package.module:Class`` registered for the backend ``kind`` (its entry point, not imported here)."""
-    from importlib.metadata import entry_points
+    from cosim.registry import entry_points
     found = {point.name: point.value for point in entry_points(group=BACKENDS)}
     if kind not in found:
         raise SceneError(f"{source}: '{where}' is not set and no '{kind}' backend is installed (entry points "
@@ -311,7 +311,7 @@ SCENE_READERS = "cosim.scene_readers"   # entry points: cases other tools write 
 
 def _reader_for(path: Path, raw: dict[str, Any] | None) -> Any:
     """The installed scene reader for a file of its suffix, or for a TOML file holding its table (None: a scene)."""
-    from importlib.metadata import entry_points
+    from cosim.registry import entry_points
     for point in entry_points(group=SCENE_READERS):
         if raw is not None and point.name not in raw:
             continue            # a TOML file names its reader by its table (the entry point's name)
@@ -555,5 +555,5 @@ def _check_time(time: dict[str, Any], source: str) -> None:
 def scene_rules() -> list[Any]:
     """The installed owners of a scene's other tables (``cosim.scene_rules`` entry points, by name): each has
     ``tables`` (the top-level keys it owns) and ``validate(raw, data, source)``, which fills ``data`` in."""
-    from importlib.metadata import entry_points
+    from cosim.registry import entry_points
     return [point.load() for point in sorted(entry_points(group=SCENE_RULES), key=lambda point: point.name)]

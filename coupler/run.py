@@ -310,7 +310,7 @@ def check_plot(output: dict, values: dict) -> None:
 
 def run_plot_hooks(scene: Scene) -> list:
     """The scene's own run plots (``output.plots``), loaded from the ``cosim.run_plots`` entry points."""
-    from importlib.metadata import entry_points
+    from cosim.registry import entry_points
     available = {e.name: e for e in entry_points(group="cosim.run_plots")}
     hooks = []
     for i, name in enumerate(scene["output"]["plots"]):

@@ -53,7 +53,7 @@ def _table(schema: dict[str, Any], prefix: str, meaning_prefix: str = "") -> lis
 
 def _backends() -> list[str]:
     """Each installed backend's table: the settings its class declares (``parameter_schema``, ``parameter_help``)."""
-    from importlib.metadata import entry_points
+    from cosim.registry import entry_points
     lines = ["## Backends", "", "`components.<name>.rom` and `components.<name>.fmu`: besides `entry` and "
              "`switch_time`, the keys of a backend's table are its class's parameters. The installed backends "
              f"(entry points of the group `{BACKENDS}`) take:", ""]

@@ -90,7 +90,7 @@ class StaticModel(Protocol):
 
 def load_model_class(name: str) -> Any:
     """The static model's class from its ``cosim.surrogate_models`` entry point."""
-    from importlib.metadata import entry_points
+    from cosim.registry import entry_points
     available = {e.name: e for e in entry_points(group=MODELS)}
     if name not in available:
         raise KeyError(f"no surrogate model {name!r} is installed (known: {', '.join(sorted(available)) or 'none'})")

@@ -12,7 +12,6 @@ and the measured contraction of plain Gauss-Seidel).
 
 from __future__ import annotations
 
-import importlib.metadata
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,6 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from cosim.errors import SceneError
+from cosim.registry import entry_points
 from cosim.schema import Value, validate
 
 # each method's acceleration table, without its data (the scene's accelerated data are added)
@@ -148,7 +148,7 @@ def load_theory(case: str, scene_path: str, axes: list[tuple[str, list[str]]], c
     """The case's theory for this matrix, if the case registers one and it applies to these axes."""
     if not case:
         return None
-    for entry in importlib.metadata.entry_points(group=THEORY):
+    for entry in entry_points(group=THEORY):
         if entry.name == case:
             return entry.load()(scene_path, axes, list(common))
     return None

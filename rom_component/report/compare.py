@@ -339,7 +339,7 @@ def call_windows(run: Run) -> np.ndarray:
 def scene_metrics(run: Run, reference: Run) -> dict[str, Any]:
     """Figures the run's case adds (the entry point of ``cosim.report_metrics`` named by the scene's ``case``:
     ``f(run, reference)`` returns a dict)."""
-    from importlib.metadata import entry_points
+    from cosim.registry import entry_points
     case = run.scene.get("case", "")
     found: dict[str, Any] = {}
     for point in entry_points(group="cosim.report_metrics"):

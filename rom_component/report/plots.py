@@ -17,11 +17,12 @@ PNGs it wrote (none for a scene that is not its own). ``run`` and ``reference`` 
 from __future__ import annotations
 
 from collections import defaultdict
-from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from cosim.registry import entry_points
 
 HOOKS = "cosim.report_plots"
 
