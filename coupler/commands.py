@@ -21,7 +21,16 @@ def _arguments(parser: argparse.ArgumentParser) -> None:
                         help="replace a finished run in --out (never one in progress)")
 
 
+# the coupler's own linear algebra (its accelerations, its mappings) is small: one BLAS thread, unless the
+# environment says otherwise, so that no idle BLAS thread spins on the cores its components compute on (each
+# component's thread count is its own, components.NAME.threads)
+COUPLER_THREADS = {name: "1" for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+
+
 def _run(args: argparse.Namespace) -> int:
+    import os
+    for name, value in COUPLER_THREADS.items():       # before NumPy loads its BLAS
+        os.environ.setdefault(name, value)
     from cosim.scene import load_scene
     from coupler.run import run_scene
 
