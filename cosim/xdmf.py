@@ -15,6 +15,7 @@ import json
 import os
 import sys
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,13 +33,31 @@ def _item(parent: ET.Element, dimensions: tuple[int, ...], text: str, **attribut
     return item
 
 
-def _hdf(parent: ET.Element, dataset: h5py.Dataset, shape: tuple[int, ...] | None = None) -> ET.Element:
-    kind = "Int" if dataset.dtype.kind in "iu" else "Float"
-    return _item(parent, shape or dataset.shape, f"{FILE_NAME}:/{dataset.name.lstrip('/')}", Format="HDF",
-                 NumberType=kind, Precision=str(dataset.dtype.itemsize))
+@dataclass(frozen=True)
+class _Dataset:
+    """What the XDMF text says of a dataset of ``results.h5``, read from the file once (not at every time step)."""
+
+    path: str
+    shape: tuple[int, ...]
+    number_type: str
+    precision: str
+
+    @classmethod
+    def of(cls, dataset: h5py.Dataset) -> _Dataset:
+        return cls(f"{FILE_NAME}:/{dataset.name.lstrip('/')}", tuple(dataset.shape),
+                   "Int" if dataset.dtype.kind in "iu" else "Float", str(dataset.dtype.itemsize))
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
 
 
-def _row(parent: ET.Element, dataset: h5py.Dataset, row: int) -> None:
+def _hdf(parent: ET.Element, dataset: _Dataset, shape: tuple[int, ...] | None = None) -> ET.Element:
+    return _item(parent, shape or dataset.shape, dataset.path, Format="HDF", NumberType=dataset.number_type,
+                 Precision=dataset.precision)
+
+
+def _row(parent: ET.Element, dataset: _Dataset, row: int) -> None:
     """Row ``row`` of ``dataset`` (windows first) as a hyperslab."""
     rest = dataset.shape[1:]
     slab = ET.SubElement(parent, "DataItem", {"ItemType": "HyperSlab", "Type": "HyperSlab",
@@ -49,7 +68,7 @@ def _row(parent: ET.Element, dataset: h5py.Dataset, row: int) -> None:
     _hdf(slab, dataset)
 
 
-def _geometry(domain: ET.Element, nodes: h5py.Dataset, name: str) -> None:
+def _geometry(domain: ET.Element, nodes: _Dataset, name: str) -> None:
     count, dimension = nodes.shape
     if dimension in GEOMETRY:
         _hdf(ET.SubElement(domain, "Geometry", {"Name": name, "GeometryType": GEOMETRY[dimension]}), nodes)
@@ -60,7 +79,7 @@ def _geometry(domain: ET.Element, nodes: h5py.Dataset, name: str) -> None:
         _item(geometry, (count,), " ".join(["0"] * count), Format="XML", NumberType="Float", Precision="8")
 
 
-def _attribute(grid: ET.Element, name: str, dataset: h5py.Dataset, row: int | None) -> None:
+def _attribute(grid: ET.Element, name: str, dataset: _Dataset, row: int | None) -> None:
     shape = dataset.shape[1:] if row is not None else dataset.shape
     kind = "Scalar" if len(shape) == 1 else "Vector"
     attribute = ET.SubElement(grid, "Attribute", {"Name": name, "AttributeType": kind, "Center": "Node"})
@@ -96,7 +115,7 @@ def xdmf_document(results: Path) -> bytes:
         root = ET.Element("Xdmf", {"Version": "2.0"})
         domain = ET.SubElement(root, "Domain")
         for (sender, mesh), names in _senders(scene, file).items():
-            nodes = file[f"{Layout.meshes(sender)}/{mesh}"]
+            nodes = _Dataset.of(file[f"{Layout.meshes(sender)}/{mesh}"])
             ET.SubElement(domain, "Topology", {"Name": f"{sender}/{mesh}", "TopologyType": "Polyvertex",
                                                "NumberOfElements": str(nodes.shape[0]), "NodesPerElement": "1"})
             _geometry(domain, nodes, f"{sender}/{mesh}")
@@ -104,13 +123,13 @@ def xdmf_document(results: Path) -> bytes:
                                                     "CollectionType": "Temporal"})
             fields = {}
             for name in names:
-                dataset = file[Layout.field(name)]
+                dataset = _Dataset.of(file[Layout.field(name)])
                 if dataset.ndim not in (2, 3) or dataset.shape[1] != nodes.shape[0]:
                     series.append(ET.Comment(f" '{name}': rows of shape {dataset.shape[1:]} are not one value per "
                                              f"node of the {nodes.shape[0]} of mesh '{mesh}' (substeps): left out "))
                     continue
                 fields[name] = dataset
-            initial = {n: file[f"{Layout.initial}/{n}"] for n in fields if f"{Layout.initial}/{n}" in file}
+            initial = {n: _Dataset.of(file[f"{Layout.initial}/{n}"]) for n in fields if f"{Layout.initial}/{n}" in file}
             steps: list[tuple[float, int | None]] = [(start, None)] if initial and len(initial) == len(fields) else []
             steps += [(float(t), window) for window, t in enumerate(times)]
             for time, window in steps:
