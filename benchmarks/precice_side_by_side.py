@@ -4,8 +4,11 @@ BLAS thread each, in alternated pairs.
 Per run: the wall time of the whole run (from the first process's start to the last one's exit), the CPU time of
 every process of it (``wait4``'s rusage, children included), and the coupling iterations. cosim's wall time is split
 into its start-up (to the first window's start), its windows (``coupling_seconds``) and its close (the last window's
-end to the exit); preCICE's per-iteration cost is its whole wall time over its iterations, cosim's its windows' time
-over its iterations. Figures are medians [min-max] over the pairs, and cosim / preCICE their ratio, pair by pair.
+end to the exit); preCICE's the same way from its participants' own profiles (``precice-profiling/``: start-up to the
+last ``initialize`` returning, windows to the last ``advance`` returning, close to the exit). The fixed cost is
+start-up plus close; the per-iteration cost is the windows' time over the iterations (preCICE's whole wall time over
+its iterations too, where it wrote no profile). Figures are medians [min-max] over the pairs, and cosim / preCICE
+their ratio, pair by pair.
 
 The preCICE half needs a Python whose ``precice`` is pyprecice on a real libprecice (``--precice-python``); without
 one, only cosim runs. Neither preCICE nor pyprecice is part of this project: build them yourself.
@@ -73,12 +76,35 @@ def run_cosim(case: Path, out: Path, *overrides: str) -> dict[str, Any]:
             "windows": attributes["coupling_seconds"], "close": ended_at - attributes["last_window_ended"]}
 
 
+def profiled_events(path: Path) -> dict[str, tuple[float, float]]:
+    """The first begin and the last end (unix seconds) of each event a participant's preCICE profile records
+    (``precice-profiling/<participant>-<rank>-<size>.txt``, preCICE v3's ``fundamental`` profiling: a JSON header with
+    the start in microseconds, then ``N<id>:<name>``, ``B<id>:<us>`` and ``E<id>:<us>`` lines)."""
+    lines = path.read_text().splitlines()
+    origin = int(json.loads(lines[0])["unix_us"])
+    names: dict[str, str] = {}
+    spans: dict[str, tuple[float, float]] = {}
+    for line in lines[1:]:
+        kind, _, rest = line.partition(":")
+        if kind.startswith("N"):
+            names[kind[1:]] = rest
+        elif kind[:1] in "BE" and kind[1:] in names:
+            event, at = names[kind[1:]], (origin + int(rest.split(":")[0])) * 1e-6
+            first, last = spans.get(event, (at, at))
+            spans[event] = (min(first, at), max(last, at))
+    return spans
+
+
 def run_precice(tutorials: Path, name: str, python: str) -> dict[str, Any]:
-    """The tutorial's participants started at once as its run.sh starts them, with ``python``'s pyprecice."""
+    """The tutorial's participants started at once as its run.sh starts them, with ``python``'s pyprecice. Its wall
+    time is split as cosim's is, from each participant's preCICE profile: start-up to the last participant's
+    ``initialize`` returning, the windows from there to the last ``advance`` returning, and the close after it."""
     folder, participants = CASES[name]
     shutil.rmtree(tutorials / folder / "precice-run", ignore_errors=True)
+    for cwd, *_ in participants.values():
+        shutil.rmtree(tutorials / folder / cwd / "precice-profiling", ignore_errors=True)
     env = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}
-    started = time.perf_counter()
+    started_at, started = time.time(), time.perf_counter()
     processes = {}
     for participant, (cwd, command, extra, _) in participants.items():
         processes[participant] = subprocess.Popen(command_of(command, "python", {"python": python}), shell=True,
@@ -88,38 +114,58 @@ def run_precice(tutorials: Path, name: str, python: str) -> dict[str, Any]:
     for participant, process in processes.items():
         codes[participant], seconds = _wait(process, deadline)
         cpu += seconds
-    wall = time.perf_counter() - started
+    wall, ended_at = time.perf_counter() - started, time.time()
     if any(codes.values()):
         raise RuntimeError(f"preCICE's {name} exited {codes}")
+    profiles = [profiled_events(path) for cwd, *_ in participants.values()
+                for path in sorted((tutorials / folder / cwd / "precice-profiling").glob("*.txt"))]
+    split = {}
+    if profiles and all("initialize" in p and "advance" in p for p in profiles):
+        initialized = max(p["initialize"][1] for p in profiles)
+        last_advance = max(p["advance"][1] for p in profiles)
+        split = {"startup": initialized - started_at, "windows": last_advance - initialized,
+                 "close": ended_at - last_advance}
     logs = [tutorials / folder / cwd / f"precice-{participant}-iterations.log"
             for participant, (cwd, *_) in participants.items()]
     rows = [line.split() for log in logs if log.is_file() for line in log.read_text().splitlines()[1:]]
     iterations = int(rows[-1][1]) if rows else 0       # TotalIterations of the last window
-    return {"wall": wall, "cpu": cpu, "iterations": iterations}
+    return {"wall": wall, "cpu": cpu, "iterations": iterations, **split}
 
 
 def spread(values: list[float]) -> str:
     return f"{np.median(values):.2f} [{min(values):.2f}-{max(values):.2f}]"
 
 
+def _fixed(run: dict[str, Any]) -> float:
+    return run["startup"] + run["close"]
+
+
+def _per_iteration(run: dict[str, Any]) -> float:
+    """Microseconds per coupling iteration: the windows' time (the whole wall time where there is no split)."""
+    return 1e6 * run.get("windows", run["wall"]) / max(run["iterations"], 1)
+
+
 def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
-    lines = ["| case | iterations (cosim / preCICE) | preCICE wall s | cosim wall s | cosim / preCICE | cosim start-up "
-             "s | cosim windows s | cosim close s | CPU s (cosim / preCICE) | us per iteration (cosim windows / "
-             "preCICE whole) |", "| --- " * 10 + "|"]
+    lines = ["| case | iterations (cosim / preCICE) | preCICE wall s | cosim wall s | cosim / preCICE | fixed s (cosim / "
+             "preCICE) | cosim start-up s | cosim close s | CPU s (cosim / preCICE) | us per iteration (cosim / "
+             "preCICE) | per iteration, cosim / preCICE |", "| --- " * 11 + "|"]
     for name, runs in results.items():
         ours, theirs = runs["cosim"], runs.get("precice", [])
         pairs = list(zip(ours, theirs))
         precice_wall = spread([r["wall"] for r in theirs]) if theirs else "-"
         ratio = spread([a["wall"] / b["wall"] for a, b in pairs]) if pairs else "-"
-        per_iteration = f"{1e6 * np.median([r['windows'] / r['iterations'] for r in ours]):.0f}"
+        split = bool(theirs) and all("windows" in r for r in theirs)
+        fixed = spread([_fixed(r) for r in ours]) + (f" / {spread([_fixed(r) for r in theirs])}" if split else "")
+        per_iteration = f"{np.median([_per_iteration(r) for r in ours]):.0f}"
         if theirs:
-            per_iteration += f" / {1e6 * np.median([r['wall'] / r['iterations'] for r in theirs]):.0f}"
+            per_iteration += f" / {np.median([_per_iteration(r) for r in theirs]):.0f}" + ("" if split else " (whole)")
+        iteration_ratio = spread([_per_iteration(a) / _per_iteration(b) for a, b in pairs]) if pairs else "-"
         cpu = f"{np.median([r['cpu'] for r in ours]):.2f}" + (
             f" / {np.median([r['cpu'] for r in theirs]):.2f}" if theirs else "")
         iterations = f"{ours[0]['iterations']}" + (f" / {theirs[0]['iterations']}" if theirs else "")
         lines.append(f"| {name} | {iterations} | {precice_wall} | {spread([r['wall'] for r in ours])} | {ratio} | "
-                     f"{spread([r['startup'] for r in ours])} | {spread([r['windows'] for r in ours])} | "
-                     f"{spread([r['close'] for r in ours])} | {cpu} | {per_iteration} |")
+                     f"{fixed} | {spread([r['startup'] for r in ours])} | {spread([r['close'] for r in ours])} | "
+                     f"{cpu} | {per_iteration} | {iteration_ratio} |")
     return "\n".join(lines)
 
 

@@ -289,6 +289,19 @@ def test_precice_side_by_side_benchmark_small(capsys):
     assert "| cosim start-up s |" in capsys.readouterr().out
 
 
+def test_a_precice_profile_gives_each_event_s_first_begin_and_last_end(tmp_path):
+    """preCICE's own timings split its wall time: events by name, microseconds after the profile's unix start."""
+    from benchmarks.precice_side_by_side import profiled_events
+    profile = tmp_path / "Fluid-0-1.txt"
+    profile.write_text('{"name":"Fluid","rank":0,"size":1,"unix_us":"1000000000000000","mode":"fundamental"}\n'
+                       "N0:_GLOBAL\nB0:0\nN7:initialize\nB7:400\nD7:401:8:100\nE7:2500\nN35:advance\nB35:3000\n"
+                       "E35:3500\nB35:4000\nE35:9000\nN44:finalize\nB44:9100\nE44:9600\nE0:9700\n")
+    events = profiled_events(profile)
+    assert events["initialize"] == pytest.approx((1e9 + 400e-6, 1e9 + 2500e-6), abs=1e-6)
+    assert events["advance"] == pytest.approx((1e9 + 3000e-6, 1e9 + 9000e-6), abs=1e-6)
+    assert set(events) == {"_GLOBAL", "initialize", "advance", "finalize"}
+
+
 def test_precice_rom_swap_benchmark_small(tmp_path, capsys):
     """The tube's solid participant swapped for the ROM trained on its recorded calls: the ROM-FOM run's field is
     the FOM-FOM run's to the ROM's error on its training calls, sigma and the bound are measured from the per-call CPU
