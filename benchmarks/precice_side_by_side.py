@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.common import ROOT, machine
+from benchmarks.tube_run import socket_ping_floor, zmq_ping_floor
 from cosim.results import RunResults
 from scripts.precice_tutorials import CASES, command_of, write_case
 
@@ -179,6 +180,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--small", action="store_true", help="examples/precice_tube, 10 windows, cosim only, twice")
     args = parser.parse_args(argv)
     print(f"machine: {machine()}")
+    count = 500 if args.small else 3000
+    print(f"transport floor, one round trip of 808 bytes between two processes: ZeroMQ {zmq_ping_floor(count)} us, a "
+          f"plain TCP socket {socket_ping_floor(count)} us (median [quartiles])", flush=True)
     scratch = Path(tempfile.mkdtemp(prefix="cosim-side-by-side-"))
     results: dict[str, dict[str, list[dict[str, Any]]]] = {}
     try:

@@ -69,6 +69,44 @@ def zmq_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
             server.kill()
 
 
+SOCKET_SERVER = """
+import socket
+server = socket.create_server(("127.0.0.1", 0)); print(server.getsockname()[1], flush=True)
+peer, _ = server.accept(); peer.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+while True:
+    m = peer.recv(65536)
+    if not m or m.endswith(b"quit"): break
+    peer.sendall(m)
+"""
+
+
+def socket_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
+    """A round trip of the same bytes over a plain TCP socket (no ZeroMQ: no I/O thread on either side), between
+    two processes: the transport floor a peer-to-peer link of plain sockets has on this machine."""
+    import socket
+    server = subprocess.Popen([sys.executable, "-c", SOCKET_SERVER], stdout=subprocess.PIPE, text=True)
+    try:
+        assert server.stdout is not None       # a pipe
+        port = int(server.stdout.readline())
+        with socket.create_connection(("127.0.0.1", port)) as peer:
+            peer.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            message, times = b"x" * payload, np.empty(n)
+            for i in range(n):
+                start = time.perf_counter()
+                peer.sendall(message)
+                received = 0
+                while received < payload:
+                    received += len(peer.recv(65536))
+                times[i] = time.perf_counter() - start
+            peer.sendall(b"quit")
+        return Timing.of(times)
+    finally:
+        try:
+            server.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            server.kill()
+
+
 def run(out: Path, overrides: list[str]) -> dict:
     """Run the scene with ``overrides``; its iterations and per-call times."""
     summary = run_scene(load_scene(SCENE, overrides), out, progress=False)

@@ -480,8 +480,7 @@ class ParticipantProxy:
         assert self.substeps is not None
         times, samples = self.substeps
         inputs, waveforms = self._sent
-        at = {name: np.stack([Spline(knots, coefficients)(time) for time in times])
-              for name, (knots, coefficients) in waveforms.items()}
+        at = {name: Spline(knots, coefficients).at(times) for name, (knots, coefficients) in waveforms.items()}
         calls = [({name: at[name][k] if name in at else value for name, value in inputs.items()},
                   {name: value[k] for name, value in samples.items()}) for k in range(len(times))]
         return calls + [(inputs, dict(outputs))]

@@ -41,6 +41,21 @@ class Spline:
                 d[j] = (1.0 - alpha) * d[j - 1] + alpha * d[j]
         return np.array(d[k])
 
+    def at(self, xs: np.ndarray) -> np.ndarray:
+        """The spline at each of ``xs`` (first axis), as ``__call__`` gives each: the same operations on every
+        point at once."""
+        t, c, k = self.knots, self.coefficients, self.degree
+        xs = np.asarray(xs, dtype=float)
+        spans = np.minimum(np.maximum(np.searchsorted(t, xs, side="right") - 1, k), len(c) - 1)
+        d = [c[spans - k + j] for j in range(k + 1)]
+        tail = (slice(None),) + (None,) * (c.ndim - 1)      # a point's alpha over its values' axes
+        for r in range(1, k + 1):
+            for j in range(k, r - 1, -1):
+                left, right = t[spans - k + j], t[spans + 1 + j - r]
+                alpha = ((xs - left) / (right - left))[tail]
+                d[j] = (1.0 - alpha) * d[j - 1] + alpha * d[j]
+        return d[k]
+
 
 class WindowInputs:
     """A window's inputs in time: the end values, and the interpolants of those of degree >= 1."""
@@ -51,8 +66,7 @@ class WindowInputs:
         self.splines = {name: Spline(knots, coefficients) for name, (knots, coefficients) in splines.items()}
         ends = np.arange(1, substeps) / substeps
         # each input at the ends of the steps inside the window
-        self.steps = {name: np.stack([spline(end) for end in ends]) for name, spline in self.splines.items()} \
-            if substeps > 1 else {}
+        self.steps = {name: spline.at(ends) for name, spline in self.splines.items()} if substeps > 1 else {}
 
     def at_step(self, name: str, k: int, substeps: int) -> np.ndarray:
         """Input ``name`` at the end of step ``k`` of ``substeps``."""

@@ -286,7 +286,10 @@ def test_precice_side_by_side_benchmark_small(capsys):
         assert 0 < r["windows"] < r["wall"] and r["startup"] > 0 and r["close"] > 0
         assert parts == pytest.approx(r["wall"], abs=0.1)     # the three parts make the whole, to the clocks' gaps
         assert r["cpu"] > 0
-    assert "| cosim start-up s |" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "| cosim start-up s |" in text
+    zmq_us, socket_us = (float(v) for v in re.search(r"ZeroMQ +([\d.]+) .* socket +([\d.]+) ", text).groups())
+    assert 0 < socket_us and 0 < zmq_us < 1e5       # both floors measured (their ratio is the machine's)
 
 
 def test_a_precice_profile_gives_each_event_s_first_begin_and_last_end(tmp_path):

@@ -93,6 +93,21 @@ def test_a_participant_evaluates_the_spline_the_coupler_sends_as_scipy_does():
             assert np.allclose(waveform(x), interpolant(x), atol=1e-14, rtol=0)
 
 
+@pytest.mark.parametrize("degree", [1, 2, 3])
+def test_the_coupler_s_spline_at_many_points_is_its_value_at_each_bit_for_bit(degree):
+    """``Spline.at`` (every substep of a window at once) gives ``Spline.__call__``'s bits at each point, knots and the
+    window's ends included, for values of any shape."""
+    from cosim.subcycling import Spline
+    from coupler.waveform import spline
+    times = np.array([0.0, 0.2, 0.45, 0.7, 1.0])
+    samples = np.stack([np.sin(3 * times), np.cos(times)], axis=1)[:, :, None] * np.arange(1, 4)   # (5, 2, 3)
+    interpolant = spline(times, samples, degree)
+    curve = Spline(interpolant.t, interpolant.c)
+    points = np.concatenate([np.linspace(0, 1, 37), interpolant.t])
+    assert curve.at(points).tobytes() == np.stack([curve(x) for x in points]).tobytes()
+    assert curve.at(points).shape == (len(points), 2, 3)
+
+
 # --- the schemes on samples ---------------------------------------------------------------------------------------
 class Variable:
     def __init__(self, name, causality, size=1):
