@@ -600,11 +600,12 @@ class SerialImplicit(CouplingScheme):
             self.run_deferred()
             out_first = self.first.receive_step()
             self._stepped(self.first, iteration)
-            self._record(self.first, iteration, inputs_first, out_first)
             self._take_series(self.first, series)
             inputs_second = self.inputs_for(self.second, out_first)
-            out_second = self.second.step(t, dt, inputs_second, **self._step_options(self.second, iteration),
-                                          **self.waveforms_for(self.second, out_first, series, inputs_second))
+            self.second.send_step(t, dt, inputs_second, **self._step_options(self.second, iteration),
+                                  **self.waveforms_for(self.second, out_first, series, inputs_second))
+            self._record(self.first, iteration, inputs_first, out_first)    # while the second computes
+            out_second = self.second.receive_step()
             out_series: Series = {}
             self._take_series(self.second, out_series)
             self._stepped(self.second, iteration)
@@ -650,8 +651,9 @@ class ParallelImplicit(CouplingScheme):
         proxies = self.participants
         for iteration in range(1, self.max_iterations + 1):
             self.iteration = iteration
-            inputs = {p.name: self.inputs_for(p, values) for p in proxies}
-            for p in proxies:
+            inputs = {}
+            for p in proxies:       # each participant computes while the coupler maps the next one's inputs
+                inputs[p.name] = self.inputs_for(p, values)
                 p.send_step(t, dt, inputs[p.name], **self._step_options(p, iteration),
                             **self.waveforms_for(p, values, series, inputs[p.name]))
             self.run_deferred()

@@ -685,6 +685,7 @@ void Core::exchange(const std::string &op, Value args, const std::vector<OutArra
   window_complete_  = result.flag_of("window_complete");
   write_checkpoint_ = result.flag_of("write_checkpoint");
   read_checkpoint_  = result.flag_of("read_checkpoint");
+  asked_write_ = asked_read_ = false;
   window_start_     = result.number_of("window_start", window_start_);
   window_           = result.number_of("window", window_);
   elapsed_          = 0.0;
@@ -704,6 +705,13 @@ void Core::advance(const std::string &call, double dt)
     fail(call, "the step " + text.first + " is longer than what is left of the window, " + text.second +
                    " (getMaxTimeStepSize())");
   }
+  // as preCICE: an implicit coupling's checkpoint is asked for before the window goes on
+  if (write_checkpoint_ && !asked_write_)
+    fail(call, "the iteration checkpoint was not written: the implicit coupling asks for one here, and "
+               "requiresWritingCheckpoint() was not called since the last advance");
+  if (read_checkpoint_ && !asked_read_)
+    fail(call, "the iteration checkpoint was not read: the implicit coupling asks for one here, and "
+               "requiresReadingCheckpoint() was not called since the last advance");
   elapsed_ += dt;
   write_checkpoint_ = read_checkpoint_ = window_complete_ = false;
   if (remaining() > EPSILON * window_) {

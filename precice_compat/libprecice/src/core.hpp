@@ -109,8 +109,9 @@ public:
 
   bool ongoing() const { return ongoing_; }
   bool window_complete() const { return window_complete_; }
-  bool write_checkpoint() const { return write_checkpoint_; }
-  bool read_checkpoint() const { return read_checkpoint_; }
+  // asked by the participant (requiresWritingCheckpoint, requiresReadingCheckpoint): advance checks that it was
+  bool write_checkpoint() { asked_write_ = true; return write_checkpoint_; }
+  bool read_checkpoint() { asked_read_ = true; return read_checkpoint_; }
   bool requires_initial_data() const { return !initial_.empty(); }
   bool requires_connectivity(const std::string &call, const std::string &mesh_name);
   int  mesh_dimensions(const std::string &call, const std::string &mesh_name);
@@ -151,6 +152,7 @@ private:
   double                                     cpu_since_ = 0.0;
   State                                      state_ = State::Constructed;
   bool ongoing_ = true, window_complete_ = false, write_checkpoint_ = false, read_checkpoint_ = false;
+  bool asked_write_ = false, asked_read_ = false;     // since the last exchange
 };
 
 } // namespace impl

@@ -73,6 +73,7 @@ class Core:
         self.window_complete = False
         self.write_checkpoint = False
         self.read_checkpoint = False
+        self.asked_write = self.asked_read = False     # the v3 API's requires_*_checkpoint asked since the exchange
         self.read_available = False
         self.exports = Exports(self.name, list(self.setup.get("exports") or []), Path.cwd())
         self.windows_done = 0
@@ -413,6 +414,7 @@ class Core:
         self.window_complete = bool(result["window_complete"])
         self.write_checkpoint = bool(result["write_checkpoint"])
         self.read_checkpoint = bool(result["read_checkpoint"])
+        self.asked_write = self.asked_read = False
         self.window_start = float(result["window_start"])
         self.window = float(result.get("window", self.window))
         self.elapsed = 0.0

@@ -95,9 +95,19 @@ class Participant:
         Call between initialize and finalize, while ``is_coupling_ongoing()``, after computing the step and writing
         its data. A step shorter than what is left of the window stays local (with ``substeps``, the data written
         is kept as a sample); the step that ends the window sends the written data to the coupler and waits for the
-        next window's data. Then ask ``requires_reading_checkpoint`` whether the window is repeated.
+        next window's data. Then ask ``requires_reading_checkpoint`` whether the window is repeated. As preCICE
+        does, an implicit coupling refuses an ``advance`` after one that asked for a checkpoint (the window's start,
+        or a window repeated) where ``requires_writing_checkpoint`` (or ``requires_reading_checkpoint``) was not
+        asked since.
         """
-        self._core.advance("advance", computed_timestep_length)
+        core = self._core
+        for due, asked, call in ((core.write_checkpoint, core.asked_write, "requires_writing_checkpoint"),
+                                 (core.read_checkpoint, core.asked_read, "requires_reading_checkpoint")):
+            if due and not asked:
+                kind = "written" if call == "requires_writing_checkpoint" else "read"
+                raise core.fail("advance", f"the iteration checkpoint was not {kind}: the implicit coupling asks "
+                                           f"for one here, and {call}() was not called since the last advance")
+        core.advance("advance", computed_timestep_length)
 
     def finalize(self) -> None:
         """End the coupling and close the connection to the coupler.
@@ -186,6 +196,7 @@ class Participant:
         Ask after ``initialize`` and after each ``advance``, before computing the next step; False before
         ``initialize`` and in an explicit coupling.
         """
+        self._core.asked_write = True
         return self._core.write_checkpoint
 
     def requires_reading_checkpoint(self) -> bool:
@@ -201,6 +212,7 @@ class Participant:
         Ask after each ``advance``; False before ``initialize``, after a step inside the window, and in an
         explicit coupling.
         """
+        self._core.asked_read = True
         return self._core.read_checkpoint
 
     # --- meshes -----------------------------------------------------------------------------------------------------

@@ -22,6 +22,7 @@ int main(int argc, char **argv)
   participant.initialize();
   int window = 0;
   while (participant.isCouplingOngoing()) {
+    participant.requiresWritingCheckpoint();     // asked, as preCICE wants
     const double dt = participant.getMaxTimeStepSize();
     participant.readData("Solid-Nodes", "Pressure", ids, dt, pressure);
     if (window == 2) {
@@ -40,6 +41,7 @@ int main(int argc, char **argv)
     for (int i = 0; i < n; ++i) section[i] = 1.0 + 1e-4 * pressure[i];
     participant.writeData("Solid-Nodes", "CrossSectionLength", ids, section);
     participant.advance(dt);
+    participant.requiresReadingCheckpoint();
     if (participant.isTimeWindowComplete()) ++window;
   }
   if (what != "no-finalize") participant.finalize();     // else the destructor finalizes, as preCICE's

@@ -48,6 +48,7 @@ static void subcycling(void)
       precicec_writeData(mesh, "X", 2, ids, x);
       precicec_stopLastProfilingSection();
       precicec_advance(dt);
+      (void)precicec_requiresReadingCheckpoint();
       complete = precicec_isTimeWindowComplete();
       check(step == 3 || !complete, "a step inside the window completes none");
     }
@@ -64,6 +65,7 @@ static void partner(void)
   precicec_setMeshVertices("B-Mesh", 2, grid, ids);
   precicec_initialize();
   while (precicec_isCouplingOngoing()) {
+    (void)precicec_requiresWritingCheckpoint();     /* asked, as preCICE wants */
     double dt = precicec_getMaxTimeStepSize();
     precicec_readData("B-Mesh", "X", 2, ids, dt, x);
     for (int i = 0; i < 2; ++i) b[i] = 0.5 * x[i] + sin(t + dt);
@@ -87,11 +89,13 @@ static void direct(void)
   record(values, size);
   record(coordinates, 2 * size);
   while (precicec_isCouplingOngoing()) {
+    (void)precicec_requiresWritingCheckpoint();     /* asked, as preCICE wants */
     double dt = precicec_getMaxTimeStepSize();
     t += dt;
     for (int i = 0; i < size; ++i) values[i] = t + coordinates[2 * i] * coordinates[2 * i];
     precicec_writeData("Provider-Mesh", "D", size, ids, values);
     precicec_advance(dt);
+    (void)precicec_requiresReadingCheckpoint();
   }
   free(ids);
   free(coordinates);
@@ -105,12 +109,14 @@ static void jit(void)
   precicec_setMeshAccessRegion("A-Mesh", box);
   precicec_initialize();
   while (precicec_isCouplingOngoing()) {
+    (void)precicec_requiresWritingCheckpoint();     /* asked, as preCICE wants */
     double dt = precicec_getMaxTimeStepSize();
     precicec_mapAndReadData("A-Mesh", "V", 3, points, dt, values);
     record(values, 3);
     precicec_writeAndMapData("A-Mesh", "F", 3, points, forces);
     precicec_writeAndMapData("A-Mesh", "F", 1, points, &single);
     precicec_advance(dt);
+    (void)precicec_requiresReadingCheckpoint();
   }
 }
 
@@ -129,6 +135,7 @@ static void gradient(void)
   asked[1] = precicec_requiresGradientDataFor("A-Mesh", "V");
   record(asked, 2);
   while (precicec_isCouplingOngoing()) {
+    (void)precicec_requiresWritingCheckpoint();     /* asked, as preCICE wants */
     double dt = precicec_getMaxTimeStepSize();
     t += dt;
     for (int k = 0; k < 12; ++k) {
@@ -148,6 +155,7 @@ static void gradient(void)
     if (asked[0]) precicec_writeGradientData("A-Mesh", "S", 12, ids, ds);
     if (asked[1]) precicec_writeGradientData("A-Mesh", "V", 12, ids, dv);
     precicec_advance(dt);
+    (void)precicec_requiresReadingCheckpoint();
   }
 }
 
@@ -205,6 +213,7 @@ static void field(const char *part)
   }
   precicec_initialize();
   while (precicec_isCouplingOngoing()) {
+    (void)precicec_requiresWritingCheckpoint();     /* asked, as preCICE wants */
     double dt = precicec_getMaxTimeStepSize();
     t += dt;
     for (int k = 0; k < n; ++k) {
@@ -213,6 +222,7 @@ static void field(const char *part)
     }
     precicec_writeData(mesh, "T", n, ids, values);
     precicec_advance(dt);
+    (void)precicec_requiresReadingCheckpoint();
   }
 }
 

@@ -62,6 +62,7 @@ void subcycling(precice::Participant &participant)
       participant.writeData(mesh, "X", ids, x);
       participant.stopLastProfilingSection();
       participant.advance(dt);
+      participant.requiresReadingCheckpoint();
       complete = participant.isTimeWindowComplete();
       check(step == 3 || !complete, "a step inside the window completes none");
     }
@@ -79,6 +80,7 @@ void partner(precice::Participant &participant)
   participant.initialize();
   double t = 0.0;
   while (participant.isCouplingOngoing()) {
+    participant.requiresWritingCheckpoint();     // asked, as preCICE wants
     double dt = participant.getMaxTimeStepSize();
     participant.readData("B-Mesh", "X", ids, dt, x);
     for (int i = 0; i < 2; ++i) b[i] = 0.5 * x[i] + std::sin(t + dt);
@@ -102,11 +104,13 @@ void direct(precice::Participant &participant)
   record(coordinates);
   double t = 0.0;
   while (participant.isCouplingOngoing()) {
+    participant.requiresWritingCheckpoint();     // asked, as preCICE wants
     double dt = participant.getMaxTimeStepSize();
     t += dt;
     for (int i = 0; i < size; ++i) values[i] = t + coordinates[2 * i] * coordinates[2 * i];
     participant.writeData("Provider-Mesh", "D", ids, values);
     participant.advance(dt);
+    participant.requiresReadingCheckpoint();
   }
 }
 
@@ -117,12 +121,14 @@ void jit(precice::Participant &participant)
   participant.setMeshAccessRegion("A-Mesh", box);
   participant.initialize();
   while (participant.isCouplingOngoing()) {
+    participant.requiresWritingCheckpoint();     // asked, as preCICE wants
     double dt = participant.getMaxTimeStepSize();
     participant.mapAndReadData("A-Mesh", "V", points, dt, values);
     record(values);
     participant.writeAndMapData("A-Mesh", "F", points, forces);
     participant.writeAndMapData("A-Mesh", "F", {points.data(), 2}, single);
     participant.advance(dt);
+    participant.requiresReadingCheckpoint();
   }
 }
 
@@ -140,6 +146,7 @@ void gradient(precice::Participant &participant)
   std::vector<double> s(12), v(24), ds(24), dv(48);
   double              t = 0.0;
   while (participant.isCouplingOngoing()) {
+    participant.requiresWritingCheckpoint();     // asked, as preCICE wants
     double dt = participant.getMaxTimeStepSize();
     t += dt;
     for (int k = 0; k < 12; ++k) {
@@ -157,6 +164,7 @@ void gradient(precice::Participant &participant)
     if (asked[0]) participant.writeGradientData("A-Mesh", "S", ids, ds);
     if (asked[1]) participant.writeGradientData("A-Mesh", "V", ids, dv);
     participant.advance(dt);
+    participant.requiresReadingCheckpoint();
   }
 }
 
@@ -205,6 +213,7 @@ void field(precice::Participant &participant, const std::string &part)
   std::vector<double> values(n);
   double              t = 0.0;
   while (participant.isCouplingOngoing()) {
+    participant.requiresWritingCheckpoint();     // asked, as preCICE wants
     double dt = participant.getMaxTimeStepSize();
     t += dt;
     for (int k = 0; k < n; ++k) {
@@ -213,6 +222,7 @@ void field(precice::Participant &participant, const std::string &part)
     }
     participant.writeData(mesh, "T", ids, values);
     participant.advance(dt);
+    participant.requiresReadingCheckpoint();
   }
 }
 

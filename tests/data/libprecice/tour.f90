@@ -101,12 +101,13 @@ contains
 
   subroutine partner()
     double precision :: grid(2, 2), x(2), b(2), t = 0.0d0, dt
-    integer :: ids(2), ongoing, reading
+    integer :: ids(2), ongoing, reading, writing
     grid = reshape((/0.0d0, 0.0d0, 1.0d0, 0.0d0/), (/2, 2/))
     call precicef_set_mesh_vertices('B-Mesh', 2, grid, ids)
     call precicef_initialize()
     call precicef_is_coupling_ongoing(ongoing)
     do while (ongoing /= 0)
+      call precicef_requires_writing_checkpoint(writing)   ! asked, as preCICE wants (no state to save)
       call precicef_get_max_time_step_size(dt)
       call precicef_read_data('B-Mesh', 'X', 2, ids, dt, x)
       b = 0.5d0 * x + sin(t + dt)
