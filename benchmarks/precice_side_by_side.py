@@ -14,7 +14,9 @@ The preCICE half needs a Python whose ``precice`` is pyprecice on a real libprec
 one, only cosim runs. Neither preCICE nor pyprecice is part of this project: build them yourself.
 
 Usage: python -m benchmarks.precice_side_by_side --tutorials TUTORIALS [--precice-python PY] [--case NAME ...]
-[--repeat N]; --small runs examples/precice_tube (10 windows) under cosim twice (the tests' mode).
+[--repeat N] [--baseline TREE]; --small runs examples/precice_tube (10 windows) under cosim twice (the tests' mode).
+``--baseline TREE`` runs another checkout's cosim (a worktree of an earlier commit) as a third engine of the same
+alternated series, and gives cosim against it pair by pair.
 """
 
 from __future__ import annotations
@@ -55,16 +57,19 @@ def _wait(process: subprocess.Popen, deadline: float) -> tuple[int, float]:
         time.sleep(0.002)
 
 
-def run_cosim(case: Path, out: Path, *overrides: str) -> dict[str, Any]:
-    """``cosim run CASE`` in a process of its own: wall, CPU, iterations, and the wall split."""
+def run_cosim(case: Path, out: Path, *overrides: str, tree: Path | None = None) -> dict[str, Any]:
+    """``cosim run CASE`` in a process of its own: wall, CPU, iterations, and the wall split; with ``tree``, that
+    checkout's cosim (its folder first on the path), else this one's."""
     env = {**os.environ, **ONE_THREAD}
+    if tree is not None:
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(tree), env.get("PYTHONPATH", "")]))
     errors = out.with_name(f"{out.name}.stderr")
     out.parent.mkdir(parents=True, exist_ok=True)
     started_at, started = time.time(), time.perf_counter()
     with errors.open("wb") as stderr:
         process = subprocess.Popen([sys.executable, "-m", "cosim", "run", str(case), "--out", str(out), "--quiet",
                                     *(f"--set={item}" for item in overrides)], env=env, stdout=subprocess.DEVNULL,
-                                   stderr=stderr)
+                                   stderr=stderr, cwd=tree)
         code, cpu = _wait(process, time.monotonic() + TIMEOUT)
     wall, ended_at = time.perf_counter() - started, time.time()
     if code != 0:
@@ -177,6 +182,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--case", action="append", choices=list(CASES), help=f"default: {', '.join(DEFAULT_CASES)}")
     parser.add_argument("--repeat", type=int, default=5, help="alternated pairs per case (default 5)")
     parser.add_argument("--json", type=Path, help="also write every run's figures here")
+    parser.add_argument("--baseline", type=Path, help="another checkout of cosim (a worktree of an earlier commit) run "
+                                                      "in the same alternated series: cosim against it, pair by pair")
     parser.add_argument("--small", action="store_true", help="examples/precice_tube, 10 windows, cosim only, twice")
     args = parser.parse_args(argv)
     print(f"machine: {machine()}")
@@ -195,12 +202,14 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 parser.error("--tutorials is needed (or --small)")
             for name in args.case or DEFAULT_CASES:
                 case = write_case(args.tutorials.resolve(), name, {}, scratch / name.replace(" ", "_"))
-                runs: dict[str, list[dict[str, Any]]] = {"cosim": [], "precice": []}
-                for repeat in range(args.repeat):        # alternated: preCICE first in even pairs
-                    order = ("precice", "cosim") if repeat % 2 == 0 else ("cosim", "precice")
-                    for engine in order:
-                        if engine == "cosim":
-                            runs["cosim"].append(run_cosim(case, scratch / f"{len(runs['cosim'])}-{case.parent.name}"))
+                runs: dict[str, list[dict[str, Any]]] = {"cosim": [], "precice": [], "baseline": []}
+                engines = ["precice", "cosim"] + (["baseline"] if args.baseline else [])
+                for repeat in range(args.repeat):        # alternated: each engine in turn first
+                    for engine in engines[repeat % len(engines):] + engines[:repeat % len(engines)]:
+                        if engine in ("cosim", "baseline"):
+                            out = scratch / f"{engine}{len(runs[engine])}-{case.parent.name}"
+                            runs[engine].append(run_cosim(case, out, tree=args.baseline.resolve()
+                                                          if engine == "baseline" else None))
                         elif args.precice_python:
                             runs["precice"].append(run_precice(args.tutorials.resolve(), name, args.precice_python))
                 results[name] = runs
@@ -208,6 +217,16 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     print(table(results))
+    if args.baseline:
+        print(f"\nthe baseline, {args.baseline}, in the same series:")
+        print(table({name: {"cosim": runs["baseline"], "precice": runs["precice"]} for name, runs in results.items()}))
+        print("\n| case | wall, cosim / baseline | fixed, cosim / baseline | per iteration, cosim / baseline |\n"
+              "| --- | --- | --- | --- |")
+        for name, runs in results.items():
+            pairs = list(zip(runs["cosim"], runs["baseline"]))
+            print(f"| {name} | {spread([a['wall'] / b['wall'] for a, b in pairs])} | "
+                  f"{spread([_fixed(a) / _fixed(b) for a, b in pairs])} | "
+                  f"{spread([_per_iteration(a) / _per_iteration(b) for a, b in pairs])} |")
     if args.json:
         args.json.write_text(json.dumps(results, indent=1))
     return results
