@@ -15,6 +15,8 @@ import argparse
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -42,13 +44,25 @@ while True:
 """
 
 
+@contextmanager
+def _echo_server(script: str) -> Iterator[str]:
+    """An echo server ``script`` in a process of its own: the address it prints; it is waited for (killed if it hangs)
+    when the block ends."""
+    server = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    try:
+        assert server.stdout is not None       # a pipe
+        yield server.stdout.readline().strip()
+    finally:
+        try:
+            server.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            server.kill()
+
+
 def zmq_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
     """A raw ZeroMQ round trip (808 bytes = 101 float64) between two processes."""
     import zmq
-    server = subprocess.Popen([sys.executable, "-c", PING_SERVER], stdout=subprocess.PIPE, text=True)
-    try:
-        assert server.stdout is not None       # a pipe
-        endpoint = server.stdout.readline().strip()
+    with _echo_server(PING_SERVER) as endpoint:
         socket: zmq.Socket = zmq.Context.instance().socket(zmq.DEALER)
         socket.connect(endpoint)
         message = [b"h", b"x" * payload]
@@ -62,11 +76,6 @@ def zmq_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
         socket.recv_multipart()
         socket.close()
         return Timing.of(times)
-    finally:
-        try:
-            server.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            server.kill()
 
 
 SOCKET_SERVER = """
@@ -84,27 +93,18 @@ def socket_ping_floor(n: int = 3000, payload: int = 808) -> Timing:
     """A round trip of the same bytes over a plain TCP socket (no ZeroMQ: no I/O thread on either side), between
     two processes: the transport floor a peer-to-peer link of plain sockets has on this machine."""
     import socket
-    server = subprocess.Popen([sys.executable, "-c", SOCKET_SERVER], stdout=subprocess.PIPE, text=True)
-    try:
-        assert server.stdout is not None       # a pipe
-        port = int(server.stdout.readline())
-        with socket.create_connection(("127.0.0.1", port)) as peer:
-            peer.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            message, times = b"x" * payload, np.empty(n)
-            for i in range(n):
-                start = time.perf_counter()
-                peer.sendall(message)
-                received = 0
-                while received < payload:
-                    received += len(peer.recv(65536))
-                times[i] = time.perf_counter() - start
-            peer.sendall(b"quit")
+    with _echo_server(SOCKET_SERVER) as port, socket.create_connection(("127.0.0.1", int(port))) as peer:
+        peer.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        message, times = b"x" * payload, np.empty(n)
+        for i in range(n):
+            start = time.perf_counter()
+            peer.sendall(message)
+            received = 0
+            while received < payload:
+                received += len(peer.recv(65536))
+            times[i] = time.perf_counter() - start
+        peer.sendall(b"quit")
         return Timing.of(times)
-    finally:
-        try:
-            server.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            server.kill()
 
 
 def run(out: Path, overrides: list[str]) -> dict:

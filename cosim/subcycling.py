@@ -31,18 +31,10 @@ class Spline:
         self.degree = len(self.knots) - len(self.coefficients) - 1
 
     def __call__(self, x: float) -> np.ndarray:
-        t, c, k = self.knots, self.coefficients, self.degree
-        span = min(max(int(np.searchsorted(t, x, side="right")) - 1, k), len(c) - 1)    # x = 1: the last span
-        d = [c[span - k + j] for j in range(k + 1)]
-        for r in range(1, k + 1):
-            for j in range(k, r - 1, -1):
-                left, right = t[span - k + j], t[span + 1 + j - r]
-                alpha = (x - left) / (right - left)
-                d[j] = (1.0 - alpha) * d[j - 1] + alpha * d[j]
-        return np.array(d[k])
+        return np.array(self.at(np.array([x]))[0])
 
     def at(self, xs: np.ndarray) -> np.ndarray:
-        """The spline at each of ``xs`` (first axis), as ``__call__`` gives each: the same operations on every
+        """The spline at each of ``xs`` (first axis; x = 1 lies in the last span): de Boor's operations on every
         point at once."""
         t, c, k = self.knots, self.coefficients, self.degree
         xs = np.asarray(xs, dtype=float)

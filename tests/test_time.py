@@ -95,8 +95,9 @@ def test_a_participant_evaluates_the_spline_the_coupler_sends_as_scipy_does():
 
 @pytest.mark.parametrize("degree", [1, 2, 3])
 def test_the_coupler_s_spline_at_many_points_is_its_value_at_each_bit_for_bit(degree):
-    """``Spline.at`` (every substep of a window at once) gives ``Spline.__call__``'s bits at each point, knots and the
-    window's ends included, for values of any shape."""
+    """``Spline.at`` (every substep of a window at once, as the coupler records a participant's substeps) gives at
+    each point the bits the participant's own waveform evaluates there, knots and the window's ends included, for
+    values of any shape."""
     from cosim.subcycling import Spline
     from coupler.waveform import spline
     times = np.array([0.0, 0.2, 0.45, 0.7, 1.0])
@@ -104,7 +105,8 @@ def test_the_coupler_s_spline_at_many_points_is_its_value_at_each_bit_for_bit(de
     interpolant = spline(times, samples, degree)
     curve = Spline(interpolant.t, interpolant.c)
     points = np.concatenate([np.linspace(0, 1, 37), interpolant.t])
-    assert curve.at(points).tobytes() == np.stack([curve(x) for x in points]).tobytes()
+    participant = Waveform(interpolant.t, interpolant.c)
+    assert curve.at(points).tobytes() == np.stack([participant(x) for x in points]).tobytes()
     assert curve.at(points).shape == (len(points), 2, 3)
 
 
